@@ -1,0 +1,11 @@
+# One place for compiler warnings and sanitizer flags; every target calls rgbdmap_target_defaults().
+function(rgbdmap_target_defaults target)
+  target_compile_options(${target} PRIVATE -Wall -Wextra -Wpedantic)
+  if(RGBDMAP_WERROR)
+    target_compile_options(${target} PRIVATE -Werror)
+  endif()
+  if(RGBDMAP_SANITIZE)
+    target_compile_options(${target} PRIVATE -fsanitize=address,undefined -fno-omit-frame-pointer)
+    target_link_options(${target} PRIVATE -fsanitize=address,undefined)
+  endif()
+endfunction()
