@@ -9,7 +9,8 @@ namespace {
 const char* kUsage =
     "usage: rgbdmap <command> [options]\n"
     "commands:\n"
-    "  run       the main job: odometry on a dataset (synthesised when none is given), evaluated, with a report\n"
+    "  run       the main job: odometry on a dataset (synthesised when none is given), evaluated, with a "
+    "report\n"
     "  synth     write a synthetic RGB-D sequence in TUM layout with exact ground truth\n"
     "  odometry  run the client's visual odometry on a TUM-layout dataset\n"
     "  eval      ATE and RPE of an estimated trajectory against ground truth\n"

@@ -21,20 +21,23 @@ Result<Trajectory> parseTumTrajectory(const std::string& text, const std::string
     int n = 0;
     std::string token;
     while (ls >> token) {
-      if (n == 8) return Result<Trajectory>::failure(source_name + ":" + std::to_string(line_no) +
-                                                     ": expected 8 fields, got more");
+      if (n == 8)
+        return Result<Trajectory>::failure(source_name + ":" + std::to_string(line_no) +
+                                           ": expected 8 fields, got more");
       char* end = nullptr;
       v[n] = std::strtod(token.c_str(), &end);
       if (end == token.c_str() || *end != '\0')
         return Result<Trajectory>::failure(source_name + ":" + std::to_string(line_no) + ": '" + token +
                                            "' is not a number");
       if (!std::isfinite(v[n]))
-        return Result<Trajectory>::failure(source_name + ":" + std::to_string(line_no) + ": non-finite value");
+        return Result<Trajectory>::failure(source_name + ":" + std::to_string(line_no) +
+                                           ": non-finite value");
       ++n;
     }
     if (n != 8)
-      return Result<Trajectory>::failure(source_name + ":" + std::to_string(line_no) + ": expected 8 fields (" +
-                                         "timestamp tx ty tz qx qy qz qw), got " + std::to_string(n));
+      return Result<Trajectory>::failure(source_name + ":" + std::to_string(line_no) +
+                                         ": expected 8 fields (" + "timestamp tx ty tz qx qy qz qw), got " +
+                                         std::to_string(n));
     const double qnorm = std::sqrt(v[4] * v[4] + v[5] * v[5] + v[6] * v[6] + v[7] * v[7]);
     if (qnorm < 1e-6)
       return Result<Trajectory>::failure(source_name + ":" + std::to_string(line_no) + ": zero quaternion");
@@ -57,8 +60,8 @@ std::string formatTumTrajectory(const Trajectory& trajectory) {
   for (const auto& p : trajectory) {
     const Eigen::Quaterniond q = se3::quat(p.T_world_cam);
     const Vec3 t = p.T_world_cam.translation();
-    std::snprintf(buf, sizeof buf, "%.6f %.7f %.7f %.7f %.9f %.9f %.9f %.9f\n", p.timestamp, t.x(), t.y(), t.z(),
-                  q.x(), q.y(), q.z(), q.w());
+    std::snprintf(buf, sizeof buf, "%.6f %.7f %.7f %.7f %.9f %.9f %.9f %.9f\n", p.timestamp, t.x(), t.y(),
+                  t.z(), q.x(), q.y(), q.z(), q.w());
     out += buf;
   }
   return out;

@@ -7,9 +7,9 @@
 namespace rgbdmap {
 
 struct RgbdFrame {
-  double timestamp = 0.0;  ///< colour timestamp, seconds
-  cv::Mat color;           ///< CV_8UC3, BGR (OpenCV order)
-  cv::Mat depth;           ///< CV_16UC1, raw sensor units; 0 = no measurement
+  double timestamp = 0.0;       ///< colour timestamp, seconds
+  cv::Mat color;                ///< CV_8UC3, BGR (OpenCV order)
+  cv::Mat depth;                ///< CV_16UC1, raw sensor units; 0 = no measurement
   double depth_scale = 5000.0;  ///< metres = depth / depth_scale
 
   /// Metric depth at integer pixel (x, y), 0 when missing or outside the image.
