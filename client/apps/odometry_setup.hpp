@@ -1,0 +1,38 @@
+#pragma once
+// What a dataset-reading command needs, assembled once from (lowest to highest priority): built-in
+// defaults (TUM fr1), the dataset's camera.yaml, the --config YAML file, and command-line overrides.
+#include <string>
+#include <vector>
+
+#include "cli.hpp"
+#include "rgbdmap/client/odometry_config.hpp"
+#include "rgbdmap/common/camera.hpp"
+#include "rgbdmap/common/config_reader.hpp"
+#include "rgbdmap/common/tum_dataset.hpp"
+
+namespace rgbdmap::app {
+
+struct OdometrySetup {
+  CameraIntrinsics camera;
+  OdometryConfig odometry;
+  DatasetOptions dataset;
+  std::string camera_source = "defaults (TUM freiburg1)";
+  std::string effective;  ///< "key = value" lines of the configuration in effect
+};
+
+/// Reads the `camera:` and `odometry:` sections (every key optional, ranges checked).
+void readCameraConfig(ConfigReader& reader, const std::string& prefix, CameraIntrinsics* camera);
+void readOdometryConfig(ConfigReader& reader, OdometryConfig* config);
+
+/// Builds the setup for `dataset_dir` from --config, --intrinsics and --depth-scale in `args`.
+/// All problems are appended to *errors.
+OdometrySetup loadOdometrySetup(cli::Args& args, const std::string& dataset_dir, std::vector<std::string>* errors);
+
+/// Applies --log-level if given.
+void applyLogLevel(cli::Args& args, std::vector<std::string>* errors);
+
+/// Options every dataset command accepts, for Args::checkAllowed.
+std::vector<std::string> datasetOptionNames();
+const char* datasetOptionsHelp();
+
+}  // namespace rgbdmap::app

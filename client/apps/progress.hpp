@@ -1,0 +1,23 @@
+#pragma once
+// Progress for long runs: a self-updating line (done/total, rate, ETA) on an interactive terminal;
+// silent when stderr is not a terminal or CI is set, so logs stay clean.
+#include <chrono>
+#include <cstddef>
+#include <string>
+
+namespace rgbdmap::app {
+
+class Progress {
+ public:
+  Progress(std::string label, size_t total);
+  void update(size_t done);
+  void finish();
+
+ private:
+  std::string label_;
+  size_t total_;
+  bool enabled_;
+  std::chrono::steady_clock::time_point start_, last_;
+};
+
+}  // namespace rgbdmap::app
