@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 
 #include "rgbdmap/common/logging.hpp"
 
@@ -11,6 +12,13 @@ namespace {
 constexpr double kRadToDeg = 180.0 / EIGEN_PI;
 /// Rotation matrices from parsed or composed poses are orthonormal far better than this.
 constexpr double kRotationTolerance = 1e-4;
+
+/// Shortest readable form of a time in seconds, e.g. "0.02", "1".
+std::string seconds(double s) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%g", s);
+  return buf;
+}
 
 /// Rejects non-finite timestamps and non-finite or non-rotation poses, naming the first bad one.
 Status checkTrajectory(const Trajectory& t, const char* name) {
@@ -102,7 +110,7 @@ Result<AteResult> computeAte(const Trajectory& gt, const Trajectory& est, const 
   const MatchedPoses m = matchPoses(gt, est, options.max_dt);
   if (m.t.size() < 3)
     return R::failure("ATE: only " + std::to_string(m.t.size()) +
-                      " estimated poses have ground truth within " + std::to_string(options.max_dt) +
+                      " estimated poses have ground truth within " + seconds(options.max_dt) +
                       " s (need 3; do the timestamps refer to the same clock?)");
   std::vector<Vec3> p_est, p_gt;
   for (size_t i = 0; i < m.t.size(); ++i) {
@@ -152,7 +160,7 @@ Result<RpeResult> computeRpe(const Trajectory& gt, const Trajectory& est, const 
     rot.push_back(se3::rotationAngle(E) * kRadToDeg);
   }
   if (trans.empty())
-    return R::failure("RPE: no pair of associated poses " + std::to_string(options.delta) + " s apart (" +
+    return R::failure("RPE: no pair of associated poses " + seconds(options.delta) + " s apart (" +
                       std::to_string(m.t.size()) + " estimated poses have ground truth)");
   const ErrorStats t = summarize(trans), a = summarize(rot);
   RpeResult r;
