@@ -2,6 +2,10 @@
 // Trajectory accuracy with the TUM RGB-D benchmark's conventions (Sturm et al., IROS 2012):
 // ATE as evaluate_ate.py (timestamp association, Horn/Umeyama alignment, error of aligned positions) and
 // RPE over a fixed time delta, E = (Q_i^-1 Q_j)^-1 (P_i^-1 P_j) with Q ground truth and P the estimate.
+// Differences from evaluate_rpe.py --fixed_delta: the script writes E as (P_j^-1 P_i)^-1 (Q_j^-1 Q_i) (same
+// angle, translation in another frame), looks ground truth up by nearest stamp within 2x its median period
+// rather than by one-to-one association, and subsamples to 10000 random pairs; here E follows the paper
+// and every pair is used.
 #include <string>
 #include <vector>
 
