@@ -2,9 +2,10 @@
 
 #include <algorithm>
 #include <cmath>
+#include <optional>
 #include <random>
 
-#include "rgbdmap/common/rigid_align.hpp"
+#include "rgbdmap/common/alignment.hpp"
 
 namespace rgbdmap {
 
@@ -48,7 +49,9 @@ std::optional<SE3> solveOn(const std::vector<PointMatch>& matches, const std::ve
     src.push_back(matches[i].p_ref);
     dst.push_back(matches[i].p_cur);
   }
-  return alignPointSets(src.data(), dst.data(), src.size());
+  const auto aligned = alignUmeyama(src, dst);  // T_gt_est with gt = current, est = reference
+  if (!aligned) return std::nullopt;
+  return aligned->T_gt_est;
 }
 
 int requiredIterations(double inlier_ratio, double confidence, int max_iterations) {
