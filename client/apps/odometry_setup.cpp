@@ -46,7 +46,15 @@ void readOdometryConfig(ConfigReader& r, OdometryConfig* c) {
   r.read(o + "keyframe.max_frame_gap", &c->keyframe.max_frame_gap, 1, 100000);
   r.read(o + "keyframe.max_translation_m", &c->keyframe.max_translation_m, 0.001, 100.0);
   r.read(o + "keyframe.max_rotation_deg", &c->keyframe.max_rotation_deg, 0.1, 180.0);
-  r.read(o + "window_keyframes", &c->window_keyframes, 1, 20);
+  r.read(o + "window_keyframes", &c->window_keyframes, 1, 200);
+  r.read(o + "window_max_angle_deg", &c->window_max_angle_deg, 0.0, 180.0);
+  r.read(o + "window_max_distance_m", &c->window_max_distance_m, 0.0, 100.0);
+  r.read(o + "window_max_correction_m", &c->window_max_correction_m, 0.0, 10.0);
+  r.read(o + "window_max_correction_deg", &c->window_max_correction_deg, 0.0, 180.0);
+  r.read(o + "window_every_frame", &c->window_every_frame);
+  r.read(o + "guided.radius_px", &c->guided.radius_px, 0.5, 200.0);
+  r.read(o + "guided.max_distance", &c->guided.max_distance, 1, 256);
+  r.read(o + "guided.ratio", &c->guided.ratio, 0.1, 1.0);
   r.read(o + "relocalization_keyframes", &c->relocalization_keyframes, 0, 100);
   r.read(o + "min_tracking_inliers", &c->min_tracking_inliers, 3, 10000);
   r.read(o + "max_lost_frames", &c->max_lost_frames, 0, 100000);

@@ -1,7 +1,10 @@
 #include "rgbdmap/client/odometry.hpp"
 
+#include <algorithm>
 #include <chrono>
+#include <cmath>
 
+#include "rgbdmap/client/guided_matcher.hpp"
 #include "rgbdmap/client/keyframe_selector.hpp"
 #include "rgbdmap/client/matcher.hpp"
 #include "rgbdmap/client/pose_refiner.hpp"
@@ -76,38 +79,58 @@ VisualOdometry::Estimate VisualOdometry::estimateAgainst(const Keyframe& kf, con
   est.inliers = refined.inliers;
   est.T_cur_kf = refined.T_cur_ref;
   est.information = refined.information;
+  for (size_t i = 0; i < point_matches.size(); ++i)
+    if (refined.inlier_mask[i]) est.inlier_matches.push_back(point_matches[i]);
   est.ok = refined.inliers >= config_.min_tracking_inliers && se3::isValid(refined.T_cur_ref, 1e-4);
   return est;
 }
 
+std::vector<const Keyframe*> VisualOdometry::selectWindow(const SE3& T_odom_cur) const {
+  // Keyframes that look the same way from nearby, most similar viewing direction first.
+  std::vector<std::pair<double, const Keyframe*>> near;
+  const Vec3 view_cur = T_odom_cur.linear().col(2);
+  const double cos_max = std::cos(config_.window_max_angle_deg * M_PI / 180.0);
+  for (const auto& kf : keyframes_) {
+    if (kf == reference_ || kf->segment != reference_->segment) continue;
+    const double cos_view = kf->T_odom_cam.linear().col(2).dot(view_cur);
+    const double dist = (kf->T_odom_cam.translation() - T_odom_cur.translation()).norm();
+    if (cos_view >= cos_max && dist <= config_.window_max_distance_m) near.push_back({-cos_view, kf.get()});
+  }
+  std::sort(near.begin(), near.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
+  std::vector<const Keyframe*> out;
+  for (size_t i = 0; i < near.size() && static_cast<int>(out.size()) + 1 < config_.window_keyframes; ++i)
+    out.push_back(near[i].second);
+  return out;
+}
+
 void VisualOdometry::refineInWindow(const FrameFeatures& cur, Estimate* est, StageTimes* times) const {
-  std::vector<PointMatch> all;
+  const SE3 T_odom_cur = reference_->T_odom_cam * est->T_cur_kf.inverse();
+  const auto window = selectWindow(T_odom_cur);
+  if (window.empty()) return;
+  auto t0 = Clock::now();
+  std::vector<PointMatch> all = est->inlier_matches;
+  const FeatureGrid grid(cur, camera_.width(), camera_.height());
   const SE3 T_ref_odom = reference_->T_odom_cam.inverse();
-  int used = 0;
-  for (auto it = keyframes_.rbegin(); it != keyframes_.rend() && used < config_.window_keyframes; ++it) {
-    const Keyframe& kf = **it;
-    if (kf.segment != reference_->segment) break;
-    ++used;
-    auto t0 = Clock::now();
-    std::vector<char> mask(kf.features.size());
-    for (size_t i = 0; i < mask.size(); ++i) mask[i] = kf.features.hasDepth(i);
-    const auto matches = matchDescriptors(cur.descriptors, kf.features.descriptors, config_.matcher, &mask);
-    auto pms = buildPointMatches(cur, kf.features, matches, config_.orb.scale_factor);
-    times->match_ms += msSince(t0);
+  for (const Keyframe* kf : window) {
+    const SE3 T_cur_kf = T_odom_cur.inverse() * kf->T_odom_cam;
+    const auto matches = matchByProjection(cur, grid, kf->features, T_cur_kf, camera_, config_.guided);
     // Express the keyframe's points in the reference keyframe so one refinement covers the window.
-    const SE3 T_ref_kf = T_ref_odom * kf.T_odom_cam;
-    RansacConfig gate = config_.ransac;
-    gate.reprojection_threshold_px *= 2.0;
-    for (auto& pm : pms) {
+    const SE3 T_ref_kf = T_ref_odom * kf->T_odom_cam;
+    for (auto& pm : buildPointMatches(cur, kf->features, matches, config_.orb.scale_factor)) {
       pm.p_ref = T_ref_kf * pm.p_ref;
-      if (isGeometricInlier(pm, est->T_cur_kf, camera_, gate)) all.push_back(pm);
+      all.push_back(pm);
     }
   }
-  if (used < 2) return;
-  const auto t0 = Clock::now();
+  times->match_ms += msSince(t0);
+  t0 = Clock::now();
   const RefineResult refined = refinePose(all, est->T_cur_kf, camera_, config_.refine);
   times->refine_ms += msSince(t0);
-  if (refined.inliers >= est->inliers && se3::isValid(refined.T_cur_ref, 1e-4)) {
+  // The window smooths; it does not make large corrections (those are the server's verified loop
+  // closures). A result far from the reference-only estimate means an inconsistent window: keep the latter.
+  const SE3 change = refined.T_cur_ref * est->T_cur_kf.inverse();
+  if (refined.inliers >= est->inliers && se3::isValid(refined.T_cur_ref, 1e-4) &&
+      change.translation().norm() <= config_.window_max_correction_m &&
+      se3::rotationAngle(change) <= config_.window_max_correction_deg * M_PI / 180.0) {
     est->T_cur_kf = refined.T_cur_ref;
     est->information = refined.information;
   }
@@ -212,22 +235,27 @@ TrackingResult VisualOdometry::track(const RgbdFrame& frame) {
     r.times.total_ms = msSince(t_start);
     return r;
   }
-  if (config_.window_keyframes > 1) refineInWindow(cur, &est, &r.times);
   consecutive_lost_ = 0;
   r.segment = segment_;
   r.matches = est.matches;
   r.inliers = est.inliers;
   r.reference_keyframe = reference_->id;
   r.T_odom_cam = se3::normalized(reference_->T_odom_cam * est.T_cur_kf.inverse());
-  velocity_ = T_odom_last_.inverse() * r.T_odom_cam;
-  T_odom_last_ = r.T_odom_cam;
   ++frames_since_keyframe_;
 
   const KeyframeDecision d =
       decideKeyframe(est.matches, r.features, static_cast<int>(reference_->features.size()),
                      frames_since_keyframe_, est.T_cur_kf.inverse(), config_.keyframe);
   r.similarity = d.similarity;
-  if (d.new_keyframe && static_cast<int>(cur.countWithDepth()) >= config_.min_keyframe_points) {
+  const bool make_keyframe = d.new_keyframe && static_cast<int>(cur.countWithDepth()) >= config_.min_keyframe_points;
+  if ((make_keyframe || config_.window_every_frame) && config_.window_keyframes > 1) {
+    // Only keyframe poses propagate drift, so the window's extra matching is spent on them alone.
+    refineInWindow(cur, &est, &r.times);
+    r.T_odom_cam = se3::normalized(reference_->T_odom_cam * est.T_cur_kf.inverse());
+  }
+  velocity_ = T_odom_last_.inverse() * r.T_odom_cam;
+  T_odom_last_ = r.T_odom_cam;
+  if (make_keyframe) {
     auto kf = makeKeyframe(std::move(cur), r);
     kf->previous_id = reference_->id;
     kf->T_prev_cur = est.T_cur_kf.inverse();

@@ -8,6 +8,7 @@
 
 #include "rgbdmap/client/features.hpp"
 #include "rgbdmap/client/odometry_config.hpp"
+#include "rgbdmap/client/ransac.hpp"
 #include "rgbdmap/common/camera.hpp"
 #include "rgbdmap/common/rgbd_frame.hpp"
 
@@ -67,10 +68,13 @@ class VisualOdometry {
     SE3 T_cur_kf = SE3::Identity();
     int matches = 0, inliers = 0;
     Mat6 information = Mat6::Zero();
+    std::vector<PointMatch> inlier_matches;  ///< refined inliers, points in the keyframe's camera frame
   };
   Estimate estimateAgainst(const Keyframe& kf, const FrameFeatures& cur, const SE3& T_cur_kf_prior,
                            StageTimes* times) const;
-  /// Adds matches against older keyframes of the window and refines T_cur_ref on all of them jointly.
+  /// Adds matches against the keyframes before the reference (same segment) and refines T_cur_ref on all
+  /// of them jointly, so a new keyframe's pose averages several keyframes instead of chaining one.
+  std::vector<const Keyframe*> selectWindow(const SE3& T_odom_cur) const;
   void refineInWindow(const FrameFeatures& cur, Estimate* est, StageTimes* times) const;
   bool relocalize(const FrameFeatures& cur, const SE3& T_odom_pred, TrackingResult* result, Estimate* est,
                   StageTimes* times);

@@ -1,4 +1,5 @@
 #pragma once
+#include "rgbdmap/client/guided_match_config.hpp"
 // Configuration of the client's visual odometry. Plain structs with documented defaults; apps load them
 // from YAML (see client/apps/odometry_yaml.cpp), check ranges there, and log the values in effect.
 namespace rgbdmap {
@@ -50,10 +51,18 @@ struct KeyframeConfig {
 struct OdometryConfig {
   OrbConfig orb;
   MatcherConfig matcher;
+  GuidedMatchConfig guided;
   RansacConfig ransac;
   RefineConfig refine;
   KeyframeConfig keyframe;
-  int window_keyframes = 3;          ///< the pose is refined jointly against this many recent keyframes
+  /// Window refinement: a new keyframe's pose (or every frame's, with window_every_frame) is refined
+  /// jointly against up to this many keyframes of similar viewpoint, matched by projection. 1 disables.
+  int window_keyframes = 20;
+  double window_max_angle_deg = 45.0;   ///< viewing-direction difference for a keyframe to join the window
+  double window_max_distance_m = 0.6;   ///< and camera-centre distance
+  double window_max_correction_m = 0.025;  ///< a window result moving the pose more than this is rejected
+  double window_max_correction_deg = 2.0;  ///< ... or rotating it more than this
+  bool window_every_frame = false;
   int relocalization_keyframes = 5;  ///< recent keyframes tried when tracking against the last one fails
   int min_tracking_inliers = 20;     ///< fewer inliers than this is a tracking loss
   int max_lost_frames = 10;          ///< after this many lost frames a new segment starts at the prediction
