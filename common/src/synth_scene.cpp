@@ -2,6 +2,8 @@
 #include <algorithm>
 #include <limits>
 
+#include <opencv2/core/utility.hpp>
+
 #include "synth_detail.hpp"
 
 namespace rgbdmap {
@@ -26,8 +28,12 @@ Result<SyntheticScene> SyntheticScene::build(const SynthConfig& config) {
   auto data = std::make_shared<synth::SceneData>();
   data->config = config;
   data->trajectory = std::move(*trajectory);
-  for (int m = 0; m < synth::kMaterialCount; ++m)
-    data->textures.push_back(synth::makeMaterialTexture(static_cast<synth::Material>(m), config.seed));
+  data->textures.resize(synth::kMaterialCount);
+  cv::parallel_for_(cv::Range(0, synth::kMaterialCount), [&](const cv::Range& r) {
+    for (int m = r.start; m < r.end; ++m)  // each texture has its own generator: order does not matter
+      data->textures[static_cast<size_t>(m)] =
+          synth::makeMaterialTexture(static_cast<synth::Material>(m), config.seed);
+  });
   synth::buildRoom(data.get());
   return SyntheticScene(std::move(data));
 }

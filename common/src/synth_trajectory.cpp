@@ -38,12 +38,12 @@ SE3 loopPose(double s) {
   return cameraPose(p, yaw, pitch, roll);
 }
 
-/// A 1 m sideways sweep with 0.3 m forward motion facing the +x wall (2.3-2.6 m away), easing in and out,
-/// turning from 8.6 degrees left to 8.6 degrees right. u in [0, 1] is the fraction of the sweep done.
+/// A 1 m sideways sweep (to the left) with 0.3 m forward motion facing the +x wall (2.3-2.6 m away),
+/// easing in and out, panning 6 degrees along with the motion. u in [0, 1] is the fraction done.
 SE3 sweepPose(double u) {
   const double s = 0.5 - 0.5 * std::cos(0.5 * kTwoPi * u);  // eased progress, zero velocity at the ends
   const Vec3 p(0.4 + 0.3 * s, -0.5 + 1.0 * s, 1.3 + 0.05 * std::sin(0.5 * kTwoPi * u));
-  const double yaw = 0.15 - 0.3 * s;
+  const double yaw = -0.05 + 0.1 * s;
   const double pitch = -0.15 + 0.05 * std::sin(kTwoPi * u);
   const double roll = 0.03 * std::sin(0.5 * kTwoPi * u);
   return cameraPose(p, yaw, pitch, roll);
