@@ -119,10 +119,12 @@ Status writeFrames(const SyntheticScene& scene, const fs::path& out) {
 }  // namespace
 
 Status writeSyntheticSequence(const SynthConfig& config, const std::string& out_dir) {
-  auto scene = SyntheticScene::build(config);
-  if (!scene) return Status::failure(scene.error());
+  const std::string invalid = config.validate();  // cheap checks first, then the folders, then the work
+  if (!invalid.empty()) return Status::failure("invalid synthetic config: " + invalid);
   const fs::path out(out_dir);
   if (Status s = prepareDirectories(out); !s) return s;
+  auto scene = SyntheticScene::build(config);
+  if (!scene) return Status::failure(scene.error());
   if (Status s = writeText(out / "camera.yaml", cameraYaml(config)); !s) return s;
   if (Status s = writeText(out / "rgb.txt", fileList(config, false)); !s) return s;
   if (Status s = writeText(out / "depth.txt", fileList(config, true)); !s) return s;
