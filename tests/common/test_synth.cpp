@@ -259,6 +259,38 @@ TEST(SynthScene, OrbFindsPlentyOfKeypointsWithDepth) {
   }
 }
 
+TEST(SynthScene, OrbMatchesBetweenFramesAgreeWithTheGroundTruthMotion) {
+  const SyntheticScene& s = scene(SynthConfig{});
+  const PinholeCamera cam(s.config().camera);
+  const auto orb = cv::ORB::create(1000);
+  for (const auto& [from, to] : {std::pair<int, int>{100, 101}, {200, 210}}) {
+    const RgbdFrame a = s.renderFrame(from), b = s.renderFrame(to);
+    std::vector<cv::KeyPoint> ka, kb;
+    cv::Mat grey_a, grey_b, desc_a, desc_b;
+    cv::cvtColor(a.color, grey_a, cv::COLOR_BGR2GRAY);
+    cv::cvtColor(b.color, grey_b, cv::COLOR_BGR2GRAY);
+    orb->detectAndCompute(grey_a, cv::noArray(), ka, desc_a);
+    orb->detectAndCompute(grey_b, cv::noArray(), kb, desc_b);
+    std::vector<std::vector<cv::DMatch>> knn;
+    cv::BFMatcher(cv::NORM_HAMMING).knnMatch(desc_a, desc_b, knn, 2);
+    const SE3 T_b_a = s.trajectory()[static_cast<size_t>(to)].T_world_cam.inverse() *
+                      s.trajectory()[static_cast<size_t>(from)].T_world_cam;
+    int matches = 0, consistent = 0;
+    for (const auto& m : knn) {
+      if (m.size() < 2 || m[0].distance > 0.8f * m[1].distance) continue;
+      const cv::Point2f pa = ka[static_cast<size_t>(m[0].queryIdx)].pt,
+                        pb = kb[static_cast<size_t>(m[0].trainIdx)].pt;
+      const double z = a.depthMetres(static_cast<int>(pa.x + 0.5f), static_cast<int>(pa.y + 0.5f));
+      if (z <= 0.0) continue;
+      ++matches;
+      const auto px_b = cam.project(T_b_a * cam.backProject(Eigen::Vector2d(pa.x, pa.y), z));
+      consistent += px_b && (*px_b - Eigen::Vector2d(pb.x, pb.y)).norm() < 3.0;
+    }
+    EXPECT_GT(consistent, 250) << from << " -> " << to;
+    EXPECT_GT(consistent, 0.85 * matches) << from << " -> " << to;
+  }
+}
+
 class SynthWriter : public ::testing::Test {
  protected:
   void SetUp() override {
