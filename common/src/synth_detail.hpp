@@ -46,10 +46,12 @@ enum Material : int { kWallWarm, kWallCool, kFloor, kCeiling, kWood, kPainted, k
 struct TextureLevel {
   int size = 0;    ///< texels per side, a power of two >= 4
   cv::Mat texels;  ///< 1 x size*size, CV_8UC4 (B, G, R, unused), 64-byte aligned by OpenCV
-  const uchar* texel(int x, int y) const {
-    const int block = (y >> 2) * (size >> 2) + (x >> 2);
-    return texels.ptr<uchar>() + 4 * (16 * block + 4 * (y & 3) + (x & 3));
+  /// Byte offset of texel (x, y): blocks in row-major order, texels row-major inside a block.
+  int offset(int x, int y) const {
+    return 4 * (16 * ((y >> 2) * (size >> 2) + (x >> 2)) + 4 * (y & 3) + (x & 3));
   }
+  const uchar* texel(int x, int y) const { return texels.ptr<uchar>() + offset(x, y); }
+  uchar* texel(int x, int y) { return texels.ptr<uchar>() + offset(x, y); }
 };
 
 /// A square texture with its mip pyramid, addressed in metres (wraps around at its size).

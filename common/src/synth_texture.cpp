@@ -167,20 +167,26 @@ void drawGrid(cv::Mat* img, const TextureStyle& s) {
   }
 }
 
-/// Sum of upsampled random grids (value noise) with cells of 256..4 texels; roughly zero mean.
+/// Sum of upsampled random grids (value noise) with cells of 256..4 texels, roughly zero mean. Upsampling
+/// is OpenCV's bit-exact bilinear on 8-bit grids and the sum is plain C++ (no FMA), so the texture is the
+/// same on every CPU, whatever SIMD code OpenCV dispatches to.
 cv::Mat valueNoise(int n, double aspect, Rng* rng) {
   cv::Mat sum(n, n, CV_32F, cv::Scalar(0));
-  const double amplitudes[] = {0.45, 0.3, 0.2, 0.15};
+  const float amplitudes[] = {0.45f, 0.3f, 0.2f, 0.15f};
   int cell = 256;
-  for (double amp : amplitudes) {
+  for (float amp : amplitudes) {
     const int rows = std::max(2, n / cell);
     const int cols = std::max(2, static_cast<int>(n / (cell * aspect)));
-    cv::Mat grid(rows, cols, CV_32F);
+    cv::Mat grid(rows, cols, CV_8U);
     for (int r = 0; r < rows; ++r)
-      for (int c = 0; c < cols; ++c) grid.at<float>(r, c) = static_cast<float>(amp * (rng->uniform() - 0.5));
+      for (int c = 0; c < cols; ++c) grid.at<uchar>(r, c) = static_cast<uchar>(rng->next() >> 56);
     cv::Mat up;
-    cv::resize(grid, up, sum.size(), 0, 0, cv::INTER_CUBIC);
-    sum += up;
+    cv::resize(grid, up, sum.size(), 0, 0, cv::INTER_LINEAR_EXACT);
+    for (int r = 0; r < n; ++r) {
+      float* out = sum.ptr<float>(r);
+      const uchar* in = up.ptr<uchar>(r);
+      for (int c = 0; c < n; ++c) out[c] += amp * (static_cast<float>(in[c]) * (1.0f / 255.0f) - 0.5f);
+    }
     cell /= 4;
   }
   return sum;
@@ -236,8 +242,9 @@ TextureLevel toBlocks(const cv::Mat& bgr) {
   for (int y = 0; y < bgr.rows; ++y) {
     const auto* row = bgr.ptr<cv::Vec3b>(y);
     for (int x = 0; x < bgr.cols; ++x) {
-      uchar* t = const_cast<uchar*>(level.texel(x, y));
-      t[0] = row[x][0], t[1] = row[x][1], t[2] = row[x][2], t[3] = 0;
+      uchar* t = level.texel(x, y);
+      for (int c = 0; c < 3; ++c) t[c] = row[x][c];
+      t[3] = 0;
     }
   }
   return level;
