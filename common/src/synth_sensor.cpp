@@ -63,11 +63,10 @@ double sensePixel(const Neighbourhood& nb, int x, bool grazing, const SynthConfi
   double z_noisy = z + sigma * gaussianFromBits(static_cast<uint32_t>(hash >> 40));
   if (n.disparity_step_px > 0.0) {
     if (!(z_noisy > 0.0)) return 0.0;
-    const double bf = n.baseline_m * cfg.camera.fx;
-    const double steps = static_cast<double>(static_cast<int64_t>(bf / z_noisy / n.disparity_step_px + 0.5));
-    const double disparity = steps * n.disparity_step_px;
-    if (!(disparity > 0.0)) return 0.0;
-    z_noisy = bf / disparity;
+    const double bf_in_steps = n.baseline_m * cfg.camera.fx / n.disparity_step_px;  // z * disparity / step
+    const double steps = static_cast<double>(static_cast<int64_t>(bf_in_steps / z_noisy + 0.5));
+    if (!(steps > 0.0)) return 0.0;
+    z_noisy = bf_in_steps / steps;
   }
   return z_noisy;
 }
