@@ -122,7 +122,7 @@ void FrameRenderer::renderTileRow(int tile_row, cv::Mat* color, cv::Mat* depth_m
       double t = exitRoom(s_.room, o_, inv_d, &face);
       for (int b : candidates[static_cast<size_t>(x / kTile)])
         if (enterBox(s_.boxes[static_cast<size_t>(b)], o_, inv_d, &t, &face)) box = b;
-      if (!(t > 0.0) || !std::isfinite(t)) {  // camera outside the room: nothing to see
+      if (!(t > 0.0) || !std::isfinite(t)) {  // camera on the room boundary: nothing to see
         c_row[x] = cv::Vec3b(0, 0, 0);
         z_row[x] = 0.0f;
         g_row[x] = 1;
@@ -146,11 +146,17 @@ RgbdFrame SyntheticScene::render(const SE3& T_world_cam, int frame_index) const 
   const CameraIntrinsics& k = cfg.camera;
   cv::Mat color(k.height, k.width, CV_8UC3), depth_m(k.height, k.width, CV_32F),
       grazing(k.height, k.width, CV_8U);
-  const synth::FrameRenderer renderer(*data_, T_world_cam);
-  const int tile_rows = (k.height + synth::kTile - 1) / synth::kTile;
-  cv::parallel_for_(cv::Range(0, tile_rows), [&](const cv::Range& r) {
-    for (int row = r.start; row < r.end; ++row) renderer.renderTileRow(row, &color, &depth_m, &grazing);
-  });
+  if (data_->room_bounds.contains(T_world_cam.translation())) {
+    const synth::FrameRenderer renderer(*data_, T_world_cam);
+    const int tile_rows = (k.height + synth::kTile - 1) / synth::kTile;
+    cv::parallel_for_(cv::Range(0, tile_rows), [&](const cv::Range& r) {
+      for (int row = r.start; row < r.end; ++row) renderer.renderTileRow(row, &color, &depth_m, &grazing);
+    });
+  } else {  // outside the room there is nothing to see
+    color.setTo(cv::Scalar::all(0));
+    depth_m.setTo(cv::Scalar::all(0));
+    grazing.setTo(cv::Scalar::all(1));
+  }
   const uint64_t key = synth::frameKey(cfg.seed, frame_index);
   RgbdFrame frame;
   frame.timestamp = cfg.colorTimestamp(frame_index);

@@ -92,6 +92,9 @@ TEST(SynthScene, SameSeedGivesIdenticalImagesAndAnotherSeedDoesNot) {
   EXPECT_TRUE(sameImage(fa.depth, fb.depth));
   EXPECT_FALSE(sameImage(fa.color, fo.color));
   EXPECT_FALSE(sameImage(fa.depth, fo.depth));
+  // Outside the room there is nothing to see.
+  const RgbdFrame outside = a->render(lookFrom(Vec3(10.0, 0.0, 1.0), M_PI, 0.0), 0);
+  EXPECT_EQ(cv::countNonZero(outside.depth), 0);
   // The noise differs between frames even at the same pose.
   EXPECT_FALSE(sameImage(a->render(a->trajectory()[7].T_world_cam, 8).color, fa.color));
   ASSERT_EQ(fa.color.type(), CV_8UC3);

@@ -97,9 +97,10 @@ class SyntheticScene {
   const Trajectory& trajectory() const;
 
   /// Render colour (CV_8UC3 BGR) and depth (CV_16UC1, metres * depth_scale, 0 = missing) seen from
-  /// T_world_cam. frame_index seeds the sensor noise and sets the timestamp.
+  /// T_world_cam. frame_index seeds the sensor noise and sets the timestamp. Thread-safe. A camera outside
+  /// the room sees black with no depth.
   RgbdFrame render(const SE3& T_world_cam, int frame_index) const;
-  /// render() at the trajectory's pose for frame_index (0 <= frame_index < config().frames).
+  /// render() at the trajectory's pose for frame_index, clamped to [0, config().frames - 1].
   RgbdFrame renderFrame(int frame_index) const;
 
   /// Exact ray cast against the scene; nullopt if the ray leaves the room without a hit (origin outside).
