@@ -10,18 +10,18 @@ namespace {
 
 constexpr int kHole = -1;  // rank of a pixel without depth, or outside the image
 
-// ---- kRankMed helpers
-// -------------------------------------------------------------------------------------- Ranks index the
-// table of distinct non-zero depths; a Kinect frame has a few hundred, so neighbouring ranks differ by a few
-// units where the raw depths differ by tens. The prediction is the LOCO-I median (MED) of the left (a), above
-// (b) and above-left (c) ranks, median(a, b, a + b - c), after replacing holes: a hole a takes b, or else
-// `last` (the previous rank with depth in scan order, 0 at first); a hole b takes a; a hole c takes b.
-// Branch-free selects keep the per-pixel loop fast.
-inline int predictRank(int a, int b, int c, int last) {
-  const int a1 = a >= 0 ? a : (b >= 0 ? b : last);
-  const int b1 = b >= 0 ? b : a1;
-  const int c1 = c >= 0 ? c : b1;
-  return std::max(std::min(a1, b1), std::min(std::max(a1, b1), a1 + b1 - c1));
+// kRankMed. Ranks index the table of distinct non-zero depths; a Kinect frame has a few hundred, so
+// neighbouring ranks differ by a few units where the raw depths differ by tens. With a = left, b = above,
+// c = above-left and `last` = the rank of the previous pixel with depth in scan order (0 at first):
+//   a, b, c all with depth:        LOCO-I median (MED) = median(a, b, a + b - c)
+//   a a hole (or outside), b not:  b
+//   otherwise:                     last (which is a whenever a has depth)
+// The decoder carries only `last` from pixel to pixel; the hole flags and b - c are known beforehand,
+// which keeps the loop-carried dependency short.
+inline int predictRank(bool a_hole, int b, int c, int last) {
+  if (a_hole) return b != kHole ? b : last;
+  if (b == kHole || c == kHole) return last;
+  return std::max(std::min(last, b), std::min(std::max(last, b), last + b - c));
 }
 
 inline uint16_t zigzag(int r) { return static_cast<uint16_t>(r >= 0 ? 2 * r : -2 * r - 1); }
@@ -103,27 +103,27 @@ void packRankMed(const cv::Mat& depth, const std::vector<uint16_t>& table, Bytes
   }
   uint8_t* hi = out.data() + 2 * k;
   uint8_t* lo = hi + n;
-  std::vector<int> prev(depth.cols, kHole), cur(depth.cols);
+  std::vector<int> prev(depth.cols + 1, kHole), cur(depth.cols + 1, kHole);  // [0] is left of column 0
   int last = 0;
   for (int y = 0; y < depth.rows; ++y, std::swap(prev, cur)) {
     const uint16_t* row = depth.ptr<uint16_t>(y);
-    int a = kHole, c = kHole;
     for (int x = 0; x < depth.cols; ++x) {
-      const int b = prev[x], rank = rank_of[row[x]];  // rank_of[0] is kHole
-      const int p = predictRank(a, b, c, last);
-      const uint16_t symbol = rank >= 0 ? static_cast<uint16_t>(1 + zigzag(rank - p)) : 0;
+      const int rank = rank_of[row[x]];  // rank_of[0] is kHole
+      const int p = predictRank(cur[x] == kHole, prev[x + 1], prev[x], last);
+      const uint16_t symbol = rank != kHole ? static_cast<uint16_t>(1 + zigzag(rank - p)) : 0;
       *hi++ = static_cast<uint8_t>(symbol >> 8);
       *lo++ = static_cast<uint8_t>(symbol & 0xFF);
-      last = rank >= 0 ? rank : last;
-      cur[x] = a = rank;
-      c = b;
+      last = rank != kHole ? rank : last;
+      cur[x + 1] = rank;
     }
   }
 }
 
-Status unpackRankMed(const uint8_t* in, size_t table_size, cv::Mat& depth) {
-  // value_of[0] = 0 is the hole; value_of[1 + rank] is the depth of `rank`.
-  std::vector<uint16_t> value_of(table_size + 1, 0);
+namespace {
+
+/// value_of[0] = 0 is the hole; value_of[1 + rank] is the depth of `rank`.
+Status unpackRankTable(const uint8_t* in, size_t table_size, std::vector<uint16_t>& value_of) {
+  value_of.assign(table_size + 1, 0);
   for (size_t t = 0; t < table_size; ++t) {
     const int next = value_of[t] + getU16(in + 2 * t);
     if (next <= value_of[t] || next > 65535)
@@ -131,25 +131,30 @@ Status unpackRankMed(const uint8_t* in, size_t table_size, cv::Mat& depth) {
                              " is not strictly ascending within 1..65535");
     value_of[t + 1] = static_cast<uint16_t>(next);
   }
+  return Status::success();
+}
+
+}  // namespace
+
+Status unpackRankMed(const uint8_t* in, size_t table_size, cv::Mat& depth) {
+  std::vector<uint16_t> value_of;
+  if (Status s = unpackRankTable(in, table_size, value_of); !s) return s;
   const unsigned k = static_cast<unsigned>(table_size);
   const uint8_t* hi = in + 2 * table_size;
   const uint8_t* lo = hi + depth.total();
-  std::vector<int> prev(depth.cols, kHole), cur(depth.cols);
+  std::vector<int> prev(depth.cols + 1, kHole), cur(depth.cols + 1, kHole);  // [0] is left of column 0
   int last = 0;
   for (int y = 0; y < depth.rows; ++y, std::swap(prev, cur)) {
     uint16_t* row = depth.ptr<uint16_t>(y);
-    int a = kHole, c = kHole;
-    bool bad = false;
+    bool bad = false;  // checked once per row; until then an out-of-table rank only feeds arithmetic
     for (int x = 0; x < depth.cols; ++x) {
-      const int b = prev[x], symbol = (*hi++ << 8) | *lo++;
-      const int rank = predictRank(a, b, c, last) + unzigzag(symbol - 1);
-      const bool valid = symbol != 0 && static_cast<unsigned>(rank) < k;
-      bad |= symbol != 0 && !valid;
-      const int index = valid ? rank + 1 : 0;
-      row[x] = value_of[index];
-      cur[x] = a = index - 1;
-      last = valid ? rank : last;
-      c = b;
+      const int symbol = (*hi++ << 8) | *lo++;
+      const int rank = predictRank(cur[x] == kHole, prev[x + 1], prev[x], last) + unzigzag(symbol - 1);
+      const bool in_table = static_cast<unsigned>(rank) < k;
+      bad |= symbol != 0 && !in_table;
+      row[x] = value_of[symbol != 0 && in_table ? rank + 1 : 0];
+      last = symbol != 0 ? rank : last;
+      cur[x + 1] = symbol != 0 ? rank : kHole;
     }
     if (bad)
       return Status::failure("depth blob: a symbol in row " + std::to_string(y) +

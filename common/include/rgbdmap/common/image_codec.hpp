@@ -23,8 +23,12 @@
 //   depth kRankMed   zstd(table, then high bytes, then low bytes, of the symbols)     content 2*K + 2*W*H
 //                    table: the K distinct non-zero depths ascending, as uint16 LE deltas (first entry
 //                    is the value itself); symbol: 0 for a hole (depth 0), otherwise
-//                    1 + zigzag(rank - prediction), the prediction being the LOCO-I median (MED) of
-//                    the ranks left, above and above-left, with holes replaced (see depth_codec.cpp)
+//                    1 + zigzag(rank - prediction), rank = index in the table. With a, b, c the ranks
+//                    left, above, above-left and `last` the rank of the previous pixel with depth in
+//                    scan order (0 at first), the prediction is median(a, b, a + b - c) (LOCO-I MED)
+//                    when a, b, c all have depth; b when a is a hole or outside and b has depth;
+//                    otherwise `last`
+//   zigzag           0, -1, 1, -2, 2, ... -> 0, 1, 2, 3, 4, ...
 //   colour kJpeg     baseline JPEG, 3 components, YCbCr 4:2:0
 //   colour kLossless zstd(B plane, G plane, R plane of (v - left) mod 256)            content 3*W*H
 //   colour kNone     no blob at all (size 0)
