@@ -72,6 +72,7 @@ Status finishBlob(std::vector<uint8_t>& blob) {
   if (payload > std::numeric_limits<uint32_t>::max()) return Status::failure("payload exceeds 4 GiB");
   putU32(&blob[kPayloadLengthOffset], static_cast<uint32_t>(payload));
   putU32(&blob[kChecksumOffset], blobChecksum(blob.data(), blob.size()));
+  blob.shrink_to_fit();  // the encoders sized it for the worst case
   return Status::success();
 }
 
