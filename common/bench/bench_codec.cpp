@@ -24,7 +24,9 @@ using rgbdmap::DepthFilter;
 using rgbdmap::EncodedImages;
 using rgbdmap::ImageCodecOptions;
 
-enum class Part { kDepth, kColor, kKeyframe };
+/// kDepthPng and kColorPng are references outside the codec: PNG at its fastest level via OpenCV (the TUM
+/// recordings store depth as PNG; PNG is the obvious alternative for lossless colour).
+enum class Part { kDepth, kColor, kKeyframe, kDepthPng, kColorPng };
 
 struct Mode {
   std::string name;
@@ -37,7 +39,8 @@ struct Mode {
 std::vector<rgbdmap::RgbdFrame> loadFrames(const std::string& dir, size_t count) {
   std::vector<std::string> rgb, depth;
   for (const auto& e : std::filesystem::directory_iterator(dir + "/rgb")) rgb.push_back(e.path().string());
-  for (const auto& e : std::filesystem::directory_iterator(dir + "/depth")) depth.push_back(e.path().string());
+  for (const auto& e : std::filesystem::directory_iterator(dir + "/depth"))
+    depth.push_back(e.path().string());
   std::sort(rgb.begin(), rgb.end());
   std::sort(depth.begin(), depth.end());
   const size_t n = std::min(rgb.size(), depth.size()), step = std::max<size_t>(1, n / count);
@@ -59,7 +62,8 @@ std::vector<Mode> makeModes() {
       ImageCodecOptions o;
       o.depth_filter = filter;
       o.zstd_level = level;
-      modes.push_back({"depth/" + rgbdmap::toString(filter) + "/zstd" + std::to_string(level), Part::kDepth, o, {}});
+      modes.push_back(
+          {"depth/" + rgbdmap::toString(filter) + "/zstd" + std::to_string(level), Part::kDepth, o, {}});
     }
   }
   for (int quality : {75, 90, 95}) {
@@ -70,6 +74,8 @@ std::vector<Mode> makeModes() {
   ImageCodecOptions lossless;
   lossless.color = ColorCodec::kLossless;
   modes.push_back({"colour/lossless/zstd1", Part::kColor, lossless, {}});
+  modes.push_back({"colour/png-fast (reference, cv::imencode)", Part::kColorPng, ImageCodecOptions{}, {}});
+  modes.push_back({"depth/png-fast (reference, cv::imencode)", Part::kDepthPng, ImageCodecOptions{}, {}});
   ImageCodecOptions none;
   none.color = ColorCodec::kNone;
   modes.push_back({"colour/none", Part::kColor, none, {}});
@@ -78,12 +84,17 @@ std::vector<Mode> makeModes() {
 }
 
 bool encode(const Mode& m, const rgbdmap::RgbdFrame& f, EncodedImages& out) {
+  if (m.part == Part::kDepthPng)
+    return cv::imencode(".png", f.depth, out.depth, {cv::IMWRITE_PNG_COMPRESSION, 1});
+  if (m.part == Part::kColorPng)
+    return cv::imencode(".png", f.color, out.color, {cv::IMWRITE_PNG_COMPRESSION, 1});
   if (m.part == Part::kKeyframe) {
     auto r = rgbdmap::encodeImages(f, m.options);
     if (r) out = std::move(*r);
     return r.ok();
   }
-  auto r = m.part == Part::kDepth ? rgbdmap::encodeDepth(f.depth, m.options) : rgbdmap::encodeColor(f.color, m.options);
+  auto r = m.part == Part::kDepth ? rgbdmap::encodeDepth(f.depth, m.options)
+                                  : rgbdmap::encodeColor(f.color, m.options);
   if (!r) return false;
   (m.part == Part::kDepth ? out.depth : out.color) = std::move(*r);
   out.width = static_cast<uint16_t>(f.depth.cols);
@@ -92,8 +103,15 @@ bool encode(const Mode& m, const rgbdmap::RgbdFrame& f, EncodedImages& out) {
   return true;
 }
 
+bool decodePng(const std::vector<uint8_t>& bytes, const cv::Mat* original) {
+  const cv::Mat image = cv::imdecode(bytes, cv::IMREAD_UNCHANGED);
+  return !image.empty() && (original == nullptr || cv::norm(image, *original, cv::NORM_INF) == 0);
+}
+
 /// Decodes and, for lossless parts, checks the result; returns false on any failure.
 bool decode(const Mode& m, const EncodedImages& e, const rgbdmap::RgbdFrame* check) {
+  if (m.part == Part::kDepthPng) return decodePng(e.depth, check ? &check->depth : nullptr);
+  if (m.part == Part::kColorPng) return decodePng(e.color, check ? &check->color : nullptr);
   cv::Mat depth, color;
   if (m.part != Part::kColor) {
     auto r = rgbdmap::decodeDepth(e.depth.data(), e.depth.size(), e.width, e.height);
@@ -107,7 +125,8 @@ bool decode(const Mode& m, const EncodedImages& e, const rgbdmap::RgbdFrame* che
   }
   if (check == nullptr) return true;
   if (!depth.empty() && cv::norm(depth, check->depth, cv::NORM_INF) != 0) return false;
-  if (m.options.color == ColorCodec::kLossless && cv::norm(color, check->color, cv::NORM_INF) != 0) return false;
+  if (m.options.color == ColorCodec::kLossless && cv::norm(color, check->color, cv::NORM_INF) != 0)
+    return false;
   return true;
 }
 
@@ -125,13 +144,16 @@ bool prepare(Mode& m, const std::vector<rgbdmap::RgbdFrame>& frames) {
   return true;
 }
 
-/// Console output plus the per-keyframe milliseconds of each run, for the summary table.
+/// Console output plus the CPU milliseconds per keyframe of each run, for the summary table. CPU time
+/// rather than wall time: on a shared machine the wall time also counts other processes' turns.
 class SummaryReporter : public benchmark::ConsoleReporter {
  public:
+  SummaryReporter() : ConsoleReporter(OO_Tabular) {}
   void ReportRuns(const std::vector<Run>& runs) override {
     ConsoleReporter::ReportRuns(runs);
     for (const Run& r : runs)
-      if (r.run_type == Run::RT_Iteration && !r.error_occurred) ms_[r.benchmark_name()] = r.GetAdjustedRealTime();
+      if (r.run_type == Run::RT_Iteration && !r.error_occurred)
+        ms_[r.benchmark_name()] = r.GetAdjustedCPUTime();
   }
   double ms(const std::string& name) const {
     const auto it = ms_.find(name);
@@ -143,7 +165,8 @@ class SummaryReporter : public benchmark::ConsoleReporter {
 };
 
 void printSummary(const std::vector<Mode>& modes, const SummaryReporter& reporter, size_t frame_count) {
-  std::printf("\nSummary: %zu frames, one core; bytes include the 20-byte blob headers\n", frame_count);
+  std::printf("\nSummary: %zu frames, one core, CPU ms per keyframe; bytes include the blob headers\n",
+              frame_count);
   std::printf("%-46s %10s %10s %9s %9s %9s %12s\n", "mode", "mean B", "max B", "enc ms", "dec ms", "sum ms",
               "vs raw zstd");
   std::map<int, double> raw_zstd;  // zstd level -> mean bytes of unfiltered depth
@@ -154,11 +177,12 @@ void printSummary(const std::vector<Mode>& modes, const SummaryReporter& reporte
     std::string gain = "";
     if (m.part == Part::kDepth && raw_zstd.count(m.options.zstd_level)) {
       char buf[32];
-      std::snprintf(buf, sizeof(buf), "%+.1f%%", 100.0 * (m.mean_bytes / raw_zstd[m.options.zstd_level] - 1.0));
+      std::snprintf(buf, sizeof(buf), "%+.1f%%",
+                    100.0 * (m.mean_bytes / raw_zstd[m.options.zstd_level] - 1.0));
       gain = buf;
     }
-    std::printf("%-46s %10.0f %10.0f %9.3f %9.3f %9.3f %12s\n", m.name.c_str(), m.mean_bytes, m.max_bytes, enc, dec,
-                enc + dec, gain.c_str());
+    std::printf("%-46s %10.0f %10.0f %9.3f %9.3f %9.3f %12s\n", m.name.c_str(), m.mean_bytes, m.max_bytes,
+                enc, dec, enc + dec, gain.c_str());
   }
 }
 
