@@ -94,6 +94,19 @@ inline cv::Mat randomColor(int width, int height, uint32_t seed) {
   return bgr;
 }
 
+/// Valid blobs of synthetic images, the starting point of the forgery and corruption tests.
+inline Bytes depthBlob(DepthFilter filter, int width, int height) {
+  ImageCodecOptions options;
+  options.depth_filter = filter;
+  return encodeDepth(syntheticDepth(width, height, 21), options).value();
+}
+
+inline Bytes colorBlob(ColorCodec codec, int width, int height) {
+  ImageCodecOptions options;
+  options.color = codec;
+  return encodeColor(syntheticColor(width, height, 22), options).value();
+}
+
 inline bool identical(const cv::Mat& a, const cv::Mat& b) {
   return a.size() == b.size() && a.type() == b.type() && (a.empty() || cv::norm(a, b, cv::NORM_INF) == 0);
 }
