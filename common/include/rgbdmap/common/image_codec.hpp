@@ -29,7 +29,8 @@
 //                    when a, b, c all have depth; b when a is a hole or outside and b has depth;
 //                    otherwise `last`
 //   zigzag           0, -1, 1, -2, 2, ... -> 0, 1, 2, 3, 4, ...
-//   colour kJpeg     baseline JPEG, 3 components, YCbCr 4:2:0
+//   colour kJpeg     baseline Huffman-coded JPEG, 3 components, YCbCr (written 4:2:0); the decoder refuses
+//                    progressive and arithmetic-coded JPEGs and treats libjpeg warnings as errors
 //   colour kLossless zstd(B plane, G plane, R plane of (v - left) mod 256)            content 3*W*H
 //   colour kNone     no blob at all (size 0)
 //
@@ -37,6 +38,9 @@
 // and nothing is allocated from a size that has not been checked against the expected dimensions. The
 // CRC turns accidental corruption into an error; a blob forged with a valid CRC still decodes only to an
 // error or to an image of the expected size.
+//
+// Every function is reentrant (no shared state, safe from any thread), never prints, and reports failure
+// as a Result error. cv::setNumThreads is left to the application.
 #include <cstddef>
 #include <cstdint>
 #include <string>
