@@ -1,7 +1,7 @@
 // Codec benchmark: bytes per keyframe and encode/decode time on one core, per depth filter, zstd level
 // and colour mode, on ~30 frames of a TUM recording. Usage: bench_codec [google-benchmark flags]
 // (the recording folder can be set with RGBDMAP_BENCH_DATA=/path/to/tum_sequence). Run it pinned, e.g.
-// `taskset -c 1 build/bin/bench_codec`.
+// `taskset -c 1 build/bin/bench_codec --benchmark_repetitions=5` (the summary shows medians).
 #include <benchmark/benchmark.h>
 
 #include <algorithm>
@@ -144,8 +144,9 @@ bool prepare(Mode& m, const std::vector<rgbdmap::RgbdFrame>& frames) {
   return true;
 }
 
-/// Console output plus the CPU milliseconds per keyframe of each run, for the summary table. CPU time
-/// rather than wall time: on a shared machine the wall time also counts other processes' turns.
+/// Console output plus the CPU milliseconds per keyframe of each run, for the summary table: the median
+/// over --benchmark_repetitions. CPU time rather than wall time: on a shared machine the wall time also
+/// counts other processes' turns.
 class SummaryReporter : public benchmark::ConsoleReporter {
  public:
   SummaryReporter() : ConsoleReporter(OO_Tabular) {}
@@ -153,15 +154,18 @@ class SummaryReporter : public benchmark::ConsoleReporter {
     ConsoleReporter::ReportRuns(runs);
     for (const Run& r : runs)
       if (r.run_type == Run::RT_Iteration && !r.error_occurred)
-        ms_[r.benchmark_name()] = r.GetAdjustedCPUTime();
+        ms_[r.run_name.str()].push_back(r.GetAdjustedCPUTime());
   }
   double ms(const std::string& name) const {
     const auto it = ms_.find(name);
-    return it == ms_.end() ? 0.0 : it->second;
+    if (it == ms_.end()) return 0.0;
+    std::vector<double> v = it->second;
+    std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
+    return v[v.size() / 2];
   }
 
  private:
-  std::map<std::string, double> ms_;
+  std::map<std::string, std::vector<double>> ms_;
 };
 
 void printSummary(const std::vector<Mode>& modes, const SummaryReporter& reporter, size_t frame_count) {
