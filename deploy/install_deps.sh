@@ -4,7 +4,7 @@ set -euo pipefail
 packages=(
   cmake g++ pkg-config ninja-build libgtest-dev libbenchmark-dev
   libeigen3-dev libopencv-dev liboctomap-dev octomap-tools libceres-dev liblcm-dev liblcm-bin
-  cyclonedds-dev cyclonedds-tools libzstd-dev libyaml-cpp-dev libssl-dev iproute2
+  cyclonedds-dev cyclonedds-tools libzstd-dev libjpeg-dev zlib1g-dev libyaml-cpp-dev libssl-dev iproute2
 )
 missing=()
 for p in "${packages[@]}"; do
