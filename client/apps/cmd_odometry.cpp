@@ -47,7 +47,7 @@ int odometry(int argc, char** argv) {
   if (frames < 0) errors.push_back("--frames must be >= 0");
   if (threads < 1 || threads > 256) errors.push_back("--threads must be in [1, 256]");
   app::applyLogLevel(args, &errors);
-  const app::OdometrySetup setup = loadOdometrySetup(args, dataset_dir.value_or(""), &errors);
+  const app::OdometrySetup setup = app::loadOdometrySetup(args, dataset_dir.value_or(""), &errors);
   errors.insert(errors.begin(), args.errors().begin(), args.errors().end());
   if (!errors.empty()) return cli::usageError(errors, kUsage);
 

@@ -108,7 +108,7 @@ int run(int argc, char** argv) {
   cv::setNumThreads(static_cast<int>(o.threads));
   const bool synthetic = o.dataset.empty();
   if (synthetic && (o.dataset = synthesize(o)).empty()) return 1;
-  const app::OdometrySetup setup = loadOdometrySetup(args, o.dataset, &errors);
+  const app::OdometrySetup setup = app::loadOdometrySetup(args, o.dataset, &errors);
   if (!errors.empty()) return cli::usageError(errors, kUsage);
   const auto dataset = TumDataset::open(o.dataset, setup.dataset);
   if (!dataset) {
