@@ -13,7 +13,8 @@ namespace {
 
 const char* kUsage =
     "usage: rgbdmap odometry --dataset DIR --out traj.txt [options]\n"
-    "  --dataset DIR           TUM layout: rgb.txt, depth.txt, rgb/, depth/ [, groundtruth.txt, camera.yaml]\n"
+    "  --dataset DIR           TUM layout: rgb.txt, depth.txt, rgb/, depth/ [, groundtruth.txt, "
+    "camera.yaml]\n"
     "  --out FILE              trajectory, TUM format, one pose per frame; keyframes go to FILE's\n"
     "                          stem + .keyframes.txt\n"
     "  --frames N              only the first N frames\n"
@@ -70,7 +71,8 @@ int odometry(int argc, char** argv) {
       return 1;
     }
   }
-  std::fprintf(stderr, "%s\nwrote %s and %s\n", run.summary().c_str(), out->c_str(), keyframesPath(*out).c_str());
+  std::fprintf(stderr, "%s\nwrote %s and %s\n", run.summary().c_str(), out->c_str(),
+               keyframesPath(*out).c_str());
   return 0;
 }
 

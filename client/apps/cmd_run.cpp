@@ -118,7 +118,8 @@ int run(int argc, char** argv) {
   const app::OdometryRun run = app::runOdometry(*dataset, setup, synthetic ? 0 : static_cast<int>(o.frames));
   const std::string traj_path = o.out + "/trajectory_" + kRobot + ".txt";
   const std::string kf_path = o.out + "/keyframes_" + kRobot + ".txt";
-  for (const auto& [path, traj] : {std::pair{traj_path, &run.trajectory}, std::pair{kf_path, &run.keyframes}}) {
+  for (const auto& [path, traj] :
+       {std::pair{traj_path, &run.trajectory}, std::pair{kf_path, &run.keyframes}}) {
     if (const Status s = writeTumTrajectory(path, *traj, "rgbdmap run, robot0, odometry frame"); !s) {
       log::error(s.error());
       return 1;
@@ -127,10 +128,17 @@ int run(int argc, char** argv) {
   std::optional<AteResult> ate;
   std::optional<RpeResult> rpe;
   if (dataset->groundTruth()) {
-    if (auto a = computeAte(*dataset->groundTruth(), run.trajectory)) ate = *a; else log::warn("ATE: ", a.error());
-    if (auto r = computeRpe(*dataset->groundTruth(), run.trajectory)) rpe = *r; else log::warn("RPE: ", r.error());
+    if (auto a = computeAte(*dataset->groundTruth(), run.trajectory))
+      ate = *a;
+    else
+      log::warn("ATE: ", a.error());
+    if (auto r = computeRpe(*dataset->groundTruth(), run.trajectory))
+      rpe = *r;
+    else
+      log::warn("RPE: ", r.error());
   }
-  std::ofstream(o.out + "/report.json") << reportJson(o.dataset, run, ate ? &*ate : nullptr, rpe ? &*rpe : nullptr);
+  std::ofstream(o.out + "/report.json")
+      << reportJson(o.dataset, run, ate ? &*ate : nullptr, rpe ? &*rpe : nullptr);
   std::fprintf(stderr, "%s\n", run.summary().c_str());
   if (ate) std::fprintf(stderr, "ATE RMSE %.4f m over %zu poses\n", ate->rmse, ate->matched);
   std::fprintf(stderr, "wrote %s, %s, %s/report.json\n", traj_path.c_str(), kf_path.c_str(), o.out.c_str());

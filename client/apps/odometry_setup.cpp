@@ -59,7 +59,8 @@ void readOdometryConfig(ConfigReader& r, OdometryConfig* c) {
   r.read(o + "min_tracking_inliers", &c->min_tracking_inliers, 3, 10000);
   r.read(o + "max_lost_frames", &c->max_lost_frames, 0, 100000);
   r.read(o + "min_keyframe_points", &c->min_keyframe_points, 3, 100000);
-  if (c->orb.min_depth_m >= c->orb.max_depth_m) r.addError("odometry.orb.min_depth_m must be below max_depth_m");
+  if (c->orb.min_depth_m >= c->orb.max_depth_m)
+    r.addError("odometry.orb.min_depth_m must be below max_depth_m");
 }
 
 namespace {
@@ -86,7 +87,8 @@ void applyOverrides(cli::Args& args, OdometrySetup* s, std::vector<std::string>*
 
 }  // namespace
 
-OdometrySetup loadOdometrySetup(cli::Args& args, const std::string& dataset_dir, std::vector<std::string>* errors) {
+OdometrySetup loadOdometrySetup(cli::Args& args, const std::string& dataset_dir,
+                                std::vector<std::string>* errors) {
   OdometrySetup s;
   if (!dataset_dir.empty()) {
     const auto cam = readDatasetCamera(dataset_dir);

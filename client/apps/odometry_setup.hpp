@@ -26,7 +26,8 @@ void readOdometryConfig(ConfigReader& reader, OdometryConfig* config);
 
 /// Builds the setup for `dataset_dir` from --config, --intrinsics and --depth-scale in `args`.
 /// All problems are appended to *errors.
-OdometrySetup loadOdometrySetup(cli::Args& args, const std::string& dataset_dir, std::vector<std::string>* errors);
+OdometrySetup loadOdometrySetup(cli::Args& args, const std::string& dataset_dir,
+                                std::vector<std::string>* errors);
 
 /// Applies --log-level if given.
 void applyLogLevel(cli::Args& args, std::vector<std::string>* errors);

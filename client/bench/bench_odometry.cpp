@@ -28,7 +28,8 @@ struct Fixture {
 };
 Fixture* g_fix = nullptr;
 
-std::vector<PointMatch> pairMatches(const FrameFeatures& cur, const FrameFeatures& ref, const OdometryConfig& c) {
+std::vector<PointMatch> pairMatches(const FrameFeatures& cur, const FrameFeatures& ref,
+                                    const OdometryConfig& c) {
   std::vector<char> mask(ref.size());
   for (size_t i = 0; i < mask.size(); ++i) mask[i] = ref.hasDepth(i);
   std::vector<PointMatch> out;
@@ -104,8 +105,8 @@ void wholeSequence(const TumDataset& dataset, const Fixture& fix) {
     for (int k = 0; k < 5; ++k) t[k].push_back(v[k]);
   }
   const char* names[5] = {"extract", "match", "ransac", "refine", "total"};
-  std::printf("\nwhole sequence (%zu frames, %zu keyframes, %d losses), ms per frame on one core:\n", est.size(),
-              vo.keyframes().size(), vo.trackingLosses());
+  std::printf("\nwhole sequence (%zu frames, %zu keyframes, %d losses), ms per frame on one core:\n",
+              est.size(), vo.keyframes().size(), vo.trackingLosses());
   std::printf("%-8s %8s %8s %8s\n", "stage", "median", "mean", "p90");
   for (int k = 0; k < 5; ++k) {
     double mean = 0;

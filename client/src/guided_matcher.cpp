@@ -28,8 +28,10 @@ FeatureGrid::FeatureGrid(const FrameFeatures& features, int width, int height, i
       rows_((height + cell_px - 1) / cell_px),
       cells_(static_cast<size_t>(cols_) * rows_) {
   for (size_t i = 0; i < features.size(); ++i) {
-    const int cx = static_cast<int>(features.px[i].x()) / cell_, cy = static_cast<int>(features.px[i].y()) / cell_;
-    if (cx >= 0 && cy >= 0 && cx < cols_ && cy < rows_) cells_[cy * cols_ + cx].push_back(static_cast<int>(i));
+    const int cx = static_cast<int>(features.px[i].x()) / cell_,
+              cy = static_cast<int>(features.px[i].y()) / cell_;
+    if (cx >= 0 && cy >= 0 && cx < cols_ && cy < rows_)
+      cells_[cy * cols_ + cx].push_back(static_cast<int>(i));
   }
 }
 
@@ -60,7 +62,8 @@ std::vector<FeatureMatch> matchByProjection(const FrameFeatures& cur, const Feat
     grid.query(px->x(), px->y(), radius, &nearby);
     int best = INT_MAX, second = INT_MAX, best_i = -1;
     for (int i : nearby) {
-      const int d = hamming(kf.descriptors.ptr<uint8_t>(static_cast<int>(k)), cur.descriptors.ptr<uint8_t>(i));
+      const int d =
+          hamming(kf.descriptors.ptr<uint8_t>(static_cast<int>(k)), cur.descriptors.ptr<uint8_t>(i));
       if (d < best) {
         second = best;
         best = d;
@@ -69,7 +72,8 @@ std::vector<FeatureMatch> matchByProjection(const FrameFeatures& cur, const Feat
         second = d;
       }
     }
-    if (best_i < 0 || best > config.max_distance || (second != INT_MAX && best > config.ratio * second)) continue;
+    if (best_i < 0 || best > config.max_distance || (second != INT_MAX && best > config.ratio * second))
+      continue;
     int& slot = best_for_cur[best_i];
     if (slot >= 0 && candidates[slot].distance <= best) continue;
     if (slot < 0) {

@@ -247,7 +247,8 @@ TrackingResult VisualOdometry::track(const RgbdFrame& frame) {
       decideKeyframe(est.matches, r.features, static_cast<int>(reference_->features.size()),
                      frames_since_keyframe_, est.T_cur_kf.inverse(), config_.keyframe);
   r.similarity = d.similarity;
-  const bool make_keyframe = d.new_keyframe && static_cast<int>(cur.countWithDepth()) >= config_.min_keyframe_points;
+  const bool make_keyframe =
+      d.new_keyframe && static_cast<int>(cur.countWithDepth()) >= config_.min_keyframe_points;
   if ((make_keyframe || config_.window_every_frame) && config_.window_keyframes > 1) {
     // Only keyframe poses propagate drift, so the window's extra matching is spent on them alone.
     refineInWindow(cur, &est, &r.times);

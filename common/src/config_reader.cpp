@@ -94,7 +94,8 @@ void ConfigReader::readNumber(const std::string& key, T* value, T min, T max) {
         if (!std::isfinite(v)) throw YAML::Exception(YAML::Mark(), "not finite");
       }
       if (v < min || v > max)
-        errors_.push_back(source_ + ": " + key + " = " + show(v) + " is outside [" + show(min) + ", " + show(max) + "]");
+        errors_.push_back(source_ + ": " + key + " = " + show(v) + " is outside [" + show(min) + ", " +
+                          show(max) + "]");
       else
         *value = v;
     } catch (const YAML::Exception&) {
@@ -108,8 +109,12 @@ void ConfigReader::read(const std::string& key, int* v, int min, int max) { read
 void ConfigReader::read(const std::string& key, unsigned* v, unsigned min, unsigned max) {
   readNumber(key, v, min, max);
 }
-void ConfigReader::read(const std::string& key, double* v, double min, double max) { readNumber(key, v, min, max); }
-void ConfigReader::read(const std::string& key, float* v, float min, float max) { readNumber(key, v, min, max); }
+void ConfigReader::read(const std::string& key, double* v, double min, double max) {
+  readNumber(key, v, min, max);
+}
+void ConfigReader::read(const std::string& key, float* v, float min, float max) {
+  readNumber(key, v, min, max);
+}
 
 void ConfigReader::read(const std::string& key, bool* value) {
   read_keys_.push_back(key);
@@ -129,7 +134,8 @@ void ConfigReader::read(const std::string& key, std::string* value, const std::v
   YAML::Node n;
   if (lookup(key, &n)) {
     const std::string v = n.IsScalar() ? n.as<std::string>() : "";
-    if (!n.IsScalar() || (!allowed.empty() && std::find(allowed.begin(), allowed.end(), v) == allowed.end())) {
+    if (!n.IsScalar() ||
+        (!allowed.empty() && std::find(allowed.begin(), allowed.end(), v) == allowed.end())) {
       std::string list;
       for (const auto& a : allowed) list += (list.empty() ? "" : "|") + a;
       errors_.push_back(source_ + ": " + key + ": '" + v + "' is not one of " + list);
@@ -157,7 +163,8 @@ void ConfigReader::readList(const std::string& key, double* values, size_t count
     if (ok)
       std::copy(tmp.begin(), tmp.end(), values);
     else
-      errors_.push_back(source_ + ": " + key + ": expected a list of " + std::to_string(count) + " finite numbers");
+      errors_.push_back(source_ + ": " + key + ": expected a list of " + std::to_string(count) +
+                        " finite numbers");
   }
   std::string shown;
   for (size_t i = 0; i < count; ++i) shown += (i ? ", " : "") + show(values[i]);

@@ -6,7 +6,8 @@ namespace rgbdmap {
 namespace {
 
 TEST(ConfigReader, ReadsValuesAndKeepsDefaults) {
-  auto r = ConfigReader::fromString("odometry:\n  orb:\n    n_features: 1500\n  ratio: 0.8\nname: lcm\n", "cfg");
+  auto r =
+      ConfigReader::fromString("odometry:\n  orb:\n    n_features: 1500\n  ratio: 0.8\nname: lcm\n", "cfg");
   ASSERT_TRUE(r) << r.error();
   int n = 1000, gap = 30;
   double ratio = 0.9;

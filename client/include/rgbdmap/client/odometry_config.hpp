@@ -58,8 +58,8 @@ struct OdometryConfig {
   /// Window refinement: a new keyframe's pose (or every frame's, with window_every_frame) is refined
   /// jointly against up to this many keyframes of similar viewpoint, matched by projection. 1 disables.
   int window_keyframes = 20;
-  double window_max_angle_deg = 45.0;   ///< viewing-direction difference for a keyframe to join the window
-  double window_max_distance_m = 0.6;   ///< and camera-centre distance
+  double window_max_angle_deg = 45.0;      ///< viewing-direction difference for a keyframe to join the window
+  double window_max_distance_m = 0.6;      ///< and camera-centre distance
   double window_max_correction_m = 0.025;  ///< a window result moving the pose more than this is rejected
   double window_max_correction_deg = 2.0;  ///< ... or rotating it more than this
   bool window_every_frame = false;

@@ -19,7 +19,8 @@ class ConfigReader {
   /// An empty configuration: every read() keeps the default.
   ConfigReader();
   static Result<ConfigReader> fromFile(const std::string& path);
-  static Result<ConfigReader> fromString(const std::string& yaml, const std::string& source_name = "<string>");
+  static Result<ConfigReader> fromString(const std::string& yaml,
+                                         const std::string& source_name = "<string>");
 
   /// If the key exists, parse it into *value and check min <= value <= max; record an error otherwise.
   /// Records "key = value" (default or read) for effectiveValues().
