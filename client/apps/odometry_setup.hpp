@@ -5,7 +5,7 @@
 #include <vector>
 
 #include "cli.hpp"
-#include "rgbdmap/client/odometry_config.hpp"
+#include "rgbdmap/client/odometry_config_io.hpp"
 #include "rgbdmap/common/camera.hpp"
 #include "rgbdmap/common/config_reader.hpp"
 #include "rgbdmap/common/tum_dataset.hpp"
@@ -19,10 +19,6 @@ struct OdometrySetup {
   std::string camera_source = "defaults (TUM freiburg1)";
   std::string effective;  ///< "key = value" lines of the configuration in effect
 };
-
-/// Reads the `camera:` and `odometry:` sections (every key optional, ranges checked).
-void readCameraConfig(ConfigReader& reader, const std::string& prefix, CameraIntrinsics* camera);
-void readOdometryConfig(ConfigReader& reader, OdometryConfig* config);
 
 /// Builds the setup for `dataset_dir` from --config, --intrinsics and --depth-scale in `args`.
 /// All problems are appended to *errors.

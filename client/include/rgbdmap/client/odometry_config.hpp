@@ -1,16 +1,16 @@
 #pragma once
-#include "rgbdmap/client/guided_match_config.hpp"
 // Configuration of the client's visual odometry. Plain structs with documented defaults; apps load them
-// from YAML (see client/apps/odometry_yaml.cpp), check ranges there, and log the values in effect.
+// from YAML (odometry_config_io.hpp, example with every key in deploy/config/odometry.yaml).
+#include "rgbdmap/client/guided_match_config.hpp"
+
 namespace rgbdmap {
 
 struct OrbConfig {
   int n_features = 1000;      ///< target keypoints per frame after grid bucketing
   float scale_factor = 1.2f;  ///< pyramid scale between levels
   int n_levels = 8;           ///< pyramid levels
-  int fast_threshold = 20;    ///< FAST threshold; lowered to min_fast_threshold in cells with too few corners
-  int min_fast_threshold = 7;
-  int grid_cols = 8;  ///< bucketing grid so features spread over the image
+  int fast_threshold = 20;    ///< FAST corner threshold
+  int grid_cols = 8;          ///< bucketing grid so features spread over the image
   int grid_rows = 6;
   double min_depth_m = 0.3;  ///< depth outside [min, max] counts as missing
   double max_depth_m = 6.0;

@@ -1,0 +1,50 @@
+#!/usr/bin/env bash
+# Command-line contract of `rgbdmap`: outputs of synth -> odometry -> eval -> run, and clear errors with
+# the documented exit codes (2 = usage, 1 = bad data). Usage: test_cli.sh BIN_DIR
+set -u
+bin="$1/rgbdmap"
+tmp=$(mktemp -d)
+trap 'rm -rf "$tmp"' EXIT
+fail=0
+check() {  # check "description" expected_exit command...
+  local what="$1" want="$2"; shift 2
+  "$@" >"$tmp/out.txt" 2>"$tmp/err.txt"
+  local got=$?
+  if [ "$got" -ne "$want" ]; then
+    echo "FAIL: $what: exit $got, expected $want"; sed 's/^/  | /' "$tmp/err.txt" | tail -5; fail=1
+  else
+    echo "ok: $what"
+  fi
+}
+contains() {  # contains "description" file pattern
+  if grep -q -- "$3" "$2"; then echo "ok: $1"; else echo "FAIL: $1: '$3' not in $2"; fail=1; fi
+}
+
+check "synth writes a sequence" 0 "$bin" synth --out "$tmp/seq" --scene sweep --frames 45 --seed 3
+for f in rgb.txt depth.txt groundtruth.txt camera.yaml; do contains "synth wrote $f" "$tmp/seq/$f" "."; done
+check "odometry runs" 0 "$bin" odometry --dataset "$tmp/seq" --out "$tmp/traj.txt"
+contains "odometry summary" "$tmp/err.txt" "frames 45, keyframes"
+[ "$(grep -vc '^#' "$tmp/traj.txt")" -eq 45 ] && echo "ok: one pose per frame" || { echo "FAIL: pose count"; fail=1; }
+contains "keyframe list beside the trajectory" "$tmp/traj.keyframes.txt" "keyframe poses"
+check "eval --json" 0 "$bin" eval --gt "$tmp/seq/groundtruth.txt" --est "$tmp/traj.txt" --json
+contains "eval prints ATE" "$tmp/out.txt" '"ate"'
+check "run on a dataset" 0 "$bin" run --dataset "$tmp/seq" --out "$tmp/run"
+contains "report has ATE" "$tmp/run/report.json" '"ate_rmse_m": 0.0'
+contains "report has timing" "$tmp/run/report.json" 'client_ms_per_frame_median'
+[ -s "$tmp/run/trajectory_robot0.txt" ] && [ -s "$tmp/run/keyframes_robot0.txt" ] && echo "ok: run outputs" || { echo "FAIL: run outputs"; fail=1; }
+
+check "unknown option is a usage error" 2 "$bin" odometry --dataset "$tmp/seq" --out "$tmp/x.txt" --bogus 1
+contains "unknown option named" "$tmp/err.txt" "unknown option --bogus"
+check "missing --out and bad --frames together" 2 "$bin" odometry --dataset "$tmp/seq" --frames -3
+contains "both errors reported" "$tmp/err.txt" "--out is required"
+check "missing dataset is a data error" 1 "$bin" odometry --dataset "$tmp/nope" --out "$tmp/x.txt"
+printf 'odometry:\n  orb:\n    n_features: -1\n' >"$tmp/bad.yaml"
+check "out-of-range config value" 2 "$bin" odometry --dataset "$tmp/seq" --out "$tmp/x.txt" --config "$tmp/bad.yaml"
+contains "config error names the key" "$tmp/err.txt" "odometry.orb.n_features"
+check "bad intrinsics override" 2 "$bin" odometry --dataset "$tmp/seq" --out "$tmp/x.txt" --intrinsics 1,2,3
+echo "garbage" >"$tmp/seq/rgb.txt"
+check "malformed rgb.txt is a data error" 1 "$bin" odometry --dataset "$tmp/seq" --out "$tmp/x.txt"
+contains "malformed line named" "$tmp/err.txt" "rgb.txt:1"
+check "unknown command" 2 "$bin" frobnicate
+if [ "$fail" -eq 0 ]; then echo "cli: all checks passed"; fi
+exit "$fail"
