@@ -32,16 +32,8 @@ std::vector<PointMatch> pairMatches(const FrameFeatures& cur, const FrameFeature
                                     const OdometryConfig& c) {
   std::vector<char> mask(ref.size());
   for (size_t i = 0; i < mask.size(); ++i) mask[i] = ref.hasDepth(i);
-  std::vector<PointMatch> out;
-  for (const auto& m : matchDescriptors(cur.descriptors, ref.descriptors, c.matcher, &mask)) {
-    PointMatch pm;
-    pm.p_ref = ref.p_cam[m.train];
-    pm.p_cur = cur.hasDepth(m.query) ? cur.p_cam[m.query] : Vec3::Zero();
-    pm.px_cur = cur.px[m.query];
-    pm.px_ref = ref.px[m.train];
-    out.push_back(pm);
-  }
-  return out;
+  return toPointMatches(cur, ref, matchDescriptors(cur.descriptors, ref.descriptors, c.matcher, &mask),
+                        c.orb.scale_factor);
 }
 
 void BM_Extract(benchmark::State& state) {

@@ -18,23 +18,6 @@ double msSince(Clock::time_point t0) {
   return std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
 }
 
-// Correspondences between the current frame and a keyframe's features with depth.
-std::vector<PointMatch> buildPointMatches(const FrameFeatures& cur, const FrameFeatures& kf,
-                                          const std::vector<FeatureMatch>& matches, float scale_factor) {
-  std::vector<PointMatch> out;
-  out.reserve(matches.size());
-  for (const auto& m : matches) {
-    PointMatch pm;
-    pm.p_ref = kf.p_cam[m.train];
-    pm.p_cur = cur.hasDepth(m.query) ? cur.p_cam[m.query] : Vec3::Zero();
-    pm.px_cur = cur.px[m.query];
-    pm.px_ref = kf.px[m.train];
-    pm.sigma_px = std::pow(scale_factor, cur.keypoints[m.query].octave);
-    out.push_back(pm);
-  }
-  return out;
-}
-
 }  // namespace
 
 const char* toString(TrackingState state) {
@@ -62,7 +45,7 @@ VisualOdometry::Estimate VisualOdometry::estimateAgainst(const Keyframe& kf, con
   std::vector<char> mask(kf.features.size());
   for (size_t i = 0; i < mask.size(); ++i) mask[i] = kf.features.hasDepth(i);
   const auto matches = matchDescriptors(cur.descriptors, kf.features.descriptors, config_.matcher, &mask);
-  const auto point_matches = buildPointMatches(cur, kf.features, matches, config_.orb.scale_factor);
+  const auto point_matches = toPointMatches(cur, kf.features, matches, config_.orb.scale_factor);
   est.matches = static_cast<int>(matches.size());
   times->match_ms += msSince(t0);
 
@@ -116,7 +99,7 @@ void VisualOdometry::refineInWindow(const FrameFeatures& cur, Estimate* est, Sta
     const auto matches = matchByProjection(cur, grid, kf->features, T_cur_kf, camera_, config_.guided);
     // Express the keyframe's points in the reference keyframe so one refinement covers the window.
     const SE3 T_ref_kf = T_ref_odom * kf->T_odom_cam;
-    for (auto& pm : buildPointMatches(cur, kf->features, matches, config_.orb.scale_factor)) {
+    for (auto& pm : toPointMatches(cur, kf->features, matches, config_.orb.scale_factor)) {
       pm.p_ref = T_ref_kf * pm.p_ref;
       all.push_back(pm);
     }

@@ -9,6 +9,22 @@
 
 namespace rgbdmap {
 
+std::vector<PointMatch> toPointMatches(const FrameFeatures& cur, const FrameFeatures& ref,
+                                       const std::vector<FeatureMatch>& matches, float scale_factor) {
+  std::vector<PointMatch> out;
+  out.reserve(matches.size());
+  for (const auto& m : matches) {
+    PointMatch pm;
+    pm.p_ref = ref.p_cam[m.train];
+    pm.p_cur = cur.hasDepth(m.query) ? cur.p_cam[m.query] : Vec3::Zero();
+    pm.px_cur = cur.px[m.query];
+    pm.px_ref = ref.px[m.train];
+    pm.sigma_px = std::pow(scale_factor, cur.keypoints[m.query].octave);
+    out.push_back(pm);
+  }
+  return out;
+}
+
 bool isGeometricInlier(const PointMatch& m, const SE3& T_cur_ref, const PinholeCamera& camera,
                        const RansacConfig& config) {
   const Vec3 q = T_cur_ref * m.p_ref;

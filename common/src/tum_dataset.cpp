@@ -1,5 +1,7 @@
 #include "rgbdmap/common/tum_dataset.hpp"
 
+#include "rgbdmap/common/text_lines.hpp"
+
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -85,35 +87,21 @@ std::string DatasetOptions::validate() const {
 Result<std::vector<ImageListEntry>> parseImageList(const std::string& text, const std::string& source_name) {
   using R = Result<std::vector<ImageListEntry>>;
   std::vector<ImageListEntry> out;
-  std::istringstream in(text);
-  std::string line;
-  int line_no = 0;
-  while (std::getline(in, line)) {
-    ++line_no;
-    const auto first = line.find_first_not_of(" \t\r");
-    if (first == std::string::npos || line[first] == '#') continue;
-    std::istringstream ls(line);
-    std::vector<std::string> fields;
-    for (std::string token; ls >> token;) fields.push_back(token);
-    if (fields.size() != 2)
-      return R::failure(where(source_name, line_no) + "expected 2 fields (timestamp filename), got " +
-                        std::to_string(fields.size()));
-    char* end = nullptr;
-    const double t = std::strtod(fields[0].c_str(), &end);
-    if (end == fields[0].c_str() || *end != '\0')
-      return R::failure(where(source_name, line_no) + "timestamp '" + fields[0] + "' is not a number");
-    if (!std::isfinite(t)) return R::failure(where(source_name, line_no) + "timestamp is not finite");
-    out.push_back({t, fields[1]});
+  for (const TextLine& line : dataLines(text)) {
+    if (line.fields.size() != 2)
+      return R::failure(where(source_name, line.number) + "expected 2 fields (timestamp filename), got " +
+                        std::to_string(line.fields.size()));
+    const auto t = parseFiniteNumber(line.fields[0], "timestamp");
+    if (!t) return R::failure(where(source_name, line.number) + t.error());
+    out.push_back({*t, line.fields[1]});
   }
   return out;
 }
 
 Result<std::vector<ImageListEntry>> readImageList(const std::string& path) {
-  std::ifstream f(path);
-  if (!f) return Result<std::vector<ImageListEntry>>::failure(path + ": cannot open");
-  std::stringstream ss;
-  ss << f.rdbuf();
-  return parseImageList(ss.str(), path);
+  const auto text = readTextFile(path);
+  if (!text) return Result<std::vector<ImageListEntry>>::failure(text.error());
+  return parseImageList(*text, path);
 }
 
 std::vector<FrameEntry> associateImages(const std::vector<ImageListEntry>& rgb,

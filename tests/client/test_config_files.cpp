@@ -37,7 +37,8 @@ TEST(ConfigFiles, OdometryExampleStatesTheDefaults) {
 
 TEST(ConfigFiles, OutOfRangeValuesAreAllReported) {
   auto reader = ConfigReader::fromString(
-      "odometry:\n  orb:\n    n_features: 5\n    min_depth_m: 7\n  ransac:\n    confidence: 2\n  bogus: 1\n", "x.yaml");
+      "odometry:\n  orb:\n    n_features: 5\n    min_depth_m: 7\n  ransac:\n    confidence: 2\n  bogus: 1\n",
+      "x.yaml");
   ASSERT_TRUE(reader);
   OdometryConfig o;
   readOdometryConfig(*reader, &o);

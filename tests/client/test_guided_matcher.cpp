@@ -3,19 +3,12 @@
 
 #include <gtest/gtest.h>
 
+#include "test_cameras.hpp"
+
 #include "rgbdmap/client/guided_matcher.hpp"
 
 namespace rgbdmap {
 namespace {
-
-CameraIntrinsics pinhole() {
-  CameraIntrinsics k;
-  k.fx = k.fy = 525;
-  k.cx = 319.5;
-  k.cy = 239.5;
-  k.distortion = {0, 0, 0, 0, 0};
-  return k;
-}
 
 void addFeature(FrameFeatures* f, const Eigen::Vector2d& px, double depth, const PinholeCamera& cam,
                 const cv::Mat& descriptor) {
@@ -27,7 +20,7 @@ void addFeature(FrameFeatures* f, const Eigen::Vector2d& px, double depth, const
 }
 
 TEST(FeatureGrid, QueryEqualsBruteForce) {
-  const PinholeCamera cam(pinhole());
+  const PinholeCamera cam(testing::idealPinhole());
   std::mt19937 rng(5);
   std::uniform_real_distribution<double> u(0, 640), v(0, 480);
   FrameFeatures f;
@@ -46,7 +39,7 @@ TEST(FeatureGrid, QueryEqualsBruteForce) {
 }
 
 TEST(GuidedMatcher, FindsProjectedCorrespondencesAmongDistractors) {
-  const PinholeCamera cam(pinhole());
+  const PinholeCamera cam(testing::idealPinhole());
   std::mt19937 rng(6);
   std::uniform_real_distribution<double> u(20, 620), v(20, 460), z(1.0, 3.0);
   std::uniform_int_distribution<int> byte(0, 255);

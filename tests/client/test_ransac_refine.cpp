@@ -2,25 +2,18 @@
 
 #include <gtest/gtest.h>
 
+#include "test_cameras.hpp"
+
 #include "rgbdmap/client/pose_refiner.hpp"
 #include "rgbdmap/client/ransac.hpp"
 
 namespace rgbdmap {
 namespace {
 
-CameraIntrinsics idealCamera() {
-  CameraIntrinsics k;
-  k.fx = k.fy = 525;
-  k.cx = 319.5;
-  k.cy = 239.5;
-  k.distortion = {0, 0, 0, 0, 0};
-  return k;
-}
-
 // Random scene points seen by both cameras, with pixel and depth noise, and a share of gross outliers.
 std::vector<PointMatch> makeMatches(const SE3& T_cur_ref, int n, double outlier_share, std::mt19937& rng,
                                     std::vector<bool>* is_outlier, double px_noise = 0.5) {
-  const PinholeCamera cam(idealCamera());
+  const PinholeCamera cam(testing::idealPinhole());
   std::uniform_real_distribution<double> u(0, 640), v(0, 480), z(0.8, 4.0);
   std::normal_distribution<double> npx(0, px_noise), nz(0, 1);
   std::vector<PointMatch> out;
@@ -57,7 +50,7 @@ TEST(Ransac, RecoversPoseWithHalfOutliers) {
   std::vector<bool> outlier;
   const SE3 T_true = testMotion();
   const auto matches = makeMatches(T_true, 400, 0.5, rng, &outlier);
-  const PinholeCamera cam(idealCamera());
+  const PinholeCamera cam(testing::idealPinhole());
   const RansacResult r = ransacRigid(matches, cam, RansacConfig{});
   ASSERT_TRUE(r.success);
   EXPECT_LT((r.T_cur_ref.translation() - T_true.translation()).norm(), 0.02);
@@ -72,7 +65,7 @@ TEST(Ransac, FailsCleanlyOnPureOutliers) {
   std::mt19937 rng(8);
   std::vector<bool> outlier;
   const auto matches = makeMatches(testMotion(), 200, 1.0, rng, &outlier);
-  const RansacResult r = ransacRigid(matches, PinholeCamera(idealCamera()), RansacConfig{});
+  const RansacResult r = ransacRigid(matches, PinholeCamera(testing::idealPinhole()), RansacConfig{});
   EXPECT_FALSE(r.success);
 }
 
@@ -80,7 +73,7 @@ TEST(Ransac, TooFewMatches) {
   std::mt19937 rng(9);
   std::vector<bool> outlier;
   const auto matches = makeMatches(testMotion(), 5, 0.0, rng, &outlier);
-  EXPECT_FALSE(ransacRigid(matches, PinholeCamera(idealCamera()), RansacConfig{}).success);
+  EXPECT_FALSE(ransacRigid(matches, PinholeCamera(testing::idealPinhole()), RansacConfig{}).success);
 }
 
 TEST(Refine, ImprovesOnRansacAndRejectsOutliers) {
@@ -88,7 +81,7 @@ TEST(Refine, ImprovesOnRansacAndRejectsOutliers) {
   std::vector<bool> outlier;
   const SE3 T_true = testMotion();
   const auto matches = makeMatches(T_true, 400, 0.3, rng, &outlier);
-  const PinholeCamera cam(idealCamera());
+  const PinholeCamera cam(testing::idealPinhole());
   Vec6 perturb;
   perturb << 0.02, -0.01, 0.015, 0.01, 0.005, -0.01;
   const RefineResult r = refinePose(matches, se3::exp(perturb) * T_true, cam, RefineConfig{});
@@ -108,7 +101,7 @@ TEST(Refine, AnalyticJacobianMatchesNumeric) {
   std::vector<bool> outlier;
   const SE3 T = testMotion();
   const auto matches = makeMatches(T, 20, 0.0, rng, &outlier);
-  const PinholeCamera cam(idealCamera());
+  const PinholeCamera cam(testing::idealPinhole());
   const RefineConfig config;
   for (const auto& m : matches) {
     Eigen::Vector3d r0;
@@ -137,7 +130,7 @@ TEST(Refine, WorksWithoutCurrentDepth) {
   const SE3 T_true = testMotion();
   auto matches = makeMatches(T_true, 200, 0.0, rng, &outlier, 0.3);
   for (auto& m : matches) m.p_cur = Vec3::Zero();  // 2-D observations only
-  const RefineResult r = refinePose(matches, T_true, PinholeCamera(idealCamera()), RefineConfig{});
+  const RefineResult r = refinePose(matches, T_true, PinholeCamera(testing::idealPinhole()), RefineConfig{});
   EXPECT_EQ(r.inliers, 200);
   EXPECT_LT((r.T_cur_ref.translation() - T_true.translation()).norm(), 0.01);
 }

@@ -2,6 +2,8 @@
 // RANSAC over 3-D <-> 3-D correspondences with a closed-form (Umeyama/SVD) minimal solver.
 #include <vector>
 
+#include "rgbdmap/client/features.hpp"
+#include "rgbdmap/client/matcher.hpp"
 #include "rgbdmap/client/odometry_config.hpp"
 #include "rgbdmap/common/camera.hpp"
 #include "rgbdmap/common/se3.hpp"
@@ -16,6 +18,11 @@ struct PointMatch {
   Eigen::Vector2d px_ref;  ///< undistorted pixel in the reference image
   double sigma_px = 1.0;   ///< keypoint position noise (grows with pyramid level)
 };
+
+/// Correspondences between the current frame and a reference frame's features (which must have depth);
+/// sigma_px grows with the current keypoint's pyramid level (scale_factor^octave).
+std::vector<PointMatch> toPointMatches(const FrameFeatures& cur, const FrameFeatures& ref,
+                                       const std::vector<FeatureMatch>& matches, float scale_factor);
 
 struct RansacResult {
   bool success = false;

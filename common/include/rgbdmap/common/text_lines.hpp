@@ -1,0 +1,26 @@
+#pragma once
+// Helpers for the whitespace-separated text files of the TUM format (trajectories, image lists):
+// data lines with their numbers (blank lines and '#' comments skipped) and strict number parsing.
+#include <string>
+#include <vector>
+
+#include "rgbdmap/common/result.hpp"
+
+namespace rgbdmap {
+
+struct TextLine {
+  int number = 0;  ///< 1-based line number in the source
+  std::vector<std::string> fields;
+};
+
+/// Every non-blank, non-comment line split on whitespace (CR tolerated).
+std::vector<TextLine> dataLines(const std::string& text);
+
+/// The whole number in `token` (no trailing characters), finite; otherwise the reason, naming the field
+/// when `what` is given: "[what ]'x' is not a number", "what is not finite" / "non-finite value".
+Result<double> parseFiniteNumber(const std::string& token, const std::string& what = "");
+
+/// The contents of a file, or "<path>: cannot open".
+Result<std::string> readTextFile(const std::string& path);
+
+}  // namespace rgbdmap

@@ -1,0 +1,43 @@
+#include "rgbdmap/common/text_lines.hpp"
+
+#include <cmath>
+#include <cstdlib>
+#include <fstream>
+#include <sstream>
+
+namespace rgbdmap {
+
+std::vector<TextLine> dataLines(const std::string& text) {
+  std::vector<TextLine> out;
+  std::istringstream in(text);
+  std::string line;
+  for (int number = 1; std::getline(in, line); ++number) {
+    const auto first = line.find_first_not_of(" \t\r");
+    if (first == std::string::npos || line[first] == '#') continue;
+    TextLine tl;
+    tl.number = number;
+    std::istringstream ls(line);
+    for (std::string token; ls >> token;) tl.fields.push_back(token);
+    out.push_back(std::move(tl));
+  }
+  return out;
+}
+
+Result<double> parseFiniteNumber(const std::string& token, const std::string& what) {
+  char* end = nullptr;
+  const double v = std::strtod(token.c_str(), &end);
+  if (token.empty() || end == token.c_str() || *end != '\0')
+    return Result<double>::failure((what.empty() ? "" : what + " ") + "'" + token + "' is not a number");
+  if (!std::isfinite(v)) return Result<double>::failure(what.empty() ? "non-finite value" : what + " is not finite");
+  return v;
+}
+
+Result<std::string> readTextFile(const std::string& path) {
+  std::ifstream f(path);
+  if (!f) return Result<std::string>::failure(path + ": cannot open");
+  std::stringstream ss;
+  ss << f.rdbuf();
+  return ss.str();
+}
+
+}  // namespace rgbdmap
