@@ -20,8 +20,8 @@ std::string ddsError(const char* what, dds_return_t rc) {
 
 Result<std::unique_ptr<Transport>> DdsTransport::create(const TransportOptions& options, int domain_id) {
   using R = Result<std::unique_ptr<Transport>>;
-  const dds_entity_t participant = dds_create_participant(static_cast<dds_domainid_t>(domain_id), nullptr,
-                                                          nullptr);
+  const dds_entity_t participant =
+      dds_create_participant(static_cast<dds_domainid_t>(domain_id), nullptr, nullptr);
   if (participant < 0) return R::failure(ddsError("dds_create_participant", participant));
   const dds_entity_t waitset = dds_create_waitset(participant);
   const dds_entity_t guard = dds_create_guardcondition(participant);
@@ -53,8 +53,8 @@ dds_qos_t* DdsTransport::qosFor(const std::string& channel, bool writer) const {
 Result<dds_entity_t> DdsTransport::topicFor(const std::string& channel) {
   auto it = topics_.find(channel);
   if (it != topics_.end()) return it->second;
-  const dds_entity_t topic = dds_create_topic(participant_, &rgbdmap_Envelope_desc,
-                                              ddsTopicName(channel).c_str(), nullptr, nullptr);
+  const dds_entity_t topic =
+      dds_create_topic(participant_, &rgbdmap_Envelope_desc, ddsTopicName(channel).c_str(), nullptr, nullptr);
   if (topic < 0) return Result<dds_entity_t>::failure(ddsError("dds_create_topic", topic));
   topics_.emplace(channel, topic);
   return topic;
