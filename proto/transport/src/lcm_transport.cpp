@@ -91,14 +91,26 @@ void LcmTransport::stop() {
 
 void LcmTransport::receiveLoop() {
   pollfd fds[2] = {{lcm_get_fileno(lcm_), POLLIN, 0}, {wake_fd_, POLLIN, 0}};
+  int consecutive_failures = 0;
   for (;;) {
     fds[0].revents = fds[1].revents = 0;
     const int n = poll(fds, 2, -1);
     if (n < 0 && errno == EINTR) continue;
     if (n < 0 || (fds[1].revents & POLLIN) != 0) return;
-    if ((fds[0].revents & POLLIN) != 0 && lcm_handle(lcm_) != 0) {
-      uint64_t suppressed = 0;
-      if (g_receive_log.allow(&suppressed)) log::warn("lcm_handle failed (", suppressed, " suppressed)");
+    if ((fds[0].revents & (POLLERR | POLLHUP | POLLNVAL)) != 0) {
+      log::error("LCM file descriptor failed; receive thread stops");
+      return;
+    }
+    if ((fds[0].revents & POLLIN) == 0) continue;
+    if (lcm_handle(lcm_) == 0) {
+      consecutive_failures = 0;
+      continue;
+    }
+    uint64_t suppressed = 0;
+    if (g_receive_log.allow(&suppressed)) log::warn("lcm_handle failed (", suppressed, " suppressed)");
+    if (++consecutive_failures >= 1000) {  // a broken socket would otherwise spin here
+      log::error("lcm_handle keeps failing; receive thread stops");
+      return;
     }
   }
 }

@@ -111,8 +111,9 @@ void ReliableSender::run() {
       continue;
     }
     const auto now = Clock::now();
-    if (now < deadlines_.begin()->first) {
-      wake_.wait_until(lock, deadlines_.begin()->first);
+    const Clock::time_point earliest = deadlines_.begin()->first;  // a copy: the set may change while waiting
+    if (now < earliest) {
+      wake_.wait_until(lock, earliest);
       continue;
     }
     due.clear();
