@@ -102,8 +102,10 @@ Status DdsTransport::subscribe(const std::string& channel, Handler handler) {
   if (channel.empty() || !handler) return Status::failure("subscribe needs a channel and a handler");
   if (channel.back() == '*') return Status::failure("DDS subscriptions take exact channel names");
   std::lock_guard<std::mutex> lock(entities_mutex_);
-  handlers_.add(channel, std::move(handler));
-  if (readers_.count(channel) != 0) return Status::success();
+  if (readers_.count(channel) != 0) {
+    handlers_.add(channel, std::move(handler));
+    return Status::success();
+  }
   auto topic = topicFor(channel);
   if (!topic) return Status::failure(topic.error());
   dds_qos_t* qos = qosFor(channel, false);
@@ -111,7 +113,12 @@ Status DdsTransport::subscribe(const std::string& channel, Handler handler) {
   dds_delete_qos(qos);
   if (reader < 0) return Status::failure(ddsError("dds_create_reader", reader));
   const dds_entity_t cond = dds_create_readcondition(reader, DDS_ANY_STATE);
-  if (cond < 0) return Status::failure(ddsError("dds_create_readcondition", cond));
+  if (cond < 0) {
+    dds_delete(reader);
+    return Status::failure(ddsError("dds_create_readcondition", cond));
+  }
+  // The handler is in place before the waitset can report the reader's first sample.
+  handlers_.add(channel, std::move(handler));
   readers_.emplace(channel, reader);
   reader_channels_.emplace(reader, channel);
   const dds_return_t rc = dds_waitset_attach(waitset_, cond, static_cast<dds_attach_t>(reader));

@@ -13,7 +13,8 @@
 namespace rgbdmap::transport {
 
 /// Counters since construction. `dropped` counts messages the adapter received but could not deliver
-/// (no matching handler, invalid sample, or DDS reports a lost sample).
+/// (no matching handler, or DDS reports a lost sample). LCM udpm:// also receives the process's own
+/// publications (multicast loopback): they count as received, and as dropped when nobody subscribed.
 struct TransportStats {
   uint64_t sent = 0;
   uint64_t received = 0;
