@@ -1,0 +1,49 @@
+// Channel-name rules shared by the adapters: late-joiner channels, DDS topic names, subscription matching.
+#include <algorithm>
+#include <cctype>
+
+#include "rgbdmap/transport/transport.hpp"
+
+namespace rgbdmap::transport {
+namespace {
+
+bool endsWith(const std::string& s, const std::string& suffix) {
+  return s.size() >= suffix.size() && s.compare(s.size() - suffix.size(), suffix.size(), suffix) == 0;
+}
+
+}  // namespace
+
+bool isLatestForLateJoiners(const std::string& channel, const TransportOptions& options) {
+  if (endsWith(channel, "/map") || endsWith(channel, "/slice") || endsWith(channel, "/status")) return true;
+  const auto& extra = options.latest_for_late_joiners_channels;
+  return std::find(extra.begin(), extra.end(), channel) != extra.end();
+}
+
+std::string ddsTopicName(const std::string& channel) {
+  static const char* kHex = "0123456789ABCDEF";
+  std::string out;
+  out.reserve(channel.size() + 8);
+  for (size_t i = 0; i < channel.size(); ++i) {
+    const auto c = static_cast<unsigned char>(channel[i]);
+    const bool digit = std::isdigit(c) != 0;
+    if ((std::isalpha(c) != 0 && c < 128) || (digit && i > 0)) {
+      out.push_back(static_cast<char>(c));
+    } else if (c == '/') {
+      out += "__";
+    } else {
+      out += "_x";
+      out.push_back(kHex[c >> 4]);
+      out.push_back(kHex[c & 0xF]);
+    }
+  }
+  return out;
+}
+
+bool channelMatches(const std::string& pattern, const std::string& channel) {
+  if (!pattern.empty() && pattern.back() == '*') {
+    return channel.compare(0, pattern.size() - 1, pattern, 0, pattern.size() - 1) == 0;
+  }
+  return pattern == channel;
+}
+
+}  // namespace rgbdmap::transport
