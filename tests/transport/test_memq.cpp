@@ -82,7 +82,7 @@ TEST(TransportMemq, HandlerMayPublishAndStopIsPromptAndRepeatable) {
     ASSERT_TRUE(replies.waitFor(static_cast<size_t>(run + 1), 5s));
     const auto t0 = std::chrono::steady_clock::now();
     t->stop();
-    EXPECT_LT(testing::secondsSince(t0), 0.2);
+    EXPECT_LT(testing::secondsSince(t0), 2.0);  // woken by its eventfd, not by a timeout
   }
   t->stop();  // idempotent
 }

@@ -65,8 +65,9 @@ TEST(TransportReliableSender, RetransmitsWithGrowingGapsThenGivesUp) {
   const double expected[] = {20, 40, 80, 160};
   for (size_t i = 1; i < t.size(); ++i) {
     const double gap = ms(t[i] - t[i - 1]);
+    // Never early; how late depends on the machine's load, so there is no upper bound here (the exact
+    // schedule is checked deterministically by BackoffGrowsExponentiallyUpToTheCapWithBoundedJitter).
     EXPECT_GE(gap, expected[i - 1] - 1.0) << i;
-    EXPECT_LT(gap, expected[i - 1] + 60.0) << i;  // scheduling slack on a shared machine
   }
   const auto s = sender.stats();
   EXPECT_EQ(s.retransmissions, 4u);
@@ -118,7 +119,7 @@ TEST(TransportReliableSender, StopIsPromptWithFarDeadlines) {
   ASSERT_TRUE(sender.submit(1));
   const auto t0 = Clock::now();
   sender.stop();
-  EXPECT_LT(ms(Clock::now() - t0), 100.0);
+  EXPECT_LT(ms(Clock::now() - t0), 2000.0);  // far below the 10 s deadline it would otherwise wait for
   EXPECT_EQ(sender.pending(), 1u);
   sender.stop();  // idempotent
 }
