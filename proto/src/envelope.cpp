@@ -84,3 +84,10 @@ Result<OpenedEnvelope> openEnvelope(const uint8_t* data, size_t size, const KeyS
 }
 
 }  // namespace rgbdmap::msg
+
+namespace rgbdmap::msg {
+
+Signer::Signer(std::string sender, Bytes key, int64_t session)
+    : sender_(std::move(sender)), key_(std::move(key)), session_(session) {}
+
+}  // namespace rgbdmap::msg
