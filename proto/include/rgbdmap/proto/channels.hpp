@@ -1,0 +1,20 @@
+#pragma once
+// Channel (LCM) / topic (DDS) names. One table in proto/README.md documents them.
+#include <string>
+
+#include "rgbdmap/common/result.hpp"
+#include "rgbdmap/proto/messages.hpp"
+
+namespace rgbdmap::msg {
+
+enum class Direction { kRobotToServer, kServerToRobot, kServerToAll };
+Direction directionOf(MessageType type);
+
+/// `rgbdmap/<robot>/<name>` for per-robot messages, `rgbdmap/server/<name>` for the server's broadcasts
+/// (robot_id is ignored for those). Fails for an invalid robot id.
+Result<std::string> channelFor(MessageType type, const std::string& robot_id);
+
+/// Short name used in channels: "hello", "keyframe", "pose_corrections", ...
+const char* channelSuffix(MessageType type);
+
+}  // namespace rgbdmap::msg

@@ -1,0 +1,180 @@
+#pragma once
+// Internal message structs (namespace rgbdmap::msg): what client and server code reads and writes. The
+// wire form is generated from proto/lcm/*.lcm; the one conversion between the two is in proto/src/convert_*.
+// Poses are SE3 named by their frames; images stay compressed (common/image_codec blobs).
+#include <array>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "rgbdmap/common/camera.hpp"
+#include "rgbdmap/common/image_codec.hpp"
+#include "rgbdmap/common/se3.hpp"
+
+namespace rgbdmap::msg {
+
+using Bytes = std::vector<uint8_t>;
+
+/// Bumped whenever any .lcm file changes; a receiver rejects every other version.
+constexpr int kSchemaVersion = 1;
+
+enum class MessageType : int16_t {
+  kHello = 1,
+  kHeartbeat = 2,
+  kKeyframe = 3,
+  kKeyframeAck = 4,
+  kPoseCorrections = 5,
+  kOccupancySlice = 6,
+  kMapUpdate = 7,
+  kVelocityCommand = 8,
+  kServerStatus = 9,
+};
+constexpr int kNumMessageTypes = 9;
+const char* toString(MessageType type);
+bool isKnownType(int type);
+
+/// Sender id of the mapping server; no robot may use it.
+constexpr const char* kServerId = "server";
+
+// Bounds the decoder enforces (the encoder too, so nothing is sent that would be rejected).
+constexpr int kMaxIdLength = 32;     ///< robot ids: [A-Za-z0-9_-]{1,32}
+constexpr int kMaxTextLength = 256;  ///< free text (versions, reasons, state): printable ASCII
+constexpr int kMaxCapabilities = 32;
+constexpr int kMaxKeypoints = 10000;
+constexpr int kDescriptorBytes = 32;     ///< ORB: 256 bits
+constexpr int kMaxCorrections = 100000;  ///< keyframes in one PoseCorrections
+constexpr int kMaxRobots = 1024;
+constexpr int kMaxGridSide = 4096;
+constexpr int kMaxMapBytes = 64 << 20;        ///< octree bytes after decompression
+constexpr int kMaxEnvelopeBytes = 80 << 20;   ///< one encoded envelope
+constexpr double kMaxSpeed = 10.0;            ///< m/s and rad/s, per axis
+constexpr double kMaxCommandDuration = 10.0;  ///< s
+
+struct Header {
+  int schema_version = kSchemaVersion;
+  std::string sender;
+  int64_t session = 0;  ///< per process start; see envelope.hpp (ReplayGuard)
+  int64_t seq = 0;
+  int64_t utime = 0;  ///< microseconds since the Unix epoch
+};
+bool operator==(const Header& a, const Header& b);
+
+struct Hello {
+  static constexpr MessageType kType = MessageType::kHello;
+  Header header;
+  std::string robot_id;
+  CameraIntrinsics camera;
+  std::string software_version;
+  std::vector<std::string> capabilities;  ///< each like an id: [A-Za-z0-9_-]{1,32}
+};
+
+struct Heartbeat {
+  static constexpr MessageType kType = MessageType::kHeartbeat;
+  Header header;
+  std::string robot_id;
+  int last_keyframe_id = -1;
+  int segment_id = 0;
+  int tracking_state = 0;  ///< rgbdmap::TrackingState as int, 0..3
+  double uptime_s = 0.0;
+};
+
+struct KeyPoint {
+  float u = 0, v = 0;  ///< raw (distorted) pixels
+  int octave = 0;      ///< 0..31
+  float angle_deg = -1;
+  float response = 0;
+  float depth_m = 0;  ///< 0 = no depth
+};
+
+struct Keyframe {
+  static constexpr MessageType kType = MessageType::kKeyframe;
+  Header header;
+  std::string robot_id;
+  int segment_id = 0;
+  int keyframe_id = 0;
+  double timestamp = 0.0;
+  SE3 T_odom_cam = SE3::Identity();
+  int previous_keyframe_id = -1;
+  SE3 T_prev_cur = SE3::Identity();
+  Mat6 information = Mat6::Zero();  ///< symmetric, positive semi-definite; tangent order (rho, omega)
+  std::vector<KeyPoint> keypoints;
+  Bytes descriptors;  ///< keypoints.size() * kDescriptorBytes, row i = keypoint i
+  EncodedImages images;
+};
+
+struct KeyframeAck {
+  static constexpr MessageType kType = MessageType::kKeyframeAck;
+  Header header;
+  std::string robot_id;
+  int keyframe_id = 0;
+  bool accepted = true;
+  std::string reason;
+};
+
+struct CorrectedPose {
+  int keyframe_id = 0;
+  SE3 T_map_cam = SE3::Identity();
+};
+
+struct PoseCorrections {
+  static constexpr MessageType kType = MessageType::kPoseCorrections;
+  Header header;
+  std::string robot_id;
+  int64_t graph_revision = 0;
+  SE3 T_map_odom = SE3::Identity();
+  std::vector<CorrectedPose> keyframes;
+};
+
+struct OccupancySlice {
+  static constexpr MessageType kType = MessageType::kOccupancySlice;
+  static constexpr int8_t kUnknown = -1, kFree = 0, kOccupied = 100;
+  Header header;
+  std::string robot_id;
+  SE3 T_map_grid = SE3::Identity();
+  float resolution_m = 0.05f;
+  int width = 0, height = 0;
+  float z_min_m = 0.0f, z_max_m = 2.0f;
+  std::vector<int8_t> cells;  ///< width * height, row-major; -1 unknown, 0..100 occupancy
+};
+
+enum class MapCompression : int8_t { kNone = 0, kZstd = 1 };
+
+struct MapUpdate {
+  static constexpr MessageType kType = MessageType::kMapUpdate;
+  Header header;
+  int64_t map_revision = 0;
+  double resolution_m = 0.05;
+  bool full = true;
+  MapCompression compression = MapCompression::kNone;
+  int raw_size = 0;  ///< octree bytes after decompression
+  Bytes data;        ///< see map_payload.hpp to fill and read it
+};
+
+struct VelocityCommand {
+  static constexpr MessageType kType = MessageType::kVelocityCommand;
+  Header header;
+  std::string robot_id;
+  Vec3 linear_mps = Vec3::Zero();
+  Vec3 angular_radps = Vec3::Zero();
+  double duration_s = 0.0;
+};
+
+struct RobotStatus {
+  std::string robot_id;
+  int keyframes = 0;
+  int loop_closures = 0;
+  int64_t rejected_messages = 0;
+  int64_t last_utime = 0;
+};
+
+struct ServerStatus {
+  static constexpr MessageType kType = MessageType::kServerStatus;
+  Header header;
+  std::string state = "running";
+  double uptime_s = 0.0;
+  int64_t graph_revision = 0;
+  int64_t map_revision = 0;
+  std::vector<RobotStatus> robots;
+};
+
+}  // namespace rgbdmap::msg

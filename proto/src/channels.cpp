@@ -1,0 +1,53 @@
+// Channel / topic names (the table in proto/README.md).
+#include "rgbdmap/proto/channels.hpp"
+
+#include "rgbdmap/proto/validate.hpp"
+
+namespace rgbdmap::msg {
+
+const char* channelSuffix(MessageType type) {
+  switch (type) {
+    case MessageType::kHello:
+      return "hello";
+    case MessageType::kHeartbeat:
+      return "heartbeat";
+    case MessageType::kKeyframe:
+      return "keyframe";
+    case MessageType::kKeyframeAck:
+      return "keyframe_ack";
+    case MessageType::kPoseCorrections:
+      return "pose_corrections";
+    case MessageType::kOccupancySlice:
+      return "occupancy";
+    case MessageType::kMapUpdate:
+      return "map_update";
+    case MessageType::kVelocityCommand:
+      return "cmd_vel";
+    case MessageType::kServerStatus:
+      return "status";
+  }
+  return "unknown";
+}
+
+Direction directionOf(MessageType type) {
+  switch (type) {
+    case MessageType::kHello:
+    case MessageType::kHeartbeat:
+    case MessageType::kKeyframe:
+      return Direction::kRobotToServer;
+    case MessageType::kMapUpdate:
+    case MessageType::kServerStatus:
+      return Direction::kServerToAll;
+    default:
+      return Direction::kServerToRobot;
+  }
+}
+
+Result<std::string> channelFor(MessageType type, const std::string& robot_id) {
+  const std::string suffix = channelSuffix(type);
+  if (directionOf(type) == Direction::kServerToAll) return std::string("rgbdmap/") + kServerId + "/" + suffix;
+  if (!isRobotId(robot_id)) return Result<std::string>::failure("invalid robot id '" + robot_id + "'");
+  return "rgbdmap/" + robot_id + "/" + suffix;
+}
+
+}  // namespace rgbdmap::msg

@@ -1,0 +1,93 @@
+// Envelope encode/sign and open/verify.
+#include <cstring>
+
+#include "convert_common.hpp"
+#include "hmac.hpp"
+#include "rgbdmap/proto/envelope.hpp"
+#include "rgbdmap_lcm/envelope_t.hpp"
+
+namespace rgbdmap::msg {
+namespace {
+
+Result<OpenedEnvelope> reject(RejectCounters* counters, RejectReason reason, const std::string& detail = "") {
+  if (counters) counters->add(reason);
+  std::string text = toString(reason);
+  if (!detail.empty()) text += ": " + detail;
+  return Result<OpenedEnvelope>::failure(text);
+}
+
+/// Size of an envelope with an empty payload and a one-character sender: nothing shorter can be one.
+size_t minimumEnvelopeSize() {
+  rgbdmap_lcm::envelope_t e{};
+  e.header.sender = "x";
+  e.payload_size = 0;
+  return static_cast<size_t>(e.getEncodedSize());
+}
+
+RejectReason classifyDecodeError(const std::string& error) {
+  if (error.rfind("too large", 0) == 0) return RejectReason::kTooLarge;
+  if (error.rfind("truncated", 0) == 0) return RejectReason::kTruncated;
+  return RejectReason::kMalformed;
+}
+
+}  // namespace
+
+Result<Bytes> encodeEnvelope(MessageType type, const Header& header, const Bytes& payload, const Bytes& key) {
+  if (Status s = validate(header); !s) return Result<Bytes>::failure(s.error());
+  if (payload.size() > static_cast<size_t>(kMaxEnvelopeBytes) - 1024)
+    return Result<Bytes>::failure("payload too large");
+  rgbdmap_lcm::envelope_t e{};
+  e.header = detail::toWire(header);
+  e.type = static_cast<int16_t>(type);
+  e.payload_size = detail::count(payload);
+  e.payload = payload;
+  Bytes out = detail::encodeWire(e);  // mac is all zero here
+  if (key.empty()) return out;
+  detail::Mac mac;
+  if (!detail::hmacSha256(key, out.data(), out.size() - kMacBytes, &mac))
+    return Result<Bytes>::failure("HMAC failed");
+  std::memcpy(out.data() + out.size() - kMacBytes, mac.data(), kMacBytes);  // mac is the last field
+  return out;
+}
+
+Result<OpenedEnvelope> openEnvelope(const uint8_t* data, size_t size, const KeyStore& keys,
+                                    ReplayGuard* guard, RejectCounters* counters) {
+  static const size_t min_size = minimumEnvelopeSize();
+  if (size > static_cast<size_t>(kMaxEnvelopeBytes)) return reject(counters, RejectReason::kTooLarge);
+  if (size < min_size) return reject(counters, RejectReason::kTruncated, std::to_string(size) + " bytes");
+  Result<rgbdmap_lcm::envelope_t> e = detail::decodeWire<rgbdmap_lcm::envelope_t>(data, size);
+  if (!e) return reject(counters, classifyDecodeError(e.error()), e.error());
+  OpenedEnvelope out;
+  out.header = detail::fromWire(e->header);
+  if (out.header.schema_version != kSchemaVersion)
+    return reject(counters, RejectReason::kWrongSchemaVersion, std::to_string(out.header.schema_version));
+  if (!isKnownType(e->type)) return reject(counters, RejectReason::kUnknownType, std::to_string(e->type));
+  out.type = static_cast<MessageType>(e->type);
+  if (!isValidId(out.header.sender)) return reject(counters, RejectReason::kInvalidSender);
+  if (Status s = validate(out.header); !s) return reject(counters, RejectReason::kMalformed, s.error());
+  const Bytes* key = keys.find(out.header.sender);
+  if (key) {
+    detail::Mac mac;
+    if (!detail::hmacSha256(*key, data, size - kMacBytes, &mac) ||
+        !detail::equalConstantTime(mac.data(), data + size - kMacBytes, kMacBytes))
+      return reject(counters, RejectReason::kBadSignature);
+    out.authenticated = true;
+  } else if (!keys.isOpen()) {
+    return reject(counters, RejectReason::kUnknownSender, out.header.sender);
+  }
+  if (guard) {
+    if (Status s = guard->check(out.header); !s)
+      return reject(counters, RejectReason::kReplayedSeq, s.error());
+  }
+  out.payload = std::move(e->payload);
+  return out;
+}
+
+}  // namespace rgbdmap::msg
+
+namespace rgbdmap::msg {
+
+Signer::Signer(std::string sender, Bytes key, int64_t session)
+    : sender_(std::move(sender)), key_(std::move(key)), session_(session) {}
+
+}  // namespace rgbdmap::msg

@@ -1,0 +1,92 @@
+// KeyStore, hex keys, session ids, reject reason names.
+#include <chrono>
+
+#include "rgbdmap/common/logging.hpp"
+#include "rgbdmap/proto/envelope.hpp"
+#include "rgbdmap/proto/validate.hpp"
+
+namespace rgbdmap::msg {
+
+KeyStore KeyStore::openMode() {
+  log::warn(
+      "OPEN MODE: message signatures are NOT checked and unknown senders are accepted. "
+      "Use only for local demos.");
+  KeyStore store;
+  store.open_ = true;
+  return store;
+}
+
+Status KeyStore::add(const std::string& sender, const Bytes& key) {
+  if (!isValidId(sender)) return Status::failure("invalid sender id '" + sender + "'");
+  if (key.size() < kMinKeyBytes) return Status::failure("key for '" + sender + "' shorter than 16 bytes");
+  keys_[sender] = key;
+  return Status::success();
+}
+
+const Bytes* KeyStore::find(const std::string& sender) const {
+  const auto it = keys_.find(sender);
+  return it == keys_.end() ? nullptr : &it->second;
+}
+
+Result<Bytes> parseHexKey(const std::string& hex) {
+  if (hex.size() % 2 != 0 || hex.size() < 2 * kMinKeyBytes || hex.size() > 1024)
+    return Result<Bytes>::failure("key must be an even number of hex digits, at least 32");
+  auto nibble = [](char c) -> int {
+    if (c >= '0' && c <= '9') return c - '0';
+    if (c >= 'a' && c <= 'f') return c - 'a' + 10;
+    if (c >= 'A' && c <= 'F') return c - 'A' + 10;
+    return -1;
+  };
+  Bytes key(hex.size() / 2);
+  for (size_t i = 0; i < key.size(); ++i) {
+    const int hi = nibble(hex[2 * i]), lo = nibble(hex[2 * i + 1]);
+    if (hi < 0 || lo < 0) return Result<Bytes>::failure("key has a non-hex character");
+    key[i] = static_cast<uint8_t>(hi << 4 | lo);
+  }
+  return key;
+}
+
+int64_t newSessionId() {
+  using namespace std::chrono;
+  return duration_cast<microseconds>(system_clock::now().time_since_epoch()).count();
+}
+
+const char* toString(RejectReason reason) {
+  switch (reason) {
+    case RejectReason::kTruncated:
+      return "truncated";
+    case RejectReason::kTooLarge:
+      return "too large";
+    case RejectReason::kMalformed:
+      return "malformed";
+    case RejectReason::kWrongSchemaVersion:
+      return "wrong schema version";
+    case RejectReason::kUnknownType:
+      return "unknown type";
+    case RejectReason::kInvalidSender:
+      return "invalid sender";
+    case RejectReason::kUnknownSender:
+      return "unknown sender";
+    case RejectReason::kBadSignature:
+      return "bad signature";
+    case RejectReason::kReplayedSeq:
+      return "replayed seq";
+    case RejectReason::kWrongType:
+      return "wrong type";
+    case RejectReason::kHeaderMismatch:
+      return "header mismatch";
+    case RejectReason::kInvalidContent:
+      return "invalid content";
+    case RejectReason::kCount:
+      break;
+  }
+  return "unknown";
+}
+
+uint64_t RejectCounters::total() const {
+  uint64_t sum = 0;
+  for (const auto& c : counts_) sum += c.load();
+  return sum;
+}
+
+}  // namespace rgbdmap::msg

@@ -1,0 +1,168 @@
+// Round trip of every message: internal -> payload -> internal, and through a signed envelope.
+#include <gtest/gtest.h>
+
+#include "proto/proto_test_util.hpp"
+#include "rgbdmap/proto/channels.hpp"
+#include "rgbdmap/proto/codec.hpp"
+#include "rgbdmap/proto/envelope.hpp"
+#include "rgbdmap/proto/validate.hpp"
+
+namespace rgbdmap::msg {
+namespace {
+
+using testing::testKey;
+
+/// Signs as the right sender, opens with a fresh guard, decodes; fails the test on any error.
+template <typename T>
+T throughEnvelope(const T& message) {
+  const bool from_robot = directionOf(T::kType) == Direction::kRobotToServer;
+  Signer signer(from_robot ? "robot_1" : kServerId, testKey(1), 99);
+  KeyStore keys;
+  EXPECT_TRUE(keys.add(signer.sender(), testKey(1)));
+  ReplayGuard guard;
+  Result<Bytes> bytes = signer.seal(message, 1700000000000000);
+  EXPECT_TRUE(bytes) << bytes.error();
+  Result<OpenedEnvelope> opened = openEnvelope(*bytes, keys, &guard);
+  EXPECT_TRUE(opened) << opened.error();
+  EXPECT_TRUE(opened->authenticated);
+  EXPECT_EQ(opened->header.seq, 0);
+  EXPECT_EQ(opened->header.session, 99);
+  Result<T> decoded = decodeMessage<T>(*opened);
+  EXPECT_TRUE(decoded) << decoded.error();
+  EXPECT_EQ(decoded->header, opened->header);
+  return decoded.value();
+}
+
+void expectPose(const SE3& a, const SE3& b) {
+  EXPECT_TRUE(a.isApprox(b, 1e-12)) << a.matrix() << "\n" << b.matrix();
+}
+
+void expectKeyframe(const Keyframe& a, const Keyframe& b) {
+  EXPECT_EQ(a.robot_id, b.robot_id);
+  EXPECT_EQ(a.segment_id, b.segment_id);
+  EXPECT_EQ(a.keyframe_id, b.keyframe_id);
+  EXPECT_EQ(a.timestamp, b.timestamp);
+  expectPose(a.T_odom_cam, b.T_odom_cam);
+  EXPECT_EQ(a.previous_keyframe_id, b.previous_keyframe_id);
+  expectPose(a.T_prev_cur, b.T_prev_cur);
+  EXPECT_EQ(a.information, b.information);
+  ASSERT_EQ(a.keypoints.size(), b.keypoints.size());
+  for (size_t i = 0; i < a.keypoints.size(); ++i) {
+    const KeyPoint &p = a.keypoints[i], &q = b.keypoints[i];
+    EXPECT_TRUE(p.u == q.u && p.v == q.v && p.octave == q.octave && p.angle_deg == q.angle_deg &&
+                p.response == q.response && p.depth_m == q.depth_m);
+  }
+  EXPECT_EQ(a.descriptors, b.descriptors);
+  EXPECT_EQ(a.images.width, b.images.width);
+  EXPECT_EQ(a.images.height, b.images.height);
+  EXPECT_EQ(a.images.color_codec, b.images.color_codec);
+  EXPECT_EQ(a.images.depth, b.images.depth);
+  EXPECT_EQ(a.images.color, b.images.color);
+}
+
+TEST(ProtoRoundTrip, Keyframe) {
+  const Keyframe k = testing::sampleKeyframe();
+  const Keyframe out = throughEnvelope(k);
+  expectKeyframe(k, out);
+  Result<DecodedImages> images = decodeKeyframeImages(out);
+  ASSERT_TRUE(images) << images.error();
+  EXPECT_EQ(images->depth.cols, 64);
+  EXPECT_EQ(images->color.rows, 48);
+}
+
+TEST(ProtoRoundTrip, Keyframe300KB) {
+  const Keyframe k = testing::sampleKeyframe(1000, 640, 480, 96);
+  Signer signer("robot_1", testKey(1));
+  Result<Bytes> bytes = signer.seal(k, 1);
+  ASSERT_TRUE(bytes) << bytes.error();
+  EXPECT_GE(bytes->size(), 300000u);
+  expectKeyframe(k, throughEnvelope(k));
+}
+
+TEST(ProtoRoundTrip, HelloHeartbeatAck) {
+  const Hello h = testing::sampleHello(), h2 = throughEnvelope(h);
+  EXPECT_EQ(h2.robot_id, h.robot_id);
+  EXPECT_EQ(h2.software_version, h.software_version);
+  EXPECT_EQ(h2.capabilities, h.capabilities);
+  EXPECT_EQ(h2.camera.fx, h.camera.fx);
+  EXPECT_EQ(h2.camera.distortion, h.camera.distortion);
+  EXPECT_EQ(h2.camera.width, h.camera.width);
+  EXPECT_EQ(h2.camera.depth_scale, h.camera.depth_scale);
+  const Heartbeat b = testing::sampleHeartbeat(), b2 = throughEnvelope(b);
+  EXPECT_EQ(b2.last_keyframe_id, b.last_keyframe_id);
+  EXPECT_EQ(b2.segment_id, b.segment_id);
+  EXPECT_EQ(b2.tracking_state, b.tracking_state);
+  EXPECT_EQ(b2.uptime_s, b.uptime_s);
+  const KeyframeAck a = testing::sampleAck(), a2 = throughEnvelope(a);
+  EXPECT_EQ(a2.robot_id, a.robot_id);
+  EXPECT_EQ(a2.keyframe_id, a.keyframe_id);
+  EXPECT_EQ(a2.accepted, a.accepted);
+  EXPECT_EQ(a2.reason, a.reason);
+}
+
+TEST(ProtoRoundTrip, PoseCorrectionsAndVelocity) {
+  const PoseCorrections c = testing::sampleCorrections(), c2 = throughEnvelope(c);
+  EXPECT_EQ(c2.graph_revision, c.graph_revision);
+  expectPose(c2.T_map_odom, c.T_map_odom);
+  ASSERT_EQ(c2.keyframes.size(), c.keyframes.size());
+  for (size_t i = 0; i < c.keyframes.size(); ++i) {
+    EXPECT_EQ(c2.keyframes[i].keyframe_id, c.keyframes[i].keyframe_id);
+    expectPose(c2.keyframes[i].T_map_cam, c.keyframes[i].T_map_cam);
+  }
+  const VelocityCommand v = testing::sampleVelocity(), v2 = throughEnvelope(v);
+  EXPECT_EQ(v2.linear_mps, v.linear_mps);
+  EXPECT_EQ(v2.angular_radps, v.angular_radps);
+  EXPECT_EQ(v2.duration_s, v.duration_s);
+}
+
+TEST(ProtoRoundTrip, OccupancyMapStatus) {
+  const OccupancySlice s = testing::sampleSlice(), s2 = throughEnvelope(s);
+  expectPose(s2.T_map_grid, s.T_map_grid);
+  EXPECT_EQ(s2.resolution_m, s.resolution_m);
+  EXPECT_EQ(s2.width, s.width);
+  EXPECT_EQ(s2.height, s.height);
+  EXPECT_EQ(s2.z_min_m, s.z_min_m);
+  EXPECT_EQ(s2.z_max_m, s.z_max_m);
+  EXPECT_EQ(s2.cells, s.cells);
+  const MapUpdate m = testing::sampleMap(), m2 = throughEnvelope(m);
+  EXPECT_EQ(m2.map_revision, m.map_revision);
+  EXPECT_EQ(m2.full, m.full);
+  EXPECT_EQ(m2.compression, m.compression);
+  EXPECT_EQ(m2.data, m.data);
+  Result<Bytes> octree = mapBytes(m2);
+  ASSERT_TRUE(octree) << octree.error();
+  EXPECT_EQ(octree->size(), 5000u);
+  EXPECT_EQ((*octree)[4999], 499 & 255);
+  const ServerStatus st = testing::sampleStatus(), st2 = throughEnvelope(st);
+  EXPECT_EQ(st2.state, st.state);
+  EXPECT_EQ(st2.uptime_s, st.uptime_s);
+  ASSERT_EQ(st2.robots.size(), 2u);
+  EXPECT_EQ(st2.robots[1].robot_id, "robot_2");
+  EXPECT_EQ(st2.robots[0].rejected_messages, 3);
+  EXPECT_EQ(st2.robots[1].last_utime, 1700000000000001);
+}
+
+TEST(ProtoRoundTrip, EmptyCollections) {
+  Keyframe k = testing::sampleKeyframe(0);
+  k.images = testing::sampleImages(16, 8, 0, ColorCodec::kNone);
+  k.previous_keyframe_id = -1;
+  expectKeyframe(k, throughEnvelope(k));
+  PoseCorrections c = testing::sampleCorrections();
+  c.keyframes.clear();
+  EXPECT_TRUE(throughEnvelope(c).keyframes.empty());
+}
+
+TEST(ProtoChannels, NamesAndDirections) {
+  EXPECT_EQ(channelFor(MessageType::kKeyframe, "robot_1").value(), "rgbdmap/robot_1/keyframe");
+  EXPECT_EQ(channelFor(MessageType::kPoseCorrections, "r2").value(), "rgbdmap/r2/pose_corrections");
+  EXPECT_EQ(channelFor(MessageType::kServerStatus, "").value(), "rgbdmap/server/status");
+  EXPECT_EQ(channelFor(MessageType::kMapUpdate, "x").value(), "rgbdmap/server/map_update");
+  EXPECT_FALSE(channelFor(MessageType::kKeyframe, "bad/id"));
+  EXPECT_FALSE(channelFor(MessageType::kKeyframe, "server"));
+  EXPECT_EQ(directionOf(MessageType::kVelocityCommand), Direction::kServerToRobot);
+  for (int t = 1; t <= kNumMessageTypes; ++t)
+    EXPECT_NE(std::string(channelSuffix(static_cast<MessageType>(t))), "unknown");
+}
+
+}  // namespace
+}  // namespace rgbdmap::msg
