@@ -18,9 +18,9 @@ const char* channelSuffix(MessageType type) {
     case MessageType::kPoseCorrections:
       return "pose_corrections";
     case MessageType::kOccupancySlice:
-      return "occupancy";
+      return "slice";
     case MessageType::kMapUpdate:
-      return "map_update";
+      return "map";
     case MessageType::kVelocityCommand:
       return "cmd_vel";
     case MessageType::kServerStatus:

@@ -156,7 +156,7 @@ TEST(ProtoChannels, NamesAndDirections) {
   EXPECT_EQ(channelFor(MessageType::kKeyframe, "robot_1").value(), "rgbdmap/robot_1/keyframe");
   EXPECT_EQ(channelFor(MessageType::kPoseCorrections, "r2").value(), "rgbdmap/r2/pose_corrections");
   EXPECT_EQ(channelFor(MessageType::kServerStatus, "").value(), "rgbdmap/server/status");
-  EXPECT_EQ(channelFor(MessageType::kMapUpdate, "x").value(), "rgbdmap/server/map_update");
+  EXPECT_EQ(channelFor(MessageType::kMapUpdate, "x").value(), "rgbdmap/server/map");
   EXPECT_FALSE(channelFor(MessageType::kKeyframe, "bad/id"));
   EXPECT_FALSE(channelFor(MessageType::kKeyframe, "server"));
   EXPECT_EQ(directionOf(MessageType::kVelocityCommand), Direction::kServerToRobot);

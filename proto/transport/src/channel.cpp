@@ -14,7 +14,9 @@ bool endsWith(const std::string& s, const std::string& suffix) {
 }  // namespace
 
 bool isLatestForLateJoiners(const std::string& channel, const TransportOptions& options) {
-  if (endsWith(channel, "/map") || endsWith(channel, "/slice") || endsWith(channel, "/status")) return true;
+  // The channels proto/README.md marks "latest for late joiners" (one list, matched by suffix).
+  for (const char* suffix : {"/map", "/slice", "/status", "/pose_corrections", "/hello"})
+    if (endsWith(channel, suffix)) return true;
   const auto& extra = options.latest_for_late_joiners_channels;
   return std::find(extra.begin(), extra.end(), channel) != extra.end();
 }

@@ -49,7 +49,8 @@ struct TransportOptions {
   /// memq:// (in-process LCM), udpm://group:port?ttl=..&recv_buf_size=.. (LCM), dds://?domain=N (Cyclone).
   std::string url = "memq://";
   /// Channels whose last message reaches late joiners (DDS: TRANSIENT_LOCAL, keep-last 1), in addition
-  /// to names ending in /map, /slice or /status. LCM has no durability and ignores this.
+  /// to names ending in /map, /slice, /status, /pose_corrections or /hello. LCM has no durability: wrap an
+  /// LCM transport in a LatestRepublisher (republisher.hpp) to give late joiners the latest message.
   std::vector<std::string> latest_for_late_joiners_channels;
   /// DDS keep-last depth for ordinary (volatile) channels.
   int dds_history_depth = 256;
