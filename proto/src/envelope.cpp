@@ -10,9 +10,9 @@ namespace rgbdmap::msg {
 namespace {
 
 Result<OpenedEnvelope> reject(RejectCounters* counters, RejectReason reason, const std::string& detail = "") {
-  if (counters) counters->add(reason);
   std::string text = toString(reason);
   if (!detail.empty()) text += ": " + detail;
+  if (counters) counters->add(reason, detail);
   return Result<OpenedEnvelope>::failure(text);
 }
 

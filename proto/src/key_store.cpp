@@ -83,6 +83,15 @@ const char* toString(RejectReason reason) {
   return "unknown";
 }
 
+void RejectCounters::add(RejectReason reason, const std::string& detail) {
+  const uint64_t n = counts_[static_cast<int>(reason)].fetch_add(1, std::memory_order_relaxed) + 1;
+  uint64_t suppressed = 0;
+  if (limiter_.allow(&suppressed))
+    log::warn("rejected message: ", toString(reason), detail.empty() ? "" : " (" + detail + ")", "; ", n,
+              " so far for this reason",
+              suppressed ? ", " + std::to_string(suppressed) + " lines suppressed" : "");
+}
+
 uint64_t RejectCounters::total() const {
   uint64_t sum = 0;
   for (const auto& c : counts_) sum += c.load();

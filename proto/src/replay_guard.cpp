@@ -7,6 +7,7 @@ Status ReplayGuard::check(const Header& header) {
   std::lock_guard<std::mutex> lock(mutex_);
   if (header.seq < 0) return Status::failure("negative seq");
   auto it = senders_.find(header.sender);
+  if (it == senders_.end() && senders_.size() >= max_senders_) return Status::failure("too many senders");
   if (it == senders_.end() || header.session > it->second.session) {
     State fresh;
     fresh.session = header.session;

@@ -150,3 +150,35 @@ TEST(Envelope, KeysFromHex) {
 
 }  // namespace
 }  // namespace rgbdmap::msg
+
+namespace rgbdmap::msg {
+namespace {
+
+TEST(ReplayGuardLimits, NewSendersBeyondTheCapAreRefusedNotEvicted) {
+  ReplayGuard guard(2);
+  auto header = [](const std::string& sender, int64_t seq) {
+    return Header{kSchemaVersion, sender, 1, seq, 0};
+  };
+  EXPECT_TRUE(guard.check(header("a", 0)));
+  EXPECT_TRUE(guard.check(header("b", 0)));
+  const Status third = guard.check(header("c", 0));
+  ASSERT_FALSE(third);
+  EXPECT_EQ(third.error(), "too many senders");
+  EXPECT_FALSE(guard.check(header("a", 0))) << "a's replay must still be caught";
+  EXPECT_TRUE(guard.check(header("a", 1)));
+}
+
+TEST(RejectCountersLog, CountsEveryRejectionButLogsAtTheRateLimit) {
+  std::vector<std::string> lines;
+  log::setSink([&](log::Level, const std::string& m) { lines.push_back(m); });
+  RejectCounters counters(1.0);
+  for (int i = 0; i < 100; ++i) counters.add(RejectReason::kBadSignature, "robot_7");
+  log::setSink(nullptr);
+  EXPECT_EQ(counters.get(RejectReason::kBadSignature), 100u);
+  EXPECT_EQ(counters.total(), 100u);
+  ASSERT_EQ(lines.size(), 1u) << "one line per second at most";
+  EXPECT_NE(lines[0].find("bad signature (robot_7)"), std::string::npos) << lines[0];
+}
+
+}  // namespace
+}  // namespace rgbdmap::msg

@@ -29,6 +29,7 @@
 #include <mutex>
 #include <string>
 
+#include "rgbdmap/common/logging.hpp"
 #include "rgbdmap/common/result.hpp"
 #include "rgbdmap/proto/codec.hpp"
 #include "rgbdmap/proto/messages.hpp"
@@ -55,15 +56,18 @@ enum class RejectReason : int {
 };
 const char* toString(RejectReason reason);
 
-/// Per-reason counters for the server to report. Thread-safe.
+/// Per-reason counters for the server to report, plus one rate-limited warning line per rejection
+/// (at most `log_per_second`; the next line that passes says how many were suppressed). Thread-safe.
 class RejectCounters {
  public:
-  void add(RejectReason reason) { counts_[static_cast<int>(reason)].fetch_add(1, std::memory_order_relaxed); }
+  explicit RejectCounters(double log_per_second = 1.0) : limiter_(log_per_second) {}
+  void add(RejectReason reason, const std::string& detail = "");
   uint64_t get(RejectReason reason) const { return counts_[static_cast<int>(reason)].load(); }
   uint64_t total() const;
 
  private:
   std::array<std::atomic<uint64_t>, static_cast<int>(RejectReason::kCount)> counts_{};
+  log::RateLimiter limiter_;
 };
 
 /// Sender id -> HMAC key. Not thread-safe for writes; fill it at start-up, then share it read-only.
@@ -90,6 +94,10 @@ Result<Bytes> parseHexKey(const std::string& hex);
 class ReplayGuard {
  public:
   static constexpr int kWindow = 64;
+  /// At most `max_senders` senders are remembered; a new one beyond that is refused ("too many senders")
+  /// rather than evicting one (eviction would re-open that sender to replays). Matters in open mode, where
+  /// anyone may claim a new sender id; with keys, the KeyStore bounds the senders already.
+  explicit ReplayGuard(size_t max_senders = 1024) : max_senders_(max_senders) {}
   /// Accepts (and records) the header if its (session, seq) has not been seen; else the reason.
   Status check(const Header& header);
 
@@ -101,6 +109,7 @@ class ReplayGuard {
   };
   std::mutex mutex_;
   std::map<std::string, State> senders_;
+  size_t max_senders_;
 };
 
 struct OpenedEnvelope {
