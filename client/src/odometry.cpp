@@ -237,7 +237,8 @@ TrackingResult VisualOdometry::track(const RgbdFrame& frame) {
     refineInWindow(cur, &est, &r.times);
     r.T_odom_cam = se3::normalized(reference_->T_odom_cam * est.T_cur_kf.inverse());
   }
-  velocity_ = T_odom_last_.inverse() * r.T_odom_cam;
+  // After a relocalisation the difference to the last (extrapolated) pose is a correction, not motion.
+  velocity_ = r.state == TrackingState::kRelocalized ? SE3::Identity() : T_odom_last_.inverse() * r.T_odom_cam;
   T_odom_last_ = r.T_odom_cam;
   if (make_keyframe) {
     auto kf = makeKeyframe(std::move(cur), r);

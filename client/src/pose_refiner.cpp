@@ -84,7 +84,12 @@ RefineResult refinePose(const std::vector<PointMatch>& matches, const SE3& T_ini
   for (int round = 0; round < config.rounds; ++round) {
     for (int it = 0; it < config.iterations; ++it) {
       double step = 0;
-      if (!gaussNewtonStep(matches, active, &out.T_cur_ref, camera, config, &step)) return out;
+      if (!gaussNewtonStep(matches, active, &out.T_cur_ref, camera, config, &step)) {
+        // Degenerate system (too few or collinear points): no pose, no inliers, but a mask of full size.
+        out.T_cur_ref = T_init;
+        out.inlier_mask.assign(matches.size(), 0);
+        return out;
+      }
       if (step < 1e-9) {
         out.converged = true;
         break;

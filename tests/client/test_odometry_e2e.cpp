@@ -101,3 +101,35 @@ TEST(OdometryE2E, RealFr1RpyWithinBound) {
 
 }  // namespace
 }  // namespace rgbdmap
+
+namespace rgbdmap {
+namespace {
+
+TEST(OdometryE2E, SparseFramesNeverCrashAndAreReported) {
+  // A textured frame, then near-blank frames with a few small texture patches: tracking is lost, new
+  // segments may start on sparse keyframes, and nothing may crash (regression for an empty inlier mask).
+  SynthConfig cfg;
+  cfg.scene = "sweep";
+  cfg.frames = 30;
+  auto scene = SyntheticScene::build(cfg);
+  ASSERT_TRUE(scene);
+  OdometryConfig config;
+  config.max_lost_frames = 2;
+  config.min_keyframe_points = 5;
+  VisualOdometry vo(cfg.camera, config);
+  vo.track(scene->renderFrame(0));
+  for (int i = 1; i < 30; ++i) {
+    RgbdFrame f = scene->renderFrame(i);
+    cv::Mat keep = cv::Mat::zeros(f.color.size(), CV_8U);
+    for (int p = 0; p < 1 + i % 4; ++p) keep(cv::Rect(40 + 120 * p, 60 + 10 * i % 300, 40, 40)).setTo(255);
+    cv::Mat blank(f.color.size(), f.color.type(), cv::Scalar(90, 90, 90));
+    f.color.copyTo(blank, keep);
+    f.color = blank;
+    const TrackingResult r = vo.track(f);
+    EXPECT_TRUE(se3::isValid(r.T_odom_cam, 1e-4)) << "frame " << i;
+  }
+  EXPECT_GT(vo.trackingLosses(), 0);
+}
+
+}  // namespace
+}  // namespace rgbdmap

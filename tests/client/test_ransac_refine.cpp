@@ -137,3 +137,32 @@ TEST(Refine, WorksWithoutCurrentDepth) {
 
 }  // namespace
 }  // namespace rgbdmap
+
+namespace rgbdmap {
+namespace {
+
+TEST(Refine, DegenerateInputKeepsAFullSizeMask) {
+  // One to three random matches under random starting poses make the normal equations singular or
+  // indefinite; the mask must still cover every match (regression: an early return left it empty and the
+  // odometry indexed past its end).
+  std::mt19937 rng(13);
+  std::uniform_real_distribution<double> u(-1.0, 1.0), z(0.5, 4.0), px(0, 640);
+  const PinholeCamera cam(testing::idealPinhole());
+  for (int trial = 0; trial < 3000; ++trial) {
+    std::vector<PointMatch> matches(1 + trial % 3);
+    for (auto& m : matches) {
+      m.p_ref = Vec3(u(rng), u(rng), z(rng));
+      m.p_cur = Vec3(u(rng), u(rng), z(rng));
+      m.px_cur = Eigen::Vector2d(px(rng), px(rng));
+      m.px_ref = Eigen::Vector2d(px(rng), px(rng));
+    }
+    Vec6 xi;
+    xi << u(rng), u(rng), u(rng), 3 * u(rng), 3 * u(rng), 3 * u(rng);
+    const RefineResult r = refinePose(matches, se3::exp(xi), cam, RefineConfig{});
+    ASSERT_EQ(r.inlier_mask.size(), matches.size()) << "trial " << trial;
+    ASSERT_TRUE(se3::isValid(r.T_cur_ref, 1e-6)) << "trial " << trial;
+  }
+}
+
+}  // namespace
+}  // namespace rgbdmap

@@ -9,7 +9,7 @@ namespace rgbdmap {
 
 struct RefineResult {
   SE3 T_cur_ref = SE3::Identity();
-  std::vector<char> inlier_mask;  ///< per input match
+  std::vector<char> inlier_mask;  ///< per input match (always matches.size() entries)
   int inliers = 0;
   double rms_whitened = 0.0;        ///< RMS of whitened residual norms over inliers
   Mat6 information = Mat6::Zero();  ///< J^T W J over inliers; tangent order (rho, omega), left perturbation
