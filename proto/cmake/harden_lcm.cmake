@@ -3,13 +3,16 @@ cmake_minimum_required(VERSION 3.22)
 # lcm-gen 1.3.1 sizes a variable-length array from the untrusted count field before it checks that the bytes
 # are there (`this->a.resize(this->n)`), so a forged count allocates gigabytes or throws; and a string
 # length of 0 or less makes `assign(p, len - 1)` throw. This inserts a bound before each: a count must be
-# 0..remaining bytes (every element takes at least one byte), a string length 1..remaining bytes. The
+# 0..remaining bytes and its allocation at most 8x the remaining bytes; a string length 1..remaining bytes. The
 # script fails the build if a header still holds an unguarded resize (a new lcm-gen pattern).
 file(GLOB_RECURSE headers "${GEN_DIR}/*.hpp")
 foreach(h IN LISTS headers)
   file(READ "${h}" text)
+  # The count must fit the remaining bytes, and the allocation it causes (count x in-memory element size)
+  # must stay within 8x those bytes, so a forged count cannot make a small message allocate a lot (every
+  # element's in-memory size is below 8x its smallest encoding: 1 byte per primitive, 5 per string).
   string(REGEX REPLACE "([ ]*)this->([A-Za-z0-9_]+)\\.resize\\(this->([A-Za-z0-9_]+)\\);"
-         "\\1if(this->\\3 < 0 || this->\\3 > maxlen - pos) return -1; /*rgbdmap-guard*/\n\\1this->\\2.resize(this->\\3);"
+         "\\1if(this->\\3 < 0 || static_cast<int64_t>(this->\\3) * static_cast<int64_t>(sizeof(decltype(this->\\2)::value_type)) > 8 * static_cast<int64_t>(maxlen - pos) + 64 || this->\\3 > maxlen - pos) return -1; /*rgbdmap-guard*/\n\\1this->\\2.resize(this->\\3);"
          text "${text}")
   string(REPLACE "if(__elem_len > maxlen - pos) return -1;"
          "if(__elem_len < 1 || __elem_len > maxlen - pos) return -1; /*rgbdmap-guard*/" text "${text}")

@@ -188,3 +188,35 @@ TEST_F(ProtoFuzz, ResignedPayloadMutationsDecodeToErrorsOrValidMessages) {
 
 }  // namespace
 }  // namespace rgbdmap::msg
+
+#include <sys/resource.h>
+
+namespace rgbdmap::msg {
+namespace {
+
+long peakRssMb() {
+  rusage usage{};
+  getrusage(RUSAGE_SELF, &usage);
+  return usage.ru_maxrss / 1024;
+}
+
+TEST(ProtoAllocation, ForgedArrayCountCannotAmplifyAllocation) {
+  // A PoseCorrections whose keyframe count is forged to 16M and padded with 16 MB of zeros: the count fits
+  // the bytes, but 16M in-memory poses would take about 1 GB. The decoder must refuse before allocating.
+  PoseCorrections m;
+  m.header.sender = kServerId;
+  m.robot_id = "robot_1";
+  Bytes bytes = encodePayload(m).value();
+  const size_t filler = 16u << 20;
+  const auto n = static_cast<uint32_t>(filler);
+  const size_t at = bytes.size() - 4;  // num_keyframes is the last field of an empty message
+  for (int i = 0; i < 4; ++i) bytes[at + i] = static_cast<uint8_t>(n >> (24 - 8 * i));
+  bytes.resize(bytes.size() + filler, 0);
+  const long before = peakRssMb();
+  const auto decoded = decodePayload<PoseCorrections>(bytes);
+  EXPECT_FALSE(decoded);
+  EXPECT_LT(peakRssMb() - before, 200) << "peak RSS grew while rejecting the forged count";
+}
+
+}  // namespace
+}  // namespace rgbdmap::msg
