@@ -35,17 +35,13 @@ Direction directionOf(MessageType type) {
     case MessageType::kHeartbeat:
     case MessageType::kKeyframe:
       return Direction::kRobotToServer;
-    case MessageType::kMapUpdate:
-    case MessageType::kServerStatus:
-      return Direction::kServerToAll;
-    default:
+    default:  // everything the server sends goes to one robot's channel, signed with that robot's key
       return Direction::kServerToRobot;
   }
 }
 
 Result<std::string> channelFor(MessageType type, const std::string& robot_id) {
   const std::string suffix = channelSuffix(type);
-  if (directionOf(type) == Direction::kServerToAll) return std::string("rgbdmap/") + kServerId + "/" + suffix;
   if (!isRobotId(robot_id)) return Result<std::string>::failure("invalid robot id '" + robot_id + "'");
   return "rgbdmap/" + robot_id + "/" + suffix;
 }

@@ -76,7 +76,7 @@ Result<OpenedEnvelope> openEnvelope(const uint8_t* data, size_t size, const KeyS
     return reject(counters, RejectReason::kUnknownSender, out.header.sender);
   }
   if (guard) {
-    if (Status s = guard->check(out.header); !s)
+    if (Status s = guard->check(out.header, static_cast<int>(out.type)); !s)
       return reject(counters, RejectReason::kReplayedSeq, s.error());
   }
   out.payload = std::move(e->payload);

@@ -3,17 +3,18 @@
 
 namespace rgbdmap::msg {
 
-Status ReplayGuard::check(const Header& header) {
+Status ReplayGuard::check(const Header& header, int stream) {
   std::lock_guard<std::mutex> lock(mutex_);
   if (header.seq < 0) return Status::failure("negative seq");
-  auto it = senders_.find(header.sender);
+  const std::string key = header.sender + '\n' + std::to_string(stream);
+  auto it = senders_.find(key);
   if (it == senders_.end() && senders_.size() >= max_senders_) return Status::failure("too many senders");
   if (it == senders_.end() || header.session > it->second.session) {
     State fresh;
     fresh.session = header.session;
     fresh.highest = header.seq;
     fresh.window = 1;
-    senders_[header.sender] = fresh;
+    senders_[key] = fresh;
     return Status::success();
   }
   State& s = it->second;

@@ -155,8 +155,10 @@ TEST(ProtoRoundTrip, EmptyCollections) {
 TEST(ProtoChannels, NamesAndDirections) {
   EXPECT_EQ(channelFor(MessageType::kKeyframe, "robot_1").value(), "rgbdmap/robot_1/keyframe");
   EXPECT_EQ(channelFor(MessageType::kPoseCorrections, "r2").value(), "rgbdmap/r2/pose_corrections");
-  EXPECT_EQ(channelFor(MessageType::kServerStatus, "").value(), "rgbdmap/server/status");
-  EXPECT_EQ(channelFor(MessageType::kMapUpdate, "x").value(), "rgbdmap/server/map");
+  // Map and status go to each robot on its own channel, signed with its key (a shared channel would keep
+  // only the copy signed for the last robot as the "latest" for late joiners).
+  EXPECT_EQ(channelFor(MessageType::kServerStatus, "x").value(), "rgbdmap/x/status");
+  EXPECT_EQ(channelFor(MessageType::kMapUpdate, "x").value(), "rgbdmap/x/map");
   EXPECT_FALSE(channelFor(MessageType::kKeyframe, "bad/id"));
   EXPECT_FALSE(channelFor(MessageType::kKeyframe, "server"));
   EXPECT_EQ(directionOf(MessageType::kVelocityCommand), Direction::kServerToRobot);

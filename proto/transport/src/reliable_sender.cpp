@@ -32,6 +32,7 @@ void ReliableSender::schedule(uint64_t id, Item& item, Clock::time_point now) {
 }
 
 void ReliableSender::start() {
+  std::lock_guard<std::mutex> life(lifecycle_);
   std::lock_guard<std::mutex> lock(mutex_);
   if (worker_.joinable()) return;
   stopping_ = false;
@@ -39,6 +40,7 @@ void ReliableSender::start() {
 }
 
 void ReliableSender::stop() {
+  std::lock_guard<std::mutex> life(lifecycle_);  // held across the join: concurrent stop() calls are safe
   {
     std::lock_guard<std::mutex> lock(mutex_);
     if (!worker_.joinable()) return;

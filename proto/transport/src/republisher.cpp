@@ -16,6 +16,7 @@ Status LatestRepublisher::publish(const std::string& channel, const std::vector<
 }
 
 void LatestRepublisher::start() {
+  std::lock_guard<std::mutex> life(lifecycle_);
   std::lock_guard<std::mutex> lock(mutex_);
   if (running_) return;
   running_ = true;
@@ -23,6 +24,7 @@ void LatestRepublisher::start() {
 }
 
 void LatestRepublisher::stop() {
+  std::lock_guard<std::mutex> life(lifecycle_);
   {
     std::lock_guard<std::mutex> lock(mutex_);
     if (!running_) return;
@@ -45,7 +47,14 @@ void LatestRepublisher::run() {
     next += options_.period;
     const auto snapshot = latest_;  // publish without holding the lock
     lock.unlock();
-    for (const auto& [channel, bytes] : snapshot) transport_.publish(channel, bytes);
+    for (const auto& [channel, bytes] : snapshot) {
+      if (!options_.refresh) {
+        transport_.publish(channel, bytes);
+        continue;
+      }
+      std::vector<uint8_t> fresh = options_.refresh(channel, bytes);
+      if (!fresh.empty()) transport_.publish(channel, fresh);
+    }
     lock.lock();
     republished_ += snapshot.size();
   }

@@ -31,7 +31,9 @@ struct Keyframe {
   FrameFeatures features;
   int previous_id = -1;              ///< previous keyframe in the same segment, -1 for a segment start
   SE3 T_prev_cur = SE3::Identity();  ///< relative pose from the previous keyframe (odometry edge)
-  Mat6 information = Mat6::Zero();   ///< information of that edge (tangent order rho, omega)
+  /// Information of that edge, tangent order (rho, omega), for a right perturbation T_prev_cur * exp(xi)
+  /// (the refinement's left perturbation of T_cur_prev).
+  Mat6 information = Mat6::Zero();
 };
 
 struct StageTimes {

@@ -7,7 +7,7 @@
 
 namespace rgbdmap::msg {
 
-enum class Direction { kRobotToServer, kServerToRobot, kServerToAll };
+enum class Direction { kRobotToServer, kServerToRobot };
 Direction directionOf(MessageType type);
 
 /// `rgbdmap/<robot>/<name>` for per-robot messages, `rgbdmap/server/<name>` for the server's broadcasts

@@ -98,8 +98,10 @@ class ReplayGuard {
   /// rather than evicting one (eviction would re-open that sender to replays). Matters in open mode, where
   /// anyone may claim a new sender id; with keys, the KeyStore bounds the senders already.
   explicit ReplayGuard(size_t max_senders = 1024) : max_senders_(max_senders) {}
-  /// Accepts (and records) the header if its (session, seq) has not been seen; else the reason.
-  Status check(const Header& header);
+  /// Accepts (and records) the header if its (session, seq) has not been seen in `stream`; else the reason.
+  /// Windows are kept per (sender, stream); openEnvelope uses the message type as the stream, so a late
+  /// joiner's old "latest" map is not refused because newer status messages arrived first.
+  Status check(const Header& header, int stream = 0);
 
  private:
   struct State {

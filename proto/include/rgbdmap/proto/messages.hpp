@@ -96,7 +96,9 @@ struct Keyframe {
   SE3 T_odom_cam = SE3::Identity();
   int previous_keyframe_id = -1;
   SE3 T_prev_cur = SE3::Identity();
-  Mat6 information = Mat6::Zero();  ///< symmetric, positive semi-definite; tangent order (rho, omega)
+  /// Symmetric, positive semi-definite; tangent order (rho, omega), for a right perturbation of T_prev_cur:
+  /// T_prev_cur * exp(xi) (equivalently a left perturbation of T_cur_prev, as the odometry computes it).
+  Mat6 information = Mat6::Zero();
   std::vector<KeyPoint> keypoints;
   Bytes descriptors;  ///< keypoints.size() * kDescriptorBytes, row i = keypoint i
   EncodedImages images;

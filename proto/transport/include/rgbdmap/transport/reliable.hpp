@@ -43,6 +43,9 @@ struct ReliableSenderStats {
 class ReliableSender {
  public:
   using Clock = std::chrono::steady_clock;
+  /// Called for the first transmission and every retransmission of `id`. With signed envelopes it must seal
+  /// the message afresh each time (new seq): identical bytes are rejected by the receiver's replay guard.
+  /// The receiver deduplicates by id (DedupFilter) and acknowledges duplicates again.
   using SendFn = std::function<Status(uint64_t id)>;
 
   ReliableSender(ReliableSenderOptions options, SendFn send);
@@ -82,6 +85,7 @@ class ReliableSender {
 
   ReliableSenderOptions options_;
   SendFn send_;
+  std::mutex lifecycle_;  ///< serialises start() and stop(), held across the join
   mutable std::mutex mutex_;
   std::condition_variable wake_;     // worker: new earliest deadline or stop
   std::condition_variable changed_;  // waiters: an id left the queue
