@@ -42,8 +42,11 @@ void sendAll(Transport& tx, Transport& rx) {
   const std::vector<Sealed> sealed = sealEverything();
   testing::Inbox inbox;
   std::set<std::string> channels;
-  for (const auto& s : sealed)
-    if (channels.insert(s.channel).second) ASSERT_TRUE(rx.subscribe(s.channel, inbox.handler()));
+  for (const auto& s : sealed) {
+    if (channels.insert(s.channel).second) {
+      ASSERT_TRUE(rx.subscribe(s.channel, inbox.handler()));
+    }
+  }
   ASSERT_TRUE(rx.start());
   for (const auto& c : channels) ASSERT_TRUE(testing::waitUntilConnected(tx, inbox, c)) << c;
   for (const auto& s : sealed) ASSERT_TRUE(tx.publish(s.channel, s.bytes)) << s.channel;
