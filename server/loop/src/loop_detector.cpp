@@ -1,0 +1,118 @@
+#include "rgbdmap/loop/loop_detector.hpp"
+
+#include <chrono>
+
+namespace rgbdmap {
+namespace {
+
+double msSince(std::chrono::steady_clock::time_point t0) {
+  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+}
+
+bool consistent(const FrameFeatures& f) {
+  const size_t n = f.keypoints.size();
+  return static_cast<size_t>(f.descriptors.rows) == n && f.px.size() == n && f.depth_m.size() == n &&
+         f.p_cam.size() == n && (n == 0 || (f.descriptors.type() == CV_8U && f.descriptors.cols == 32));
+}
+
+}  // namespace
+
+LoopDetector::LoopDetector(const CameraIntrinsics& default_camera, const LoopDetectorConfig& config)
+    : config_(config),
+      default_camera_(default_camera),
+      hasher_(config.words),
+      index_(config.words),
+      rng_(config.candidates.seed) {}
+
+void LoopDetector::setRobotCamera(int robot_id, const CameraIntrinsics& intrinsics) {
+  robot_cameras_.insert_or_assign(robot_id, PinholeCamera(intrinsics));
+}
+
+const PinholeCamera& LoopDetector::cameraOf(int robot_id) const {
+  const auto it = robot_cameras_.find(robot_id);
+  return it == robot_cameras_.end() ? default_camera_ : it->second;
+}
+
+const LoopKeyframe* LoopDetector::find(int keyframe_id) const {
+  const auto it = slot_of_.find(keyframe_id);
+  return it == slot_of_.end() ? nullptr : &keyframes_[it->second];
+}
+
+bool LoopDetector::updatePose(int keyframe_id, int map_id, const SE3& T_map_kf) {
+  const auto it = slot_of_.find(keyframe_id);
+  if (it == slot_of_.end()) return false;
+  keyframes_[it->second].map_id = summaries_[it->second].map_id = map_id;
+  keyframes_[it->second].T_map_kf = summaries_[it->second].T_map_kf = T_map_kf;
+  return true;
+}
+
+std::vector<RetrievalHit> LoopDetector::retrieve(const LoopKeyframe& kf, int robot_sequence,
+                                                 const WordHistogram& words) const {
+  RetrievalQuery q;
+  q.robot_id = kf.robot_id;
+  q.robot_sequence = robot_sequence;
+  q.exclude_recent = config_.candidates.exclude_recent;
+  q.top_n = config_.candidates.retrieval_top_n;
+  q.min_score = config_.min_retrieval_score;
+  return index_.query(words, q);
+}
+
+void LoopDetector::verifyCandidates(const LoopKeyframe& kf, LoopDetection* out) const {
+  const PinholeCamera& camera = cameraOf(kf.robot_id);
+  for (const LoopCandidate& c : out->candidates) {
+    const LoopKeyframe& other = keyframes_[slot_of_.at(c.keyframe_id)];
+    const double max_E = (c.sources & kSourceRetrieval) != 0 ? config_.verify.max_motion_measure_retrieval
+                                                             : config_.verify.max_motion_measure;
+    const LoopVerification v =
+        verifyLoop(kf.id, kf.features, other.id, other.features, camera, config_.verify, max_E);
+    ++out->stats.rejected_by_reason[static_cast<int>(v.rejection)];
+    if (v.edge) out->edges.push_back(*v.edge);
+  }
+  out->stats.verified = static_cast<int>(out->edges.size());
+  out->stats.rejected_by_reason[0] = 0;
+}
+
+Result<LoopDetection> LoopDetector::addKeyframe(LoopKeyframe keyframe) {
+  const auto t0 = std::chrono::steady_clock::now();
+  if (slot_of_.count(keyframe.id) != 0)
+    return Result<LoopDetection>::failure("duplicate keyframe id " + std::to_string(keyframe.id));
+  if (!consistent(keyframe.features))
+    return Result<LoopDetection>::failure("keyframe " + std::to_string(keyframe.id) +
+                                          ": inconsistent features");
+  LoopDetection out;
+  const int robot_sequence = robot_count_[keyframe.robot_id]++;
+  const WordHistogram words = hasher_.histogram(keyframe.features.descriptors);
+  const std::vector<RetrievalHit> hits = retrieve(keyframe, robot_sequence, words);
+  index_.insert(keyframe.id, keyframe.robot_id, robot_sequence, words);
+  out.stats.retrieval_ms = msSince(t0);
+
+  const KeyframeSummary summary{keyframe.id, keyframe.robot_id, keyframe.map_id, keyframe.T_map_kf};
+  out.candidates = selectLoopCandidates(summary, summaries_, hits, config_.candidates, &rng_);
+  out.stats.candidates = static_cast<int>(out.candidates.size());
+  for (const LoopCandidate& c : out.candidates)
+    for (int b = 0; b < kCandidateSourceCount; ++b) out.stats.candidates_by_source[b] += (c.sources >> b) & 1;
+
+  const auto t1 = std::chrono::steady_clock::now();
+  verifyCandidates(keyframe, &out);
+  out.stats.verify_ms = msSince(t1);
+
+  slot_of_.emplace(keyframe.id, keyframes_.size());
+  summaries_.push_back(summary);
+  keyframes_.push_back(std::move(keyframe));
+  out.stats.total_ms = msSince(t0);
+  accumulate(out.stats);
+  return out;
+}
+
+void LoopDetector::accumulate(const LoopStats& s) {
+  for (int b = 0; b < kCandidateSourceCount; ++b)
+    totals_.candidates_by_source[b] += s.candidates_by_source[b];
+  for (int r = 0; r < kLoopRejectionCount; ++r) totals_.rejected_by_reason[r] += s.rejected_by_reason[r];
+  totals_.candidates += s.candidates;
+  totals_.verified += s.verified;
+  totals_.retrieval_ms += s.retrieval_ms;
+  totals_.verify_ms += s.verify_ms;
+  totals_.total_ms += s.total_ms;
+}
+
+}  // namespace rgbdmap
