@@ -3,8 +3,10 @@
 //
 // Choice: bit-sampling LSH. Each of `tables` hash tables reads `bits_per_word` fixed, seeded bit positions
 // of a 256-bit ORB descriptor; the bits form a word id (table * 2^bits + code). Two descriptors at Hamming
-// distance d share a table's word with probability (1 - d/256)^bits: ~0.2 for a true match (d ~ 30) at 12
-// bits, 2^-12 for unrelated descriptors (d ~ 128). An inverted index (word -> keyframes, counts) with
+// distance d share a table's word with probability (1 - d/256)^bits: ~0.14 for a true match (d ~ 30) at 16
+// bits, 2^-16 for unrelated descriptors (d ~ 128). 16 bits keep the table sparse: a keyframe of 1,000
+// features fills ~1.5% of a table's 65,536 words (at 12 bits it filled ~22%, a score floor that drowned
+// revisits in unrelated keyframes). An inverted index (word -> keyframes, counts) with
 // idf weights (log(N / df), recomputed at query time) scores keyframes by idf-weighted histogram
 // intersection normalised by the query's own mass, so scores lie in [0, 1].
 //
@@ -22,7 +24,7 @@ namespace rgbdmap {
 
 struct BinaryWordsConfig {
   int tables = 3;                    ///< independent hash tables (words per descriptor)
-  int bits_per_word = 12;            ///< sampled bits per table: 2^bits words per table (1..20)
+  int bits_per_word = 16;            ///< sampled bits per table: 2^bits words per table (1..20)
   double stop_word_fraction = 0.25;  ///< words in more than this fraction of keyframes are skipped at query
   unsigned seed = 7;                 ///< bit positions; every process must use the same seed
 };
