@@ -153,7 +153,8 @@ TEST(LoopVerify, RandomDescriptorNoiseIsRejectedWithAReason) {
       f->p_cam.push_back(PinholeCamera(k).backProject(f->px.back(), f->depth_m.back()));
     }
   }
-  const LoopVerification v = verifyLoop(1, a, 2, b, PinholeCamera(k), LoopVerifyConfig{}, 0.6);
+  const LoopVerification v = verifyLoop(1, a, 2, b, PinholeCamera(k), LoopVerifyConfig{},
+                                        localThresholds(LoopVerifyConfig{}, std::nullopt));
   EXPECT_FALSE(v.edge.has_value());
   EXPECT_TRUE(v.rejection == LoopRejection::kTooFewMatches || v.rejection == LoopRejection::kRansacFailed)
       << toString(v.rejection) << " matches " << v.matches;

@@ -57,14 +57,20 @@ std::vector<RetrievalHit> LoopDetector::retrieve(const LoopKeyframe& kf, int rob
   return index_.query(words, q);
 }
 
+LoopThresholds LoopDetector::thresholdsFor(const LoopKeyframe& kf, const LoopCandidate& c,
+                                           const LoopKeyframe& other) const {
+  if ((c.sources & kSourceRetrieval) != 0) return retrievalThresholds(config_.verify);
+  std::optional<SE3> T_from_to_prior;
+  if (kf.map_id == other.map_id) T_from_to_prior = kf.T_map_kf.inverse() * other.T_map_kf;
+  return localThresholds(config_.verify, T_from_to_prior);
+}
+
 void LoopDetector::verifyCandidates(const LoopKeyframe& kf, LoopDetection* out) const {
   const PinholeCamera& camera = cameraOf(kf.robot_id);
   for (const LoopCandidate& c : out->candidates) {
     const LoopKeyframe& other = keyframes_[slot_of_.at(c.keyframe_id)];
-    const double max_E = (c.sources & kSourceRetrieval) != 0 ? config_.verify.max_motion_measure_retrieval
-                                                             : config_.verify.max_motion_measure;
-    const LoopVerification v =
-        verifyLoop(kf.id, kf.features, other.id, other.features, camera, config_.verify, max_E);
+    const LoopVerification v = verifyLoop(kf.id, kf.features, other.id, other.features, camera,
+                                          config_.verify, thresholdsFor(kf, c, other));
     ++out->stats.rejected_by_reason[static_cast<int>(v.rejection)];
     if (v.edge) out->edges.push_back(*v.edge);
   }

@@ -68,6 +68,8 @@ class LoopDetector {
  private:
   std::vector<RetrievalHit> retrieve(const LoopKeyframe& kf, int robot_sequence,
                                      const WordHistogram& words) const;
+  LoopThresholds thresholdsFor(const LoopKeyframe& kf, const LoopCandidate& c,
+                               const LoopKeyframe& other) const;
   void verifyCandidates(const LoopKeyframe& kf, LoopDetection* out) const;
   const PinholeCamera& cameraOf(int robot_id) const;
   void accumulate(const LoopStats& s);

@@ -25,15 +25,35 @@ struct LoopVerifyConfig {
   /// pose, so E only guards against absurd results there (2.0 ~ 1.5 m with 85 deg); the inlier count and
   /// the reprojection/depth inlier test of RANSAC and refinement carry the decision.
   double max_motion_measure_retrieval = 2.0;
+  /// Retrieval hits need more evidence: aliasing (repeated objects, similar texture) shows up there and
+  /// no pose prior can veto it. Measured on the synthetic room: true revisits 90-205 inliers, aliased
+  /// pairs of views 90+ deg apart up to 66.
+  int min_inliers_retrieval = 80;
+  /// The refined pose must still pass RANSAC's own inlier test for this fraction of RANSAC's inliers;
+  /// otherwise refinement slid to another pose (aliased geometry) and neither is trustworthy. Measured:
+  /// accepted true loops 0.91-1.28 (fr1_rpy) and 0.86-1.0 (synthetic); an aliased local loop 0.71.
+  double min_refined_fraction = 0.8;
+  /// Local candidates in the same map frame: E of the disagreement between the verified relative pose and
+  /// the one from the current pose estimates must not exceed this (odometry drift over a local loop is far
+  /// smaller; an aliased match is not).
+  double max_prior_disagreement = 1.0;
   float scale_factor = 1.2f;  ///< ORB pyramid scale of the features (for keypoint noise by octave)
   MatcherConfig matcher;
   RansacConfig ransac;
   RefineConfig refine;
 };
 
-enum class LoopRejection { kNone = 0, kTooFewMatches, kRansacFailed, kTooFewInliers, kMotionTooLarge };
-constexpr int kLoopRejectionCount = 5;
-/// "accepted", "too_few_matches", "ransac_failed", "too_few_inliers", "motion_too_large".
+enum class LoopRejection {
+  kNone = 0,
+  kTooFewMatches,
+  kRansacFailed,
+  kTooFewInliers,
+  kMotionTooLarge,
+  kInconsistentPose,  ///< refinement lost many RANSAC inliers, or the pose contradicts the prior
+};
+constexpr int kLoopRejectionCount = 6;
+/// "accepted", "too_few_matches", "ransac_failed", "too_few_inliers", "motion_too_large",
+/// "inconsistent_pose".
 const char* toString(LoopRejection reason);
 
 /// A verified loop edge. Convention: from = the new keyframe, to = the candidate, p_from = T_from_to * p_to.
@@ -57,9 +77,18 @@ struct LoopVerification {
 /// E = k1 |t| + k2 |eulerRPY(R)| of a relative pose.
 double motionMeasure(const SE3& T, double k1, double k2);
 
+/// Acceptance thresholds for one candidate (local or retrieval; see the config).
+struct LoopThresholds {
+  int min_inliers = 40;
+  double max_motion_measure = 0.6;
+  std::optional<SE3> T_from_to_prior;  ///< from the pose estimates, when comparable (same map frame)
+};
+LoopThresholds localThresholds(const LoopVerifyConfig& config, std::optional<SE3> T_from_to_prior);
+LoopThresholds retrievalThresholds(const LoopVerifyConfig& config);
+
 /// Verifies `to` (candidate, needs depth) against `from` (new keyframe, seen by `camera_from`).
-/// max_E is the E threshold to apply (local or retrieval, chosen by the caller).
 LoopVerification verifyLoop(int from_id, const FrameFeatures& from, int to_id, const FrameFeatures& to,
-                            const PinholeCamera& camera_from, const LoopVerifyConfig& config, double max_E);
+                            const PinholeCamera& camera_from, const LoopVerifyConfig& config,
+                            const LoopThresholds& thresholds);
 
 }  // namespace rgbdmap
