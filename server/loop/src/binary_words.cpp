@@ -56,19 +56,23 @@ bool BinaryWordIndex::excluded(const Doc& d, const RetrievalQuery& q) const {
   return d.robot_id == q.robot_id && d.robot_sequence > q.robot_sequence - q.exclude_recent;
 }
 
-std::vector<RetrievalHit> BinaryWordIndex::query(const WordHistogram& words, const RetrievalQuery& q) const {
+double BinaryWordIndex::idf(uint32_t word, bool* stop) const {
   const double n_docs = static_cast<double>(docs_.size());
+  const double df = word < postings_.size() ? static_cast<double>(postings_[word].size()) : 0.0;
+  *stop = df == 0.0 || df > std::max(1.0, config_.stop_word_fraction * n_docs);
+  return std::log((n_docs + 1.0) / (df + 1.0));
+}
+
+std::vector<RetrievalHit> BinaryWordIndex::query(const WordHistogram& words, const RetrievalQuery& q) const {
   if (docs_.empty() || q.top_n <= 0) return {};
-  const double max_df = std::max(1.0, config_.stop_word_fraction * n_docs);
   std::vector<float> score(docs_.size(), 0.0f);
   double query_mass = 0.0;
   for (const auto& [word, count] : words) {
-    if (word >= postings_.size()) continue;
-    const auto& list = postings_[word];
-    const double idf = std::log((n_docs + 1.0) / (static_cast<double>(list.size()) + 1.0));
-    query_mass += idf * count;
-    if (list.empty() || static_cast<double>(list.size()) > max_df) continue;
-    for (const Posting& p : list) score[p.doc] += static_cast<float>(idf * std::min(count, p.count));
+    bool stop = false;
+    const double w = idf(word, &stop);
+    query_mass += w * count;
+    if (stop) continue;
+    for (const Posting& p : postings_[word]) score[p.doc] += static_cast<float>(w * std::min(count, p.count));
   }
   std::vector<RetrievalHit> hits;
   if (query_mass <= 0.0) return hits;

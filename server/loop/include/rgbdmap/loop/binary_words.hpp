@@ -81,6 +81,8 @@ class BinaryWordIndex {
     uint16_t count;
   };
   bool excluded(const Doc& d, const RetrievalQuery& q) const;
+  /// idf of a word; 0 for stop words (in more than stop_word_fraction of the documents).
+  double idf(uint32_t word, bool* stop) const;
   BinaryWordsConfig config_;
   std::vector<std::vector<Posting>> postings_;  ///< per word id
   std::vector<Doc> docs_;
