@@ -194,67 +194,74 @@ SE3 groundTruthAt(const Trajectory& gt, double t) {
                           (t - prev->timestamp) / (it->timestamp - prev->timestamp));
 }
 
-TEST(RealLoop, Fr1RpyLocalLoopsAgreeWithGroundTruth) {
-  RGBDMAP_REQUIRE_SHARED_DATA("tum_fr1_rpy_first250");
+/// Every 8th frame of fr1_rpy as a keyframe, with interpolated ground truth (TUM fr1 camera defaults).
+Result<KeyframeSet> loadFr1RpyKeyframes() {
   const auto dataset = TumDataset::open(testing::sharedDataDir("tum_fr1_rpy_first250"));
-  ASSERT_TRUE(dataset) << dataset.error();
-  ASSERT_TRUE(dataset->groundTruth().has_value());
-  KeyframeSet set;  // camera: the TUM fr1 calibration (CameraIntrinsics defaults)
+  if (!dataset) return Result<KeyframeSet>::failure(dataset.error());
+  if (!dataset->groundTruth()) return Result<KeyframeSet>::failure("no ground truth");
+  KeyframeSet set;
   const OrbExtractor extractor(OrbConfig{});
   for (size_t i = 0; i < dataset->size(); i += 8) {
     const auto frame = dataset->load(i);
-    ASSERT_TRUE(frame) << frame.error();
+    if (!frame) return Result<KeyframeSet>::failure(frame.error());
     set.features.push_back(extractor.extract(*frame, PinholeCamera(set.camera)));
     set.T_world_cam.push_back(groundTruthAt(*dataset->groundTruth(), dataset->entry(i).rgb_timestamp));
   }
-  LoopDetector detector(set.camera);
-  int edges = 0;
-  double worst_t = 0, worst_r = 0;
-  std::vector<LoopEdge> all;
+  return set;
+}
+
+/// Largest inconsistency of verified triangles a->b->c against a->c (no ground truth involved).
+PoseError worstTriangle(const std::vector<LoopEdge>& edges) {
+  PoseError worst{0.0, 0.0};
+  for (const LoopEdge& ab : edges)
+    for (const LoopEdge& bc : edges)
+      for (const LoopEdge& ac : edges) {
+        if (ab.to_id != bc.from_id || ac.from_id != ab.from_id || ac.to_id != bc.to_id) continue;
+        const SE3 d = ac.T_from_to.inverse() * ab.T_from_to * bc.T_from_to;
+        worst.t_m = std::max(worst.t_m, d.translation().norm());
+        worst.r_deg = std::max(worst.r_deg, se3::rotationAngle(d) * 180 / M_PI);
+      }
+  return worst;
+}
+
+TEST(RealLoop, Fr1RpyLocalLoopsAgreeWithGroundTruth) {
+  RGBDMAP_REQUIRE_SHARED_DATA("tum_fr1_rpy_first250");
+  const auto set = loadFr1RpyKeyframes();
+  ASSERT_TRUE(set) << set.error();
+  LoopDetector detector(set->camera);
+  std::vector<LoopEdge> edges;
   std::vector<double> errors_t, errors_r;
-  for (size_t k = 0; k < set.features.size(); ++k) {
-    const int id = static_cast<int>(k);
-    auto r = detector.addKeyframe({id, 0, 0, set.T_world_cam[k], set.features[k]});
+  for (size_t k = 0; k < set->features.size(); ++k) {
+    auto r = detector.addKeyframe({static_cast<int>(k), 0, 0, set->T_world_cam[k], set->features[k]});
     ASSERT_TRUE(r) << r.error();
     for (const LoopEdge& e : r->edges) {
-      const PoseError err = edgeError(e, set);
-      ++edges;
-      all.push_back(e);
-      worst_t = std::max(worst_t, err.t_m);
-      worst_r = std::max(worst_r, err.r_deg);
+      const PoseError err = edgeError(e, *set);
+      edges.push_back(e);
       errors_t.push_back(err.t_m);
       errors_r.push_back(err.r_deg);
       EXPECT_LT(err.t_m, 0.09) << e.from_id << "->" << e.to_id;
       EXPECT_LT(err.r_deg, 6.0) << e.from_id << "->" << e.to_id;
     }
   }
-  EXPECT_GE(edges, 20) << "verified local loops";
-  // Bounds (measured in parentheses): median 2.5 cm / 1.6 deg (2.1 cm / 1.3 deg), every edge 9 cm / 6 deg
-  // (7.5 cm / 4.7 deg). fr1_rpy rotates fast (motion blur, rolling shutter, ground-truth timing): the edges
-  // are consistent among themselves to the same order (see the triangle check), so this is not only
-  // ground-truth error.
-  std::nth_element(errors_t.begin(), errors_t.begin() + edges / 2, errors_t.end());
-  std::nth_element(errors_r.begin(), errors_r.begin() + edges / 2, errors_r.end());
-  EXPECT_LT(errors_t[edges / 2], 0.025);
-  EXPECT_LT(errors_r[edges / 2], 1.6);
-  std::printf("median error %.2f cm %.2f deg\n", 100 * errors_t[edges / 2], errors_r[edges / 2]);
-  double tri_t = 0, tri_r = 0;
-  int triangles = 0;
-  for (const LoopEdge& ab : all)
-    for (const LoopEdge& bc : all)
-      for (const LoopEdge& ac : all) {
-        if (ab.to_id != bc.from_id || ac.from_id != ab.from_id || ac.to_id != bc.to_id) continue;
-        const SE3 d = ac.T_from_to.inverse() * ab.T_from_to * bc.T_from_to;
-        ++triangles;
-        tri_t = std::max(tri_t, d.translation().norm());
-        tri_r = std::max(tri_r, se3::rotationAngle(d) * 180 / M_PI);
-      }
-  std::printf("triangles %d worst %.2f cm %.2f deg\n", triangles, 100 * tri_t, tri_r);
-  const LoopStats& t = detector.totals();
-  for (int i = 1; i < kLoopRejectionCount; ++i)
-    std::printf("%s %d ", toString(static_cast<LoopRejection>(i)), t.rejected_by_reason[i]);
-  std::printf("fr1_rpy: %zu keyframes, %d verified loops, worst error %.2f cm %.2f deg\n",
-              set.features.size(), edges, 100 * worst_t, worst_r);
+  const size_t n = edges.size();
+  ASSERT_GE(n, 20u) << "verified local loops";
+  // Bounds (measured): median 2.5 cm / 1.6 deg (2.1 cm / 1.3 deg), every edge 9 cm / 6 deg (7.5 cm / 4.7
+  // deg) over 75 loops. fr1_rpy rotates fast (motion blur, rolling shutter, ground-truth timing); verified
+  // triangles close to 5.0 cm / 2.3 deg, so part of the error is the edges', part the ground truth's.
+  const double max_t = *std::max_element(errors_t.begin(), errors_t.end());
+  const double max_r = *std::max_element(errors_r.begin(), errors_r.end());
+  std::nth_element(errors_t.begin(), errors_t.begin() + static_cast<long>(n / 2), errors_t.end());
+  std::nth_element(errors_r.begin(), errors_r.begin() + static_cast<long>(n / 2), errors_r.end());
+  EXPECT_LT(errors_t[n / 2], 0.025);
+  EXPECT_LT(errors_r[n / 2], 1.6);
+  const PoseError triangle = worstTriangle(edges);
+  EXPECT_LT(triangle.t_m, 0.08);
+  EXPECT_LT(triangle.r_deg, 4.0);
+  std::printf(
+      "fr1_rpy: %zu keyframes, %zu loops, error median %.2f cm %.2f deg, max %.2f cm %.2f deg; "
+      "worst triangle %.2f cm %.2f deg\n",
+      set->features.size(), n, 100 * errors_t[n / 2], errors_r[n / 2], 100 * max_t, max_r, 100 * triangle.t_m,
+      triangle.r_deg);
 }
 
 }  // namespace
