@@ -4,6 +4,7 @@
 
 #include <gtest/gtest.h>
 
+#include "rgbdmap/loop/loop_consistency.hpp"
 #include "rgbdmap/loop/loop_detector.hpp"
 
 namespace rgbdmap {
@@ -158,6 +159,25 @@ TEST(LoopVerify, RandomDescriptorNoiseIsRejectedWithAReason) {
   EXPECT_FALSE(v.edge.has_value());
   EXPECT_TRUE(v.rejection == LoopRejection::kTooFewMatches || v.rejection == LoopRejection::kRansacFailed)
       << toString(v.rejection) << " matches " << v.matches;
+}
+
+TEST(LoopConsistency, DropsAnEdgeContradictedByMostOfItsTriangles) {
+  // Keyframes A=1, B=2, C=3 verified earlier; the new keyframe X=9 has edges to all three.
+  const SE3 T_w_x = pose({0, 0, 0}, {0, 0, 0}), T_w_a = pose({0.3, 0, 0}, {0, 0.1, 0}),
+            T_w_b = pose({0.5, 0.1, 0}, {0, 0.2, 0}), T_w_c = pose({0.7, 0, 0.1}, {0.1, 0.2, 0});
+  LoopEdgeStore store;
+  store.add({2, 1, T_w_b.inverse() * T_w_a, Mat6::Identity(), 100, 0.1});
+  store.add({3, 1, T_w_c.inverse() * T_w_a, Mat6::Identity(), 100, 0.1});
+  store.add({3, 2, T_w_c.inverse() * T_w_b, Mat6::Identity(), 100, 0.1});
+  auto edge = [&](int to, const SE3& T_w_to) {
+    return LoopEdge{9, to, T_w_x.inverse() * T_w_to, Mat6::Identity(), 80, 0.2};
+  };
+  std::vector<LoopEdge> edges = {edge(1, T_w_a), edge(2, T_w_b), edge(3, T_w_c)};
+  EXPECT_EQ(checkEdgeConsistency(edges, store, {}), (std::vector<char>{1, 1, 1}));
+  edges[0].T_from_to.translation() += Vec3(0.15, 0, 0);  // X->A biased by 15 cm
+  EXPECT_EQ(checkEdgeConsistency(edges, store, {}), (std::vector<char>{0, 1, 1}));
+  edges.pop_back();  // with one triangle left there is nothing to outvote: kept
+  EXPECT_EQ(checkEdgeConsistency(edges, store, {}), (std::vector<char>{1, 1}));
 }
 
 }  // namespace

@@ -149,17 +149,16 @@ TEST(SyntheticLoop, InterRobotLoopsFoundByRetrievalAcrossMapFrames) {
       errors_t.push_back(error.translation().norm());
       errors_r.push_back(se3::rotationAngle(error) * 180 / M_PI);
       chi2.push_back(xi.dot(e.information * xi));
-      EXPECT_LT(errors_t.back(), 0.2) << e.from_id << "->" << e.to_id;
-      EXPECT_LT(errors_r.back(), 5.0) << e.from_id << "->" << e.to_id;
+      EXPECT_LT(errors_t.back(), 0.02) << e.from_id << "->" << e.to_id;
+      EXPECT_LT(errors_r.back(), 1.0) << e.from_id << "->" << e.to_id;
     }
   }
   const size_t n = errors_t.size();
   ASSERT_GE(n, 10u) << "inter-robot loops over 20 keyframes";
-  // Measured: 83 edges; all but one within 1.3 cm / 0.4 deg. The exception (28.8 deg apart, 90 inliers) is
-  // 14.5 cm / 3.0 deg off with chi2 226 under its own information: partly aliased; the pose graph needs a
-  // robust kernel for such edges. The information is calibrated: median chi2 4.1 (6 dof: 5.3).
+  // Measured: 82 edges, all within 1.3 cm / 0.4 deg. Without the triangle-consistency check an 83rd, partly
+  // aliased edge (28.8 deg apart, 90 inliers) got through 14.5 cm / 3.0 deg off (chi2 226 under its own
+  // information). The information is calibrated: median chi2 4.1 (6 dof: 5.3).
   const auto accurate = std::count_if(errors_t.begin(), errors_t.end(), [](double t) { return t < 0.02; });
-  EXPECT_GE(static_cast<double>(accurate), 0.95 * static_cast<double>(n));
   std::nth_element(chi2.begin(), chi2.begin() + static_cast<long>(n / 2), chi2.end());
   EXPECT_LT(chi2[n / 2], 12.6) << "median chi2 (6 dof, 95%: 12.6)";
   std::printf("inter-robot loops: %zu, %ld within 2 cm, median chi2 %.1f\n", n, static_cast<long>(accurate),

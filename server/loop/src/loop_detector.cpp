@@ -74,8 +74,21 @@ void LoopDetector::verifyCandidates(const LoopKeyframe& kf, LoopDetection* out) 
     ++out->stats.rejected_by_reason[static_cast<int>(v.rejection)];
     if (v.edge) out->edges.push_back(*v.edge);
   }
+  dropInconsistent(out);
   out->stats.verified = static_cast<int>(out->edges.size());
   out->stats.rejected_by_reason[0] = 0;
+}
+
+void LoopDetector::dropInconsistent(LoopDetection* out) const {
+  const std::vector<char> keep = checkEdgeConsistency(out->edges, accepted_, config_.consistency);
+  std::vector<LoopEdge> kept;
+  for (size_t i = 0; i < keep.size(); ++i) {
+    if (keep[i])
+      kept.push_back(out->edges[i]);
+    else
+      ++out->stats.rejected_by_reason[static_cast<int>(LoopRejection::kInconsistentPose)];
+  }
+  out->edges = std::move(kept);
 }
 
 Result<LoopDetection> LoopDetector::addKeyframe(LoopKeyframe keyframe) {
@@ -105,6 +118,7 @@ Result<LoopDetection> LoopDetector::addKeyframe(LoopKeyframe keyframe) {
   slot_of_.emplace(keyframe.id, keyframes_.size());
   summaries_.push_back(summary);
   keyframes_.push_back(std::move(keyframe));
+  for (const LoopEdge& e : out.edges) accepted_.add(e);
   out.stats.total_ms = msSince(t0);
   accumulate(out.stats);
   return out;

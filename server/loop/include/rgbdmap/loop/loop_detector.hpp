@@ -13,6 +13,7 @@
 #include "rgbdmap/common/result.hpp"
 #include "rgbdmap/loop/binary_words.hpp"
 #include "rgbdmap/loop/loop_candidates.hpp"
+#include "rgbdmap/loop/loop_consistency.hpp"
 #include "rgbdmap/loop/loop_verifier.hpp"
 
 namespace rgbdmap {
@@ -21,6 +22,7 @@ struct LoopDetectorConfig {
   LoopCandidateConfig candidates;
   LoopVerifyConfig verify;
   BinaryWordsConfig words;
+  LoopConsistencyConfig consistency;
   double min_retrieval_score = 0.02;  ///< retrieval hits scoring below this are not candidates
 };
 
@@ -72,6 +74,7 @@ class LoopDetector {
                                const LoopKeyframe& other) const;
   void verifyCandidates(const LoopKeyframe& kf, LoopDetection* out) const;
   const PinholeCamera& cameraOf(int robot_id) const;
+  void dropInconsistent(LoopDetection* out) const;
   void accumulate(const LoopStats& s);
 
   LoopDetectorConfig config_;
@@ -83,6 +86,7 @@ class LoopDetector {
   std::vector<KeyframeSummary> summaries_;   ///< same order
   std::unordered_map<int, size_t> slot_of_;  ///< keyframe id -> index
   std::map<int, int> robot_count_;           ///< keyframes per robot (next robot sequence)
+  LoopEdgeStore accepted_;                   ///< verified loop edges, for the consistency check
   std::mt19937 rng_;
   LoopStats totals_;
 };

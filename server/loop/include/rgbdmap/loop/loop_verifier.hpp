@@ -49,7 +49,7 @@ enum class LoopRejection {
   kRansacFailed,
   kTooFewInliers,
   kMotionTooLarge,
-  kInconsistentPose,  ///< refinement lost many RANSAC inliers, or the pose contradicts the prior
+  kInconsistentPose,  ///< refinement slid off RANSAC's pose, contradicts the prior, or fails triangles
 };
 constexpr int kLoopRejectionCount = 6;
 /// "accepted", "too_few_matches", "ransac_failed", "too_few_inliers", "motion_too_large",
