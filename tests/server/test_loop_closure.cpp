@@ -161,6 +161,18 @@ TEST(LoopVerify, RandomDescriptorNoiseIsRejectedWithAReason) {
       << toString(v.rejection) << " matches " << v.matches;
 }
 
+TEST(LoopDetectorConfig, DefaultsAreValidAndBadValuesAreAllReported) {
+  EXPECT_EQ(LoopDetectorConfig{}.validate(), "");
+  LoopDetectorConfig bad;
+  bad.candidates.max_candidates = 0;
+  bad.verify.k1 = -1;
+  bad.words.bits_per_word = 32;
+  const std::string reasons = bad.validate();
+  EXPECT_NE(reasons.find("max_candidates"), std::string::npos) << reasons;
+  EXPECT_NE(reasons.find("k1"), std::string::npos) << reasons;
+  EXPECT_NE(reasons.find("bits_per_word"), std::string::npos) << reasons;
+}
+
 TEST(LoopConsistency, DropsAnEdgeContradictedByMostOfItsTriangles) {
   // Keyframes A=1, B=2, C=3 verified earlier; the new keyframe X=9 has edges to all three.
   const SE3 T_w_x = pose({0, 0, 0}, {0, 0, 0}), T_w_a = pose({0.3, 0, 0}, {0, 0.1, 0}),

@@ -5,6 +5,7 @@
 #include <array>
 #include <map>
 #include <random>
+#include <string>
 #include <unordered_map>
 #include <vector>
 
@@ -24,6 +25,10 @@ struct LoopDetectorConfig {
   BinaryWordsConfig words;
   LoopConsistencyConfig consistency;
   double min_retrieval_score = 0.02;  ///< retrieval hits scoring below this are not candidates
+
+  /// Checks every value's range; returns an empty string when valid, else all reasons ("; "-separated).
+  /// Apps call this once at start-up; the detector itself clamps nothing.
+  std::string validate() const;
 };
 
 /// A keyframe as the server stores it.
