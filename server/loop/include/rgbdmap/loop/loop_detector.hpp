@@ -1,0 +1,99 @@
+#pragma once
+// Loop closure on the server: holds the keyframes of all robots, and for each new keyframe selects
+// candidates (recent, random, nearby, appearance retrieval), verifies them geometrically and returns the
+// accepted loop edges with statistics. Plain structs in and out: no transport, files or threads.
+#include <array>
+#include <map>
+#include <random>
+#include <string>
+#include <unordered_map>
+#include <vector>
+
+#include "rgbdmap/client/features.hpp"
+#include "rgbdmap/common/camera.hpp"
+#include "rgbdmap/common/result.hpp"
+#include "rgbdmap/loop/binary_words.hpp"
+#include "rgbdmap/loop/loop_candidates.hpp"
+#include "rgbdmap/loop/loop_consistency.hpp"
+#include "rgbdmap/loop/loop_verifier.hpp"
+
+namespace rgbdmap {
+
+struct LoopDetectorConfig {
+  LoopCandidateConfig candidates;
+  LoopVerifyConfig verify;
+  BinaryWordsConfig words;
+  LoopConsistencyConfig consistency;
+  double min_retrieval_score = 0.02;  ///< retrieval hits scoring below this are not candidates
+
+  /// Checks every value's range; returns an empty string when valid, else all reasons ("; "-separated).
+  /// Apps call this once at start-up; the detector itself clamps nothing.
+  std::string validate() const;
+};
+
+/// A keyframe as the server stores it.
+struct LoopKeyframe {
+  int id = -1;  ///< unique over all robots
+  int robot_id = 0;
+  int map_id = 0;  ///< frame of T_map_kf (e.g. the robot's own map until maps are merged)
+  SE3 T_map_kf = SE3::Identity();
+  FrameFeatures features;  ///< with depth and 3-D points (client OrbExtractor)
+};
+
+struct LoopStats {
+  std::array<int, kCandidateSourceCount> candidates_by_source{};  ///< a candidate counts for every source
+  int candidates = 0;                                             ///< after dedup and cap
+  int verified = 0;
+  std::array<int, kLoopRejectionCount> rejected_by_reason{};  ///< index = LoopRejection (0 unused)
+  double retrieval_ms = 0.0;                                  ///< words + query + insert
+  double verify_ms = 0.0;
+  double total_ms = 0.0;
+};
+
+struct LoopDetection {
+  std::vector<LoopEdge> edges;
+  std::vector<LoopCandidate> candidates;
+  LoopStats stats;
+};
+
+class LoopDetector {
+ public:
+  /// default_camera is used for robots without setRobotCamera().
+  LoopDetector(const CameraIntrinsics& default_camera, const LoopDetectorConfig& config = {});
+
+  void setRobotCamera(int robot_id, const CameraIntrinsics& intrinsics);
+  /// Stores the keyframe, finds and verifies its loops. Fails (nothing stored) on a duplicate id or on
+  /// features whose arrays disagree in size.
+  Result<LoopDetection> addKeyframe(LoopKeyframe keyframe);
+  /// New pose estimate (e.g. after pose-graph optimisation or a map merge). False if the id is unknown.
+  bool updatePose(int keyframe_id, int map_id, const SE3& T_map_kf);
+
+  size_t size() const { return keyframes_.size(); }
+  const LoopKeyframe* find(int keyframe_id) const;
+  const LoopStats& totals() const { return totals_; }
+
+ private:
+  std::vector<RetrievalHit> retrieve(const LoopKeyframe& kf, int robot_sequence,
+                                     const WordHistogram& words) const;
+  LoopThresholds thresholdsFor(const LoopKeyframe& kf, const LoopCandidate& c,
+                               const LoopKeyframe& other) const;
+  void verifyCandidates(const LoopKeyframe& kf, LoopDetection* out) const;
+  const PinholeCamera& cameraOf(int robot_id) const;
+  void dropInconsistent(LoopDetection* out) const;
+  void accumulate(const LoopStats& s);
+
+  LoopDetectorConfig config_;
+  PinholeCamera default_camera_;
+  std::map<int, PinholeCamera> robot_cameras_;
+  BinaryWordHasher hasher_;
+  BinaryWordIndex index_;
+  std::vector<LoopKeyframe> keyframes_;      ///< insertion order
+  std::vector<KeyframeSummary> summaries_;   ///< same order
+  std::unordered_map<int, size_t> slot_of_;  ///< keyframe id -> index
+  std::map<int, int> robot_count_;           ///< keyframes per robot (next robot sequence)
+  LoopEdgeStore accepted_;                   ///< verified loop edges, for the consistency check
+  std::mt19937 rng_;
+  LoopStats totals_;
+};
+
+}  // namespace rgbdmap

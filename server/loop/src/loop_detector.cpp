@@ -1,0 +1,173 @@
+#include "rgbdmap/loop/loop_detector.hpp"
+
+#include <chrono>
+
+namespace rgbdmap {
+namespace {
+
+double msSince(std::chrono::steady_clock::time_point t0) {
+  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+}
+
+bool consistent(const FrameFeatures& f) {
+  const size_t n = f.keypoints.size();
+  return static_cast<size_t>(f.descriptors.rows) == n && f.px.size() == n && f.depth_m.size() == n &&
+         f.p_cam.size() == n && (n == 0 || (f.descriptors.type() == CV_8U && f.descriptors.cols == 32));
+}
+
+void require(bool ok, const char* what, std::string* reasons) {
+  if (ok) return;
+  if (!reasons->empty()) *reasons += "; ";
+  *reasons += what;
+}
+
+}  // namespace
+
+std::string LoopDetectorConfig::validate() const {
+  std::string r;
+  const LoopCandidateConfig& c = candidates;
+  require(c.recent_k >= 0 && c.random_l >= 0 && c.nearby_max >= 0, "candidate counts must be >= 0", &r);
+  require(c.retrieval_top_n >= 0 && c.exclude_recent >= 0, "retrieval_top_n, exclude_recent must be >= 0",
+          &r);
+  require(c.max_candidates >= 1, "max_candidates must be >= 1", &r);
+  require(c.nearby_radius_m >= 0.0, "nearby_radius_m must be >= 0", &r);
+  require(c.nearby_angle_deg >= 0.0 && c.nearby_angle_deg <= 180.0, "nearby_angle_deg must be in [0, 180]",
+          &r);
+  require(verify.min_matches >= 3 && verify.min_inliers >= 3 && verify.min_inliers_retrieval >= 3,
+          "min_matches, min_inliers, min_inliers_retrieval must be >= 3", &r);
+  require(verify.k1 >= 0.0 && verify.k2 >= 0.0, "k1, k2 must be >= 0", &r);
+  require(verify.max_motion_measure > 0.0 && verify.max_motion_measure_retrieval > 0.0 &&
+              verify.max_prior_disagreement > 0.0,
+          "E thresholds must be > 0", &r);
+  require(verify.min_refined_fraction >= 0.0 && verify.min_refined_fraction <= 1.0,
+          "min_refined_fraction must be in [0, 1]", &r);
+  require(words.tables >= 1 && words.bits_per_word >= 1 && words.bits_per_word <= 20,
+          "words: tables >= 1, bits_per_word in [1, 20]", &r);
+  require(words.stop_word_fraction > 0.0 && words.stop_word_fraction <= 1.0,
+          "stop_word_fraction must be in (0, 1]", &r);
+  require(consistency.max_translation_m > 0.0 && consistency.max_rotation_deg > 0.0,
+          "consistency thresholds must be > 0", &r);
+  require(min_retrieval_score >= 0.0 && min_retrieval_score <= 1.0, "min_retrieval_score must be in [0, 1]",
+          &r);
+  return r;
+}
+
+LoopDetector::LoopDetector(const CameraIntrinsics& default_camera, const LoopDetectorConfig& config)
+    : config_(config),
+      default_camera_(default_camera),
+      hasher_(config.words),
+      index_(config.words),
+      rng_(config.candidates.seed) {}
+
+void LoopDetector::setRobotCamera(int robot_id, const CameraIntrinsics& intrinsics) {
+  robot_cameras_.insert_or_assign(robot_id, PinholeCamera(intrinsics));
+}
+
+const PinholeCamera& LoopDetector::cameraOf(int robot_id) const {
+  const auto it = robot_cameras_.find(robot_id);
+  return it == robot_cameras_.end() ? default_camera_ : it->second;
+}
+
+const LoopKeyframe* LoopDetector::find(int keyframe_id) const {
+  const auto it = slot_of_.find(keyframe_id);
+  return it == slot_of_.end() ? nullptr : &keyframes_[it->second];
+}
+
+bool LoopDetector::updatePose(int keyframe_id, int map_id, const SE3& T_map_kf) {
+  const auto it = slot_of_.find(keyframe_id);
+  if (it == slot_of_.end()) return false;
+  keyframes_[it->second].map_id = summaries_[it->second].map_id = map_id;
+  keyframes_[it->second].T_map_kf = summaries_[it->second].T_map_kf = T_map_kf;
+  return true;
+}
+
+std::vector<RetrievalHit> LoopDetector::retrieve(const LoopKeyframe& kf, int robot_sequence,
+                                                 const WordHistogram& words) const {
+  RetrievalQuery q;
+  q.robot_id = kf.robot_id;
+  q.robot_sequence = robot_sequence;
+  q.exclude_recent = config_.candidates.exclude_recent;
+  q.top_n = config_.candidates.retrieval_top_n;
+  q.min_score = config_.min_retrieval_score;
+  return index_.query(words, q);
+}
+
+LoopThresholds LoopDetector::thresholdsFor(const LoopKeyframe& kf, const LoopCandidate& c,
+                                           const LoopKeyframe& other) const {
+  if ((c.sources & kSourceRetrieval) != 0) return retrievalThresholds(config_.verify);
+  std::optional<SE3> T_from_to_prior;
+  if (kf.map_id == other.map_id) T_from_to_prior = kf.T_map_kf.inverse() * other.T_map_kf;
+  return localThresholds(config_.verify, T_from_to_prior);
+}
+
+void LoopDetector::verifyCandidates(const LoopKeyframe& kf, LoopDetection* out) const {
+  const PinholeCamera& camera = cameraOf(kf.robot_id);
+  for (const LoopCandidate& c : out->candidates) {
+    const LoopKeyframe& other = keyframes_[slot_of_.at(c.keyframe_id)];
+    const LoopVerification v = verifyLoop(kf.id, kf.features, other.id, other.features, camera,
+                                          config_.verify, thresholdsFor(kf, c, other));
+    ++out->stats.rejected_by_reason[static_cast<int>(v.rejection)];
+    if (v.edge) out->edges.push_back(*v.edge);
+  }
+  dropInconsistent(out);
+  out->stats.verified = static_cast<int>(out->edges.size());
+  out->stats.rejected_by_reason[0] = 0;
+}
+
+void LoopDetector::dropInconsistent(LoopDetection* out) const {
+  const std::vector<char> keep = checkEdgeConsistency(out->edges, accepted_, config_.consistency);
+  std::vector<LoopEdge> kept;
+  for (size_t i = 0; i < keep.size(); ++i) {
+    if (keep[i])
+      kept.push_back(out->edges[i]);
+    else
+      ++out->stats.rejected_by_reason[static_cast<int>(LoopRejection::kInconsistentPose)];
+  }
+  out->edges = std::move(kept);
+}
+
+Result<LoopDetection> LoopDetector::addKeyframe(LoopKeyframe keyframe) {
+  const auto t0 = std::chrono::steady_clock::now();
+  if (slot_of_.count(keyframe.id) != 0)
+    return Result<LoopDetection>::failure("duplicate keyframe id " + std::to_string(keyframe.id));
+  if (!consistent(keyframe.features))
+    return Result<LoopDetection>::failure("keyframe " + std::to_string(keyframe.id) +
+                                          ": inconsistent features");
+  LoopDetection out;
+  const int robot_sequence = robot_count_[keyframe.robot_id]++;
+  const WordHistogram words = hasher_.histogram(keyframe.features.descriptors);
+  const std::vector<RetrievalHit> hits = retrieve(keyframe, robot_sequence, words);
+  index_.insert(keyframe.id, keyframe.robot_id, robot_sequence, words);
+  out.stats.retrieval_ms = msSince(t0);
+
+  const KeyframeSummary summary{keyframe.id, keyframe.robot_id, keyframe.map_id, keyframe.T_map_kf};
+  out.candidates = selectLoopCandidates(summary, summaries_, hits, config_.candidates, &rng_);
+  out.stats.candidates = static_cast<int>(out.candidates.size());
+  for (const LoopCandidate& c : out.candidates)
+    for (int b = 0; b < kCandidateSourceCount; ++b) out.stats.candidates_by_source[b] += (c.sources >> b) & 1;
+
+  const auto t1 = std::chrono::steady_clock::now();
+  verifyCandidates(keyframe, &out);
+  out.stats.verify_ms = msSince(t1);
+
+  slot_of_.emplace(keyframe.id, keyframes_.size());
+  summaries_.push_back(summary);
+  keyframes_.push_back(std::move(keyframe));
+  for (const LoopEdge& e : out.edges) accepted_.add(e);
+  out.stats.total_ms = msSince(t0);
+  accumulate(out.stats);
+  return out;
+}
+
+void LoopDetector::accumulate(const LoopStats& s) {
+  for (int b = 0; b < kCandidateSourceCount; ++b)
+    totals_.candidates_by_source[b] += s.candidates_by_source[b];
+  for (int r = 0; r < kLoopRejectionCount; ++r) totals_.rejected_by_reason[r] += s.rejected_by_reason[r];
+  totals_.candidates += s.candidates;
+  totals_.verified += s.verified;
+  totals_.retrieval_ms += s.retrieval_ms;
+  totals_.verify_ms += s.verify_ms;
+  totals_.total_ms += s.total_ms;
+}
+
+}  // namespace rgbdmap
