@@ -60,8 +60,8 @@ void appendSynthRobot(const SynthGraphConfig& c, SynthGraph* s) {
       s->graph.addNode(id, c.robot, T_true);
       continue;
     }
-    const SE3 T_prev_cur =
-        perturb(circlePose(c, k - 1).inverse() * T_true, c.odom_sigma_t, c.odom_sigma_r, &rng);
+    const SE3 T_prev_cur = perturb(circlePose(c, k - 1).inverse() * T_true, c.noise_scale * c.odom_sigma_t,
+                                   c.noise_scale * c.odom_sigma_r, &rng);
     T_map_chain = T_map_chain * T_prev_cur;
     s->graph.addNode(id, c.robot, c.initial_from_odometry ? T_map_chain : T_true);
     addEdge(s, id - 1, id, T_prev_cur, odom_info, EdgeKind::kOdometry);
@@ -71,7 +71,8 @@ void appendSynthRobot(const SynthGraphConfig& c, SynthGraph* s) {
     const SE3 T_true = s->T_map_kf_true[base + j].inverse() * s->T_map_kf_true[base + k];
     s->loop_edge_ids.push_back(s->next_edge_id);
     addEdge(s, c.first_node_id + j, c.first_node_id + k,
-            perturb(T_true, c.loop_sigma_t, c.loop_sigma_r, &rng), loop_info, EdgeKind::kLoop);
+            perturb(T_true, c.noise_scale * c.loop_sigma_t, c.noise_scale * c.loop_sigma_r, &rng), loop_info,
+            EdgeKind::kLoop);
   }
   std::uniform_int_distribution<int> pick(0, c.keyframes - 1);
   for (int f = 0; f < c.false_loops;) {

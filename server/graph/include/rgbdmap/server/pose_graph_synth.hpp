@@ -20,8 +20,9 @@ struct SynthGraphConfig {
   SE3 T_map_start = SE3::Identity();                 ///< ground-truth pose of the circle's frame in the map
   double odom_sigma_t = 0.01, odom_sigma_r = 0.004;  ///< per edge, metres and radians (1 sigma per axis)
   double loop_sigma_t = 0.01, loop_sigma_r = 0.004;
-  int loop_every = 5;   ///< a loop edge from every n-th keyframe after the first lap to the same place
-  int false_loops = 0;  ///< extra wrong loops between far-apart keyframes claiming they coincide
+  double noise_scale = 1.0;  ///< scales the noise drawn (0: exact edges); the information keeps the sigmas
+  int loop_every = 5;        ///< a loop edge from every n-th keyframe after the first lap to the same place
+  int false_loops = 0;       ///< extra wrong loops between far-apart keyframes claiming they coincide
   bool initial_from_odometry = true;  ///< chain noisy odometry (else: start at ground truth)
   uint32_t seed = 1;
 };
