@@ -1,11 +1,14 @@
 // Residual, Jacobian and API checks of the pose graph (rgbdmap_pose_graph).
 #include <ceres/autodiff_cost_function.h>
+#include <ceres/manifold.h>
+#include <ceres/product_manifold.h>
 #include <gtest/gtest.h>
 
 #include <cmath>
 #include <random>
 
 #include "rgbdmap/server/pose_graph.hpp"
+#include "rgbdmap/server/pose_graph_cost.hpp"
 #include "rgbdmap/server/pose_graph_residual.hpp"
 
 namespace rgbdmap {
@@ -95,6 +98,61 @@ TEST(PoseGraphResidual, AutodiffJacobianMatchesNumeric) {
         EXPECT_LT((J[block].col(i) - numeric).norm(), 1e-6 * (1.0 + numeric.norm()))
             << "trial " << trial << " block " << block << " param " << i;
       }
+    }
+  }
+}
+
+using Manifold = ceres::ProductManifold<ceres::EigenQuaternionManifold, ceres::EuclideanManifold<3>>;
+using Jac67 = Eigen::Matrix<double, 6, 7, Eigen::RowMajor>;
+using Jac76 = Eigen::Matrix<double, 7, 6, Eigen::RowMajor>;
+
+// The analytic cost against numeric differences on the manifold (x [+] delta) and against autodiff, both in
+// the tangent space the solver uses.
+TEST(PoseGraphResidual, AnalyticJacobianMatchesNumericAndAutodiffOnManifold) {
+  std::mt19937 rng(7);
+  const Manifold manifold;
+  for (int trial = 0; trial < 20; ++trial) {
+    const SE3 T_map_from = randomPose(&rng, 2.0, 0.8), T_from_to = randomPose(&rng, 2.0, 0.8);
+    const double spread = trial % 2 ? 0.6 : 1e-3;
+    const SE3 T_map_to = T_map_from * T_from_to * randomPose(&rng, spread, spread);
+    Mat6 sqrt_info;
+    ASSERT_TRUE(sqrtInformation(randomInformation(&rng), &sqrt_info));
+    const RelativePoseCost analytic(T_from_to, sqrt_info);
+    const ceres::AutoDiffCostFunction<RelativePoseResidual, 6, 7, 7> autodiff(
+        new RelativePoseResidual(T_from_to, sqrt_info));
+    double p[2][7];
+    packPose(T_map_from, p[0]);
+    packPose(T_map_to, p[1]);
+    const double* params[2] = {p[0], p[1]};
+    Jac67 Ja[2], Jd[2];
+    double* ja[2] = {Ja[0].data(), Ja[1].data()};
+    double* jd[2] = {Jd[0].data(), Jd[1].data()};
+    Vec6 ra, rd;
+    ASSERT_TRUE(analytic.Evaluate(params, ra.data(), ja));
+    ASSERT_TRUE(autodiff.Evaluate(params, rd.data(), jd));
+    EXPECT_LT((ra - rd).norm(), 1e-9);
+    for (int b = 0; b < 2; ++b) {
+      Jac76 plus_jacobian;
+      manifold.PlusJacobian(p[b], plus_jacobian.data());
+      const Mat6 J_analytic = Ja[b] * plus_jacobian, J_autodiff = Jd[b] * plus_jacobian;
+      Mat6 J_numeric;
+      for (int i = 0; i < 6; ++i) {
+        const double h = 1e-6;
+        Vec6 delta = Vec6::Zero();
+        double moved[2][7];
+        Vec6 r_plus, r_minus;
+        for (double sign : {1.0, -1.0}) {
+          std::copy(&p[0][0], &p[0][0] + 14, &moved[0][0]);
+          delta[i] = sign * h;
+          manifold.Plus(p[b], delta.data(), moved[b]);
+          const double* mp[2] = {moved[0], moved[1]};
+          analytic.Evaluate(mp, sign > 0 ? r_plus.data() : r_minus.data(), nullptr);
+        }
+        J_numeric.col(i) = (r_plus - r_minus) / (2 * h);
+      }
+      EXPECT_LT((J_analytic - J_numeric).norm(), 1e-6 * (1.0 + J_numeric.norm())) << trial << " block " << b;
+      EXPECT_LT((J_analytic - J_autodiff).norm(), 1e-9 * (1.0 + J_autodiff.norm()))
+          << trial << " block " << b;
     }
   }
 }

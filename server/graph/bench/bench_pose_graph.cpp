@@ -54,6 +54,11 @@ void BM_PoseGraph1000Kf200LoopsNoConsistencyCheck(benchmark::State& state) {
   config.max_outlier_rounds = 0;
   run(state, config, 0);
 }
+void BM_PoseGraph1000Kf200LoopsAutodiff(benchmark::State& state) {
+  rgbdmap::PoseGraphConfig config;
+  config.analytic_jacobians = false;
+  run(state, config, 0);
+}
 void BM_PoseGraph1000Kf200Loops20False(benchmark::State& state) {
   run(state, rgbdmap::PoseGraphConfig{}, 20);
 }
@@ -62,5 +67,6 @@ void BM_PoseGraph1000Kf200Loops20False(benchmark::State& state) {
 
 BENCHMARK(BM_PoseGraph1000Kf200Loops)->Unit(benchmark::kMillisecond)->MinTime(2.0);
 BENCHMARK(BM_PoseGraph1000Kf200LoopsNoConsistencyCheck)->Unit(benchmark::kMillisecond)->MinTime(2.0);
+BENCHMARK(BM_PoseGraph1000Kf200LoopsAutodiff)->Unit(benchmark::kMillisecond)->MinTime(2.0);
 BENCHMARK(BM_PoseGraph1000Kf200Loops20False)->Unit(benchmark::kMillisecond)->MinTime(2.0);
 BENCHMARK_MAIN();

@@ -5,6 +5,7 @@
 #include <numeric>
 
 #include "graph_internal.hpp"
+#include "rgbdmap/server/pose_graph_cost.hpp"
 #include "rgbdmap/server/pose_graph_residual.hpp"
 
 namespace rgbdmap {
@@ -119,8 +120,13 @@ Result<SolveOutcome> solveOnce(const std::vector<PoseGraphEdge>& edges, const st
 
   for (size_t k = 0; k < edges.size(); ++k) {
     if (!enabled[k]) continue;
-    auto* cost = new ceres::AutoDiffCostFunction<RelativePoseResidual, 6, 7, 7>(
-        new RelativePoseResidual(edges[k].T_from_to, sqrt_info[k]));
+    ceres::CostFunction* cost = nullptr;
+    if (config.analytic_jacobians) {
+      cost = new RelativePoseCost(edges[k].T_from_to, sqrt_info[k]);
+    } else {
+      cost = new ceres::AutoDiffCostFunction<RelativePoseResidual, 6, 7, 7>(
+          new RelativePoseResidual(edges[k].T_from_to, sqrt_info[k]));
+    }
     ceres::LossFunction* loss = edges[k].kind == EdgeKind::kOdometry ? nullptr : loop_loss.get();
     problem.AddResidualBlock(cost, loss, (*poses)[ends[k].from].data(), (*poses)[ends[k].to].data());
   }

@@ -30,6 +30,8 @@ struct PoseGraphConfig {
   int max_outlier_rounds = 3;
   /// Ceres threads; the service runs the optimiser on one core.
   int num_threads = 1;
+  /// Analytic Jacobians (RelativePoseCost); false: Ceres autodiff of RelativePoseResidual (same residual).
+  bool analytic_jacobians = true;
   /// A submap (nodes joined by odometry and same-robot loops) newly connected to an anchored one by
   /// inter-robot edges is moved rigidly onto it first if that moves it by more than these.
   double merge_align_translation_m = 0.3;
