@@ -1,7 +1,8 @@
 // bench_pose_graph: optimisation time of a 1,000-keyframe graph with 200 loop edges on one core.
 // The trajectory drives 5 laps of a 200-keyframe circle (radius 8 m, height and pitch waves); odometry has
-// 1 cm / 0.25 deg noise per edge and initialises the poses (drift of metres after five laps); every 4th
-// keyframe after the first lap closes a loop to the same place one lap earlier. Target: <= 150 ms.
+// 1 cm / 0.23 deg (0.004 rad) noise per axis and edge and initialises the poses (drift of metres after five
+// laps); every 4th keyframe after the first lap closes a loop to the same place one lap earlier. Target: <=
+// 150 ms.
 //   taskset -c 1 build/bin/bench_pose_graph
 #include <benchmark/benchmark.h>
 
