@@ -36,6 +36,12 @@ Result<SolveOutcome> solveOnce(const std::vector<PoseGraphEdge>& edges, const st
 /// Whitened chi2 (no robust loss) of one edge at the given poses.
 double edgeChi2(const PoseGraphEdge& edge, const Mat6& sqrt_info, const Pose7& from, const Pose7& to);
 
+/// Consistency check: the enabled mask after testing every loop and inter-robot edge (disabled ones
+/// included, so that they can come back) against the chi2 threshold; odometry edges keep their flag.
+std::vector<bool> consistentEdges(const std::vector<PoseGraphEdge>& edges, const std::vector<Mat6>& sqrt_info,
+                                  const std::vector<EdgeEnds>& ends, const std::vector<Pose7>& poses,
+                                  const std::vector<bool>& enabled, double outlier_chi2);
+
 /// Moves submaps (joined by enabled non-inter-robot edges) that contain no fixed node rigidly onto the
 /// anchored ones they connect to by enabled inter-robot edges, using the correction most edges agree on.
 /// Returns the number of submaps moved.

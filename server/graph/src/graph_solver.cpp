@@ -69,6 +69,17 @@ double edgeChi2(const PoseGraphEdge& edge, const Mat6& sqrt_info, const Pose7& f
   return r.squaredNorm();
 }
 
+std::vector<bool> consistentEdges(const std::vector<PoseGraphEdge>& edges, const std::vector<Mat6>& sqrt_info,
+                                  const std::vector<EdgeEnds>& ends, const std::vector<Pose7>& poses,
+                                  const std::vector<bool>& enabled, double outlier_chi2) {
+  std::vector<bool> next = enabled;
+  for (size_t k = 0; k < edges.size(); ++k) {
+    if (edges[k].kind == EdgeKind::kOdometry) continue;
+    next[k] = edgeChi2(edges[k], sqrt_info[k], poses[ends[k].from], poses[ends[k].to]) <= outlier_chi2;
+  }
+  return next;
+}
+
 namespace {
 
 class CancelCallback : public ceres::IterationCallback {
@@ -99,6 +110,12 @@ ceres::Solver::Options solverOptions(const PoseGraphConfig& config) {
   return options;
 }
 
+ceres::CostFunction* makeCost(const PoseGraphEdge& edge, const Mat6& sqrt_info, bool analytic) {
+  if (analytic) return new RelativePoseCost(edge.T_from_to, sqrt_info);
+  return new ceres::AutoDiffCostFunction<RelativePoseResidual, 6, 7, 7>(
+      new RelativePoseResidual(edge.T_from_to, sqrt_info));
+}
+
 }  // namespace
 
 Result<SolveOutcome> solveOnce(const std::vector<PoseGraphEdge>& edges, const std::vector<Mat6>& sqrt_info,
@@ -115,20 +132,12 @@ Result<SolveOutcome> solveOnce(const std::vector<PoseGraphEdge>& edges, const st
   ceres::Problem::Options problem_options;
   problem_options.loss_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
   problem_options.manifold_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
-  problem_options.enable_fast_removal = false;
   ceres::Problem problem(problem_options);
-
   for (size_t k = 0; k < edges.size(); ++k) {
     if (!enabled[k]) continue;
-    ceres::CostFunction* cost = nullptr;
-    if (config.analytic_jacobians) {
-      cost = new RelativePoseCost(edges[k].T_from_to, sqrt_info[k]);
-    } else {
-      cost = new ceres::AutoDiffCostFunction<RelativePoseResidual, 6, 7, 7>(
-          new RelativePoseResidual(edges[k].T_from_to, sqrt_info[k]));
-    }
     ceres::LossFunction* loss = edges[k].kind == EdgeKind::kOdometry ? nullptr : loop_loss.get();
-    problem.AddResidualBlock(cost, loss, (*poses)[ends[k].from].data(), (*poses)[ends[k].to].data());
+    problem.AddResidualBlock(makeCost(edges[k], sqrt_info[k], config.analytic_jacobians), loss,
+                             (*poses)[ends[k].from].data(), (*poses)[ends[k].to].data());
   }
   for (size_t i = 0; i < poses->size(); ++i) {
     double* block = (*poses)[i].data();

@@ -151,14 +151,8 @@ Result<OptimizeReport> PoseGraph::optimize(const PoseGraphConfig& config, const 
     report.final_cost = solved->final_cost;
     report.cancelled = solved->cancelled;
     if (report.cancelled || round == config.max_outlier_rounds) break;
-    // Consistency check over every loop edge, disabled ones included so that they can come back.
-    std::vector<bool> next = enabled;
-    for (size_t k = 0; k < edges_.size(); ++k) {
-      if (!isLoop(edges_[k])) continue;
-      const double chi2 =
-          graph_detail::edgeChi2(edges_[k], sqrt_information_[k], params[ends[k].from], params[ends[k].to]);
-      next[k] = chi2 <= config.outlier_chi2;
-    }
+    const std::vector<bool> next =
+        graph_detail::consistentEdges(edges_, sqrt_information_, ends, params, enabled, config.outlier_chi2);
     if (next == enabled) break;
     enabled = next;
   }
