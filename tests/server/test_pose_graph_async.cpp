@@ -98,6 +98,43 @@ TEST(PoseGraphOptimizer, StopIsPrompt) {
   EXPECT_FALSE(optimizer.waitForRevision(1, 0.1));
 }
 
+// Ingestion goes on while the snapshot is solved; the result is then applied to the grown graph.
+TEST(PoseGraphOptimizer, ResultAppliesToAGraphThatGrewMeanwhile) {
+  SynthGraphConfig c;
+  c.keyframes = 300;
+  c.keyframes_per_lap = 100;
+  SynthGraph full = makeSynthGraph(c);
+  PoseGraph live;  // the first 250 keyframes, as the server had them at submit time
+  for (const auto& n : full.graph.nodes()) {
+    if (n.id < 250) {
+      ASSERT_TRUE(live.addNode(n.id, n.robot, n.T_map_kf).ok());
+    }
+  }
+  for (const auto& e : full.graph.edges()) {
+    if (e.from < 250 && e.to < 250) {
+      ASSERT_TRUE(live.addEdge(e).ok());
+    }
+  }
+  ASSERT_TRUE(live.setFixed(0).ok());
+  PoseGraphOptimizer optimizer(PoseGraphConfig{});
+  const uint64_t revision = optimizer.submit(live);
+  for (const auto& n : full.graph.nodes()) {  // keyframes keep arriving
+    if (n.id >= 250) {
+      ASSERT_TRUE(live.addNode(n.id, n.robot, n.T_map_kf).ok());
+    }
+  }
+  ASSERT_TRUE(optimizer.waitForRevision(revision, 60.0));
+  const auto result = optimizer.latestResult();
+  const SE3 T_old_250 = *live.pose(250), T_old_249 = *live.pose(249);
+  EXPECT_EQ(live.applyOptimized(result->T_map_kf, result->disabled_edges), 50);
+  // The new keyframe keeps its odometry relative to the last optimised one.
+  const SE3 rel_before = T_old_249.inverse() * T_old_250,
+            rel_after = live.pose(249)->inverse() * *live.pose(250);
+  EXPECT_TRUE(rel_after.isApprox(rel_before, 1e-9));
+  EXPECT_TRUE(live.pose(100)->isApprox(result->T_map_kf.at(100), 1e-12));
+  EXPECT_LT(translationRmse(live, full), 0.5 * translationRmse(full.graph, full));
+}
+
 TEST(PoseGraphOptimizer, CancelledOptimizeKeepsPoses) {
   SynthGraph synth = bigGraph(400);
   const auto before = synth.graph.poses();

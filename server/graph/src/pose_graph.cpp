@@ -82,6 +82,28 @@ std::map<int64_t, SE3> PoseGraph::poses() const {
   return out;
 }
 
+int PoseGraph::applyOptimized(const std::map<int64_t, SE3>& T_map_kf,
+                              const std::vector<int64_t>& disabled_edge_ids) {
+  std::unordered_map<int, SE3> correction_of_robot;  // T_map_new * T_map_old^-1 of the robot's latest node
+  int corrected = 0;
+  for (auto& node : nodes_) {
+    const auto it = T_map_kf.find(node.id);
+    if (it != T_map_kf.end()) {
+      correction_of_robot[node.robot] = it->second * node.T_map_kf.inverse();
+      node.T_map_kf = it->second;
+    } else if (const auto c = correction_of_robot.find(node.robot); c != correction_of_robot.end()) {
+      node.T_map_kf = se3::normalized(c->second * node.T_map_kf);
+      ++corrected;
+    }
+  }
+  disabled_edges_.clear();
+  for (int64_t id : disabled_edge_ids) {
+    if (edge_index_.count(id)) disabled_edges_.push_back(id);
+  }
+  std::sort(disabled_edges_.begin(), disabled_edges_.end());
+  return corrected;
+}
+
 namespace {
 std::vector<EdgeEnds> resolveEnds(const std::vector<PoseGraphEdge>& edges,
                                   const std::unordered_map<int64_t, size_t>& node_index) {

@@ -89,6 +89,12 @@ class PoseGraph {
   /// held during the solve. `cancel` (optional) aborts the running solve when set; poses are then kept.
   Result<OptimizeReport> optimize(const PoseGraphConfig& config, const std::atomic<bool>* cancel = nullptr);
 
+  /// Takes an optimised solution of an earlier snapshot of this graph (from PoseGraphOptimizer): nodes in
+  /// `T_map_kf` get those poses; nodes added since follow the correction of the latest earlier node of their
+  /// robot; `disabled_edge_ids` becomes the disabled set (unknown ids are ignored). Returns the number of
+  /// nodes that were moved by a correction.
+  int applyOptimized(const std::map<int64_t, SE3>& T_map_kf, const std::vector<int64_t>& disabled_edge_ids);
+
   std::optional<SE3> pose(int64_t id) const;
   std::map<int64_t, SE3> poses() const;
   /// Loop edges disabled by the last optimize(), ascending ids.
