@@ -96,11 +96,9 @@ class CancelCallback : public ceres::IterationCallback {
 ceres::Solver::Options solverOptions(const PoseGraphConfig& config) {
   ceres::Solver::Options options;
   options.linear_solver_type = ceres::SPARSE_NORMAL_CHOLESKY;
-#ifndef CERES_NO_SUITESPARSE
-  options.sparse_linear_algebra_library_type = ceres::SUITE_SPARSE;
-#else
+  // Eigen's sparse Cholesky: as fast as SuiteSparse's CHOLMOD on these graphs (52 vs 55 ms per solve), and
+  // single-threaded, whereas Debian's CHOLMOD starts OpenMP threads of its own.
   options.sparse_linear_algebra_library_type = ceres::EIGEN_SPARSE;
-#endif
   options.max_num_iterations = config.max_iterations;
   options.max_solver_time_in_seconds = config.max_solver_time_s;
   options.function_tolerance = config.function_tolerance;
