@@ -2,6 +2,7 @@
 // requests are coalesced and stop() is prompt (rgbdmap_pose_graph).
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <chrono>
 #include <mutex>
 #include <thread>
@@ -66,15 +67,18 @@ TEST(PoseGraphOptimizer, SubmitReturnsWhileASolveRuns) {
   PoseGraphOptimizer optimizer(PoseGraphConfig{});
   const SynthGraph synth = bigGraph(3000);
   optimizer.submit(synth.graph);
-  double slowest_ms = 0.0;
-  for (int i = 0; i < 20; ++i) {
+  std::vector<double> submit_ms;
+  for (int i = 0; i < 21; ++i) {
     PoseGraph copy = synth.graph;  // the copy is the caller's cost, outside the timing
     const auto t0 = Clock::now();
     optimizer.submit(std::move(copy));
-    slowest_ms = std::max(slowest_ms, msSince(t0));
+    submit_ms.push_back(msSince(t0));
   }
-  ::testing::Test::RecordProperty("slowest_submit_ms", std::to_string(slowest_ms));
-  EXPECT_LT(slowest_ms, 50.0);
+  // The median, so that a preemption on a loaded machine does not count; a solve takes hundreds of ms.
+  std::sort(submit_ms.begin(), submit_ms.end());
+  ::testing::Test::RecordProperty("median_submit_ms", std::to_string(submit_ms[10]));
+  ::testing::Test::RecordProperty("slowest_submit_ms", std::to_string(submit_ms.back()));
+  EXPECT_LT(submit_ms[10], 10.0);
 }
 
 // stop() cancels the running solve between iterations instead of waiting for it to finish.
