@@ -1,0 +1,122 @@
+#pragma once
+// Multi-robot keyframe pose graph on SE(3), optimised with Ceres. Plain structs in, plain structs out:
+// no transport, no files. Nodes are keyframes (T_map_kf), edges relative poses with an information matrix.
+#include <atomic>
+#include <cstdint>
+#include <map>
+#include <optional>
+#include <unordered_map>
+#include <vector>
+
+#include "rgbdmap/common/result.hpp"
+#include "rgbdmap/common/se3.hpp"
+
+namespace rgbdmap {
+
+struct PoseGraphConfig {
+  /// Robust loss on loop and inter-robot edges, scale in sigmas of the whitened residual norm.
+  double loop_loss_scale = 3.0;
+  /// Cauchy (true) or Huber (false) on loop edges. Odometry edges always use the plain squared loss.
+  bool use_cauchy = true;
+  /// Levenberg-Marquardt iterations per solve (one solve per outlier round).
+  int max_iterations = 50;
+  /// Wall-clock limit per solve.
+  double max_solver_time_s = 2.0;
+  /// Relative cost change at which a solve stops.
+  double function_tolerance = 1e-6;
+  /// Whitened chi2 (6 dof) above which a loop edge is disabled after a solve; 22.46 = 99.9% quantile.
+  double outlier_chi2 = 22.46;
+  /// Re-solves after disabling (or re-admitting) loop edges; 0 turns the consistency check off.
+  int max_outlier_rounds = 3;
+  /// Ceres threads; the service runs the optimiser on one core.
+  int num_threads = 1;
+  /// Analytic Jacobians (RelativePoseCost); false: Ceres autodiff of RelativePoseResidual (same residual).
+  bool analytic_jacobians = true;
+  /// A submap (nodes joined by odometry and same-robot loops) newly connected to an anchored one by
+  /// inter-robot edges is moved rigidly onto it first if that moves it by more than these.
+  double merge_align_translation_m = 0.3;
+  double merge_align_rotation_rad = 0.05;
+  /// Two inter-robot edges agree on the alignment when their implied corrections differ by less than these.
+  double merge_consensus_translation_m = 0.5;
+  double merge_consensus_rotation_rad = 0.1;
+};
+
+enum class EdgeKind { kOdometry, kLoop, kInterRobot };
+const char* toString(EdgeKind kind);
+
+struct PoseGraphNode {
+  int64_t id = 0;  ///< keyframe global id
+  int robot = 0;
+  SE3 T_map_kf = SE3::Identity();
+  bool fixed = false;
+};
+
+struct PoseGraphEdge {
+  int64_t id = 0;
+  int64_t from = 0, to = 0;
+  SE3 T_from_to = SE3::Identity();
+  /// Information of T_from_to for a left perturbation, tangent order (rho, omega), as Keyframe::information.
+  Mat6 information = Mat6::Identity();
+  EdgeKind kind = EdgeKind::kOdometry;
+};
+
+struct OptimizeReport {
+  int iterations = 0;  ///< LM iterations summed over all solves
+  int solves = 0;
+  double initial_cost = 0.0;  ///< Ceres cost (0.5 * robust sum) before the first solve
+  double final_cost = 0.0;    ///< after the last solve
+  double time_ms = 0.0;
+  int loops_total = 0;  ///< loop + inter-robot edges
+  int loops_rejected = 0;
+  std::vector<int64_t> rejected_edge_ids;
+  int merged_submaps = 0;  ///< submaps moved onto an anchored one before solving
+  bool cancelled = false;
+};
+
+class PoseGraph {
+ public:
+  /// Adds a keyframe; fails on a duplicate id or an invalid pose.
+  Status addNode(int64_t id, int robot, const SE3& T_map_kf);
+  /// Adds an edge; fails on a duplicate id, unknown nodes, a self-edge, an invalid pose or an information
+  /// matrix that is not symmetric positive definite.
+  Status addEdge(const PoseGraphEdge& edge);
+  /// Holds a node in place during optimisation (the first keyframe of the first robot, anchors).
+  Status setFixed(int64_t id, bool fixed = true);
+  Status setPose(int64_t id, const SE3& T_map_kf);
+
+  /// Optimises all nodes. Loop edges whose whitened chi2 stays above outlier_chi2 are disabled (and
+  /// re-admitted once they fit again). Each connected component without a fixed node has its first node
+  /// held during the solve. `cancel` (optional) aborts the running solve when set; poses are then kept.
+  Result<OptimizeReport> optimize(const PoseGraphConfig& config, const std::atomic<bool>* cancel = nullptr);
+
+  /// Takes an optimised solution of an earlier snapshot of this graph (from PoseGraphOptimizer): nodes in
+  /// `T_map_kf` get those poses; nodes added since follow the correction of the latest earlier node of their
+  /// robot; `disabled_edge_ids` becomes the disabled set (unknown ids are ignored). Returns the number of
+  /// nodes that were moved by a correction.
+  int applyOptimized(const std::map<int64_t, SE3>& T_map_kf, const std::vector<int64_t>& disabled_edge_ids);
+
+  std::optional<SE3> pose(int64_t id) const;
+  std::map<int64_t, SE3> poses() const;
+  /// Loop edges disabled by the last optimize(), ascending ids.
+  const std::vector<int64_t>& disabledEdges() const { return disabled_edges_; }
+  /// Node ids grouped by connectivity over enabled edges, each group in insertion order; groups ordered by
+  /// their first node. Two robots' nodes in one group means their maps are merged.
+  std::vector<std::vector<int64_t>> components() const;
+
+  const std::vector<PoseGraphNode>& nodes() const { return nodes_; }
+  const std::vector<PoseGraphEdge>& edges() const { return edges_; }
+
+ private:
+  std::vector<bool> enabledMask() const;
+  /// Fixed flags used by the solve: the caller's plus each unfixed component's first node.
+  std::vector<bool> gaugeFixed(const std::vector<bool>& enabled) const;
+
+  std::vector<PoseGraphNode> nodes_;
+  std::vector<PoseGraphEdge> edges_;
+  std::vector<Mat6> sqrt_information_;  ///< per edge, in the residual's frame
+  std::unordered_map<int64_t, size_t> node_index_;
+  std::unordered_map<int64_t, size_t> edge_index_;
+  std::vector<int64_t> disabled_edges_;
+};
+
+}  // namespace rgbdmap

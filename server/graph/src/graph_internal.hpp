@@ -1,0 +1,52 @@
+#pragma once
+// Internals of PoseGraph shared by its source files: connectivity, the Ceres solve, submap alignment.
+#include <array>
+#include <atomic>
+#include <cstddef>
+#include <vector>
+
+#include "rgbdmap/common/result.hpp"
+#include "rgbdmap/server/pose_graph.hpp"
+
+namespace rgbdmap::graph_detail {
+
+using Pose7 = std::array<double, 7>;
+
+/// Node indices of each edge, resolved once per optimisation.
+struct EdgeEnds {
+  size_t from = 0, to = 0;
+};
+
+/// Component label (smallest member index) per node over the edges where mask is true.
+std::vector<size_t> componentLabels(size_t num_nodes, const std::vector<EdgeEnds>& ends,
+                                    const std::vector<bool>& mask);
+
+struct SolveOutcome {
+  int iterations = 0;
+  double initial_cost = 0.0, final_cost = 0.0;
+  bool cancelled = false;
+};
+
+/// One Levenberg-Marquardt solve over the enabled edges; nodes with fixed[i] are held constant.
+Result<SolveOutcome> solveOnce(const std::vector<PoseGraphEdge>& edges, const std::vector<Mat6>& sqrt_info,
+                               const std::vector<EdgeEnds>& ends, const std::vector<bool>& enabled,
+                               const std::vector<bool>& fixed, const PoseGraphConfig& config,
+                               const std::atomic<bool>* cancel, std::vector<Pose7>* poses);
+
+/// Whitened chi2 (no robust loss) of one edge at the given poses.
+double edgeChi2(const PoseGraphEdge& edge, const Mat6& sqrt_info, const Pose7& from, const Pose7& to);
+
+/// Consistency check: the enabled mask after testing every loop and inter-robot edge (disabled ones
+/// included, so that they can come back) against the chi2 threshold; odometry edges keep their flag.
+std::vector<bool> consistentEdges(const std::vector<PoseGraphEdge>& edges, const std::vector<Mat6>& sqrt_info,
+                                  const std::vector<EdgeEnds>& ends, const std::vector<Pose7>& poses,
+                                  const std::vector<bool>& enabled, double outlier_chi2);
+
+/// Moves submaps (joined by enabled non-inter-robot edges) that contain no fixed node rigidly onto the
+/// anchored ones they connect to by enabled inter-robot edges, using the correction most edges agree on.
+/// Returns the number of submaps moved.
+int alignSubmaps(const std::vector<PoseGraphEdge>& edges, const std::vector<EdgeEnds>& ends,
+                 const std::vector<bool>& enabled, const std::vector<bool>& fixed,
+                 const PoseGraphConfig& config, std::vector<SE3>* T_map_kf);
+
+}  // namespace rgbdmap::graph_detail

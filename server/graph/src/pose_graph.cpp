@@ -1,0 +1,195 @@
+#include "rgbdmap/server/pose_graph.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <string>
+
+#include "graph_internal.hpp"
+#include "rgbdmap/server/pose_graph_residual.hpp"
+
+namespace rgbdmap {
+
+using graph_detail::EdgeEnds;
+using graph_detail::Pose7;
+
+const char* toString(EdgeKind kind) {
+  switch (kind) {
+    case EdgeKind::kOdometry:
+      return "odometry";
+    case EdgeKind::kLoop:
+      return "loop";
+    case EdgeKind::kInterRobot:
+      return "inter_robot";
+  }
+  return "unknown";
+}
+
+Status PoseGraph::addNode(int64_t id, int robot, const SE3& T_map_kf) {
+  if (node_index_.count(id)) return Status::failure("duplicate node id " + std::to_string(id));
+  if (!se3::isValid(T_map_kf, 1e-4)) return Status::failure("invalid pose for node " + std::to_string(id));
+  node_index_[id] = nodes_.size();
+  nodes_.push_back({id, robot, se3::normalized(T_map_kf), false});
+  return Status::success();
+}
+
+Status PoseGraph::addEdge(const PoseGraphEdge& edge) {
+  const std::string name = "edge " + std::to_string(edge.id);
+  if (edge_index_.count(edge.id)) return Status::failure("duplicate " + name);
+  if (!node_index_.count(edge.from) || !node_index_.count(edge.to)) {
+    return Status::failure(name + " refers to an unknown node");
+  }
+  if (edge.from == edge.to) return Status::failure(name + " connects a node to itself");
+  if (!se3::isValid(edge.T_from_to, 1e-4)) return Status::failure(name + " has an invalid pose");
+  const Mat6& info = edge.information;
+  if (!info.allFinite() || !info.isApprox(info.transpose(), 1e-9)) {
+    return Status::failure(name + " has a non-finite or asymmetric information matrix");
+  }
+  Mat6 sqrt_info;
+  if (!sqrtInformation(residualInformation(edge.T_from_to, info), &sqrt_info)) {
+    return Status::failure(name + " has an information matrix that is not positive definite");
+  }
+  edge_index_[edge.id] = edges_.size();
+  edges_.push_back(edge);
+  edges_.back().T_from_to = se3::normalized(edge.T_from_to);
+  sqrt_information_.push_back(sqrt_info);
+  return Status::success();
+}
+
+Status PoseGraph::setFixed(int64_t id, bool fixed) {
+  const auto it = node_index_.find(id);
+  if (it == node_index_.end()) return Status::failure("unknown node " + std::to_string(id));
+  nodes_[it->second].fixed = fixed;
+  return Status::success();
+}
+
+Status PoseGraph::setPose(int64_t id, const SE3& T_map_kf) {
+  const auto it = node_index_.find(id);
+  if (it == node_index_.end()) return Status::failure("unknown node " + std::to_string(id));
+  if (!se3::isValid(T_map_kf, 1e-4)) return Status::failure("invalid pose for node " + std::to_string(id));
+  nodes_[it->second].T_map_kf = se3::normalized(T_map_kf);
+  return Status::success();
+}
+
+std::optional<SE3> PoseGraph::pose(int64_t id) const {
+  const auto it = node_index_.find(id);
+  if (it == node_index_.end()) return std::nullopt;
+  return nodes_[it->second].T_map_kf;
+}
+
+std::map<int64_t, SE3> PoseGraph::poses() const {
+  std::map<int64_t, SE3> out;
+  for (const auto& n : nodes_) out.emplace(n.id, n.T_map_kf);
+  return out;
+}
+
+int PoseGraph::applyOptimized(const std::map<int64_t, SE3>& T_map_kf,
+                              const std::vector<int64_t>& disabled_edge_ids) {
+  std::unordered_map<int, SE3> correction_of_robot;  // T_map_new * T_map_old^-1 of the robot's latest node
+  int corrected = 0;
+  for (auto& node : nodes_) {
+    const auto it = T_map_kf.find(node.id);
+    if (it != T_map_kf.end()) {
+      correction_of_robot[node.robot] = it->second * node.T_map_kf.inverse();
+      node.T_map_kf = it->second;
+    } else if (const auto c = correction_of_robot.find(node.robot); c != correction_of_robot.end()) {
+      node.T_map_kf = se3::normalized(c->second * node.T_map_kf);
+      ++corrected;
+    }
+  }
+  disabled_edges_.clear();
+  for (int64_t id : disabled_edge_ids) {
+    if (edge_index_.count(id)) disabled_edges_.push_back(id);
+  }
+  std::sort(disabled_edges_.begin(), disabled_edges_.end());
+  return corrected;
+}
+
+namespace {
+std::vector<EdgeEnds> resolveEnds(const std::vector<PoseGraphEdge>& edges,
+                                  const std::unordered_map<int64_t, size_t>& node_index) {
+  std::vector<EdgeEnds> ends;
+  ends.reserve(edges.size());
+  for (const auto& e : edges) ends.push_back({node_index.at(e.from), node_index.at(e.to)});
+  return ends;
+}
+
+bool isLoop(const PoseGraphEdge& e) { return e.kind != EdgeKind::kOdometry; }
+}  // namespace
+
+std::vector<bool> PoseGraph::enabledMask() const {
+  std::vector<bool> enabled(edges_.size(), true);
+  for (int64_t id : disabled_edges_) enabled[edge_index_.at(id)] = false;
+  return enabled;
+}
+
+std::vector<std::vector<int64_t>> PoseGraph::components() const {
+  const auto labels =
+      graph_detail::componentLabels(nodes_.size(), resolveEnds(edges_, node_index_), enabledMask());
+  std::vector<std::vector<int64_t>> groups;
+  std::unordered_map<size_t, size_t> group_of_label;
+  for (size_t i = 0; i < nodes_.size(); ++i) {
+    const auto [it, inserted] = group_of_label.emplace(labels[i], groups.size());
+    if (inserted) groups.emplace_back();
+    groups[it->second].push_back(nodes_[i].id);
+  }
+  return groups;
+}
+
+std::vector<bool> PoseGraph::gaugeFixed(const std::vector<bool>& enabled) const {
+  const auto labels = graph_detail::componentLabels(nodes_.size(), resolveEnds(edges_, node_index_), enabled);
+  std::vector<bool> fixed(nodes_.size(), false);
+  std::vector<bool> label_has_fixed(nodes_.size(), false);
+  for (size_t i = 0; i < nodes_.size(); ++i) {
+    fixed[i] = nodes_[i].fixed;
+    if (fixed[i]) label_has_fixed[labels[i]] = true;
+  }
+  // The label is the smallest member index, i.e. the component's first-added node.
+  for (size_t i = 0; i < nodes_.size(); ++i) {
+    if (!label_has_fixed[labels[i]]) fixed[labels[i]] = true;
+  }
+  return fixed;
+}
+
+Result<OptimizeReport> PoseGraph::optimize(const PoseGraphConfig& config, const std::atomic<bool>* cancel) {
+  const auto t0 = std::chrono::steady_clock::now();
+  OptimizeReport report;
+  const auto ends = resolveEnds(edges_, node_index_);
+  std::vector<bool> enabled = enabledMask();
+  for (const auto& e : edges_) report.loops_total += isLoop(e) ? 1 : 0;
+
+  std::vector<SE3> T_map_kf;
+  for (const auto& n : nodes_) T_map_kf.push_back(n.T_map_kf);
+  report.merged_submaps =
+      graph_detail::alignSubmaps(edges_, ends, enabled, gaugeFixed(enabled), config, &T_map_kf);
+  std::vector<Pose7> params(nodes_.size());
+  for (size_t i = 0; i < nodes_.size(); ++i) packPose(T_map_kf[i], params[i].data());
+
+  for (int round = 0; round <= std::max(0, config.max_outlier_rounds); ++round) {
+    auto solved = graph_detail::solveOnce(edges_, sqrt_information_, ends, enabled, gaugeFixed(enabled),
+                                          config, cancel, &params);
+    if (!solved.ok()) return Result<OptimizeReport>::failure(solved.error());
+    if (report.solves++ == 0) report.initial_cost = solved->initial_cost;
+    report.iterations += solved->iterations;
+    report.final_cost = solved->final_cost;
+    report.cancelled = solved->cancelled;
+    if (report.cancelled || round == config.max_outlier_rounds) break;
+    const std::vector<bool> next =
+        graph_detail::consistentEdges(edges_, sqrt_information_, ends, params, enabled, config.outlier_chi2);
+    if (next == enabled) break;
+    enabled = next;
+  }
+  if (report.cancelled) return report;  // keep the previous poses and disabled set
+
+  for (size_t i = 0; i < nodes_.size(); ++i) nodes_[i].T_map_kf = unpackPose(params[i].data());
+  disabled_edges_.clear();
+  for (size_t k = 0; k < edges_.size(); ++k) {
+    if (!enabled[k]) disabled_edges_.push_back(edges_[k].id);
+  }
+  std::sort(disabled_edges_.begin(), disabled_edges_.end());
+  report.loops_rejected = static_cast<int>(disabled_edges_.size());
+  report.rejected_edge_ids = disabled_edges_;
+  report.time_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+  return report;
+}
+
+}  // namespace rgbdmap
