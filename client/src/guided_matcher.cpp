@@ -6,21 +6,6 @@
 #include <cstring>
 
 namespace rgbdmap {
-namespace {
-
-int hamming(const uint8_t* a, const uint8_t* b) {
-  int d = 0;
-  for (int i = 0; i < 32; i += 8) {
-    uint64_t x, y;
-    std::memcpy(&x, a + i, 8);
-    std::memcpy(&y, b + i, 8);
-    d += __builtin_popcountll(x ^ y);
-  }
-  return d;
-}
-
-}  // namespace
-
 FeatureGrid::FeatureGrid(const FrameFeatures& features, int width, int height, int cell_px)
     : features_(features),
       cell_(cell_px),
@@ -63,7 +48,7 @@ std::vector<FeatureMatch> matchByProjection(const FrameFeatures& cur, const Feat
     int best = INT_MAX, second = INT_MAX, best_i = -1;
     for (int i : nearby) {
       const int d =
-          hamming(kf.descriptors.ptr<uint8_t>(static_cast<int>(k)), cur.descriptors.ptr<uint8_t>(i));
+          hammingDistance(kf.descriptors.ptr<uint8_t>(static_cast<int>(k)), cur.descriptors.ptr<uint8_t>(i));
       if (d < best) {
         second = best;
         best = d;

@@ -12,6 +12,11 @@ struct Nearest {
   int best = INT_MAX, second = INT_MAX, index = -1;
 };
 
+inline int hamming256(const uint64_t* a, const uint64_t* b) {
+  return __builtin_popcountll(a[0] ^ b[0]) + __builtin_popcountll(a[1] ^ b[1]) +
+         __builtin_popcountll(a[2] ^ b[2]) + __builtin_popcountll(a[3] ^ b[3]);
+}
+
 // Exhaustive search over 256-bit descriptors. Cloned for CPUs with POPCNT (no -march flags needed):
 // the loader picks the fastest variant at start-up.
 #if defined(__x86_64__) && defined(__GNUC__)
@@ -24,9 +29,7 @@ void nearestTwo(const uint64_t* query, const uint64_t* train, int n_query, int n
     Nearest n;
     for (int t = 0; t < n_train; ++t) {
       if (mask && !mask[t]) continue;
-      const uint64_t* b = train + 4 * t;
-      const int d = __builtin_popcountll(a[0] ^ b[0]) + __builtin_popcountll(a[1] ^ b[1]) +
-                    __builtin_popcountll(a[2] ^ b[2]) + __builtin_popcountll(a[3] ^ b[3]);
+      const int d = hamming256(a, train + 4 * t);
       if (d < n.best) {
         n.second = n.best;
         n.best = d;
@@ -47,6 +50,16 @@ std::vector<uint64_t> packDescriptors(const cv::Mat& d) {
 }
 
 }  // namespace
+
+#if defined(__x86_64__) && defined(__GNUC__)
+__attribute__((target_clones("popcnt", "default")))
+#endif
+int hammingDistance(const uint8_t* a, const uint8_t* b) {
+  uint64_t x[4], y[4];
+  std::memcpy(x, a, 32);
+  std::memcpy(y, b, 32);
+  return hamming256(x, y);
+}
 
 std::vector<FeatureMatch> matchDescriptors(const cv::Mat& query, const cv::Mat& train,
                                            const MatcherConfig& config, const std::vector<char>* train_mask) {

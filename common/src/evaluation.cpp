@@ -5,6 +5,7 @@
 #include <cstdio>
 
 #include "rgbdmap/common/logging.hpp"
+#include "rgbdmap/common/text_lines.hpp"
 
 namespace rgbdmap {
 namespace {
@@ -12,13 +13,6 @@ namespace {
 constexpr double kRadToDeg = 180.0 / EIGEN_PI;
 /// Rotation matrices from parsed or composed poses are orthonormal far better than this.
 constexpr double kRotationTolerance = 1e-4;
-
-/// Shortest readable form of a time in seconds, e.g. "0.02", "1".
-std::string seconds(double s) {
-  char buf[32];
-  std::snprintf(buf, sizeof buf, "%g", s);
-  return buf;
-}
 
 /// Rejects non-finite timestamps and non-finite or non-rotation poses, naming the first bad one.
 Status checkTrajectory(const Trajectory& t, const char* name) {
@@ -110,7 +104,7 @@ Result<AteResult> computeAte(const Trajectory& gt, const Trajectory& est, const 
   const MatchedPoses m = matchPoses(gt, est, options.max_dt);
   if (m.t.size() < 3)
     return R::failure("ATE: only " + std::to_string(m.t.size()) +
-                      " estimated poses have ground truth within " + seconds(options.max_dt) +
+                      " estimated poses have ground truth within " + formatShort(options.max_dt) +
                       " s (need 3; do the timestamps refer to the same clock?)");
   std::vector<Vec3> p_est, p_gt;
   for (size_t i = 0; i < m.t.size(); ++i) {
@@ -160,7 +154,7 @@ Result<RpeResult> computeRpe(const Trajectory& gt, const Trajectory& est, const 
     rot.push_back(se3::rotationAngle(E) * kRadToDeg);
   }
   if (trans.empty())
-    return R::failure("RPE: no pair of associated poses " + seconds(options.delta) + " s apart (" +
+    return R::failure("RPE: no pair of associated poses " + formatShort(options.delta) + " s apart (" +
                       std::to_string(m.t.size()) + " estimated poses have ground truth)");
   const ErrorStats t = summarize(trans), a = summarize(rot);
   RpeResult r;

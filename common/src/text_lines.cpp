@@ -1,6 +1,7 @@
 #include "rgbdmap/common/text_lines.hpp"
 
 #include <cmath>
+#include <cstdio>
 #include <cstdlib>
 #include <fstream>
 #include <sstream>
@@ -28,8 +29,15 @@ Result<double> parseFiniteNumber(const std::string& token, const std::string& wh
   const double v = std::strtod(token.c_str(), &end);
   if (token.empty() || end == token.c_str() || *end != '\0')
     return Result<double>::failure((what.empty() ? "" : what + " ") + "'" + token + "' is not a number");
-  if (!std::isfinite(v)) return Result<double>::failure(what.empty() ? "non-finite value" : what + " is not finite");
+  if (!std::isfinite(v))
+    return Result<double>::failure(what.empty() ? "non-finite value" : what + " is not finite");
   return v;
+}
+
+std::string formatShort(double value) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%g", value);
+  return buf;
 }
 
 Result<std::string> readTextFile(const std::string& path) {

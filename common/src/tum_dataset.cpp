@@ -18,12 +18,6 @@ namespace rgbdmap {
 namespace fs = std::filesystem;
 namespace {
 
-std::string seconds(double s) {
-  char buf[32];
-  std::snprintf(buf, sizeof buf, "%g", s);
-  return buf;
-}
-
 std::string where(const std::string& source, int line) { return source + ":" + std::to_string(line) + ": "; }
 
 std::string typeName(const cv::Mat& m) {
@@ -134,9 +128,9 @@ Result<TumDataset> TumDataset::open(const std::string& dir, const DatasetOptions
   ds.depth_count_ = depth->size();
   ds.frames_ = associateImages(*rgb, *depth, options.max_time_diff);
   if (ds.frames_.empty())
-    return R::failure(dir + ": no colour frame has a depth image within " + seconds(options.max_time_diff) +
-                      " s (" + std::to_string(ds.rgb_count_) + " colour, " + std::to_string(ds.depth_count_) +
-                      " depth entries)");
+    return R::failure(dir + ": no colour frame has a depth image within " +
+                      formatShort(options.max_time_diff) + " s (" + std::to_string(ds.rgb_count_) +
+                      " colour, " + std::to_string(ds.depth_count_) + " depth entries)");
   const fs::path gt_path = fs::path(dir) / "groundtruth.txt";
   if (fs::exists(gt_path, ec)) {
     auto gt = readTumTrajectory(gt_path.string());

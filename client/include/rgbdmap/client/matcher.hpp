@@ -1,5 +1,6 @@
 #pragma once
 // Brute-force Hamming matching with the outlier filters of Hu et al. 2017 plus a ratio test.
+#include <cstdint>
 #include <vector>
 
 #include <opencv2/core.hpp>
@@ -13,6 +14,9 @@ struct FeatureMatch {
   int train;     ///< index into the train (reference) frame's features
   int distance;  ///< Hamming distance
 };
+
+/// Hamming distance between two 256-bit ORB descriptors (32 bytes each).
+int hammingDistance(const uint8_t* a, const uint8_t* b);
 
 /// Matches every query descriptor to its nearest train descriptor (exhaustive Hamming search),
 /// keeps a match if (a) it passes the ratio test against the second-nearest, (b) its distance is at most

@@ -20,6 +20,9 @@ std::vector<TextLine> dataLines(const std::string& text);
 /// when `what` is given: "[what ]'x' is not a number", "what is not finite" / "non-finite value".
 Result<double> parseFiniteNumber(const std::string& token, const std::string& what = "");
 
+/// Shortest readable form of a number (printf %g), e.g. "0.02", "1": for messages.
+std::string formatShort(double value);
+
 /// The contents of a file, or "<path>: cannot open".
 Result<std::string> readTextFile(const std::string& path);
 
