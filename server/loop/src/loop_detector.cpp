@@ -159,6 +159,20 @@ Result<LoopDetection> LoopDetector::addKeyframe(LoopKeyframe keyframe) {
   return out;
 }
 
+Status LoopDetector::restoreKeyframe(LoopKeyframe keyframe) {
+  if (slot_of_.count(keyframe.id) != 0) return Status::failure("duplicate keyframe id " + std::to_string(keyframe.id));
+  if (!consistent(keyframe.features))
+    return Status::failure("keyframe " + std::to_string(keyframe.id) + ": inconsistent features");
+  const int robot_sequence = robot_count_[keyframe.robot_id]++;
+  index_.insert(keyframe.id, keyframe.robot_id, robot_sequence, hasher_.histogram(keyframe.features.descriptors));
+  slot_of_.emplace(keyframe.id, keyframes_.size());
+  summaries_.push_back({keyframe.id, keyframe.robot_id, keyframe.map_id, keyframe.T_map_kf});
+  keyframes_.push_back(std::move(keyframe));
+  return Status::success();
+}
+
+void LoopDetector::restoreEdge(const LoopEdge& edge) { accepted_.add(edge); }
+
 void LoopDetector::accumulate(const LoopStats& s) {
   for (int b = 0; b < kCandidateSourceCount; ++b)
     totals_.candidates_by_source[b] += s.candidates_by_source[b];

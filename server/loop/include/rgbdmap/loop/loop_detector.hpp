@@ -65,6 +65,11 @@ class LoopDetector {
   /// Stores the keyframe, finds and verifies its loops. Fails (nothing stored) on a duplicate id or on
   /// features whose arrays disagree in size.
   Result<LoopDetection> addKeyframe(LoopKeyframe keyframe);
+  /// Restart path: stores and indexes a keyframe that was verified before (no candidates, no verification),
+  /// in the original order, so retrieval and recent/random candidates continue as before the restart.
+  Status restoreKeyframe(LoopKeyframe keyframe);
+  /// Restart path: a loop edge accepted before, for the triangle-consistency check of later loops.
+  void restoreEdge(const LoopEdge& edge);
   /// New pose estimate (e.g. after pose-graph optimisation or a map merge). False if the id is unknown.
   bool updatePose(int keyframe_id, int map_id, const SE3& T_map_kf);
 

@@ -1,0 +1,145 @@
+#pragma once
+// The mapping server: robot sessions, durable keyframe storage, loop closure, one global pose graph and the
+// corrections sent back to robots. Transport-agnostic: it is given a Transport (memq://, udpm://, dds://)
+// and a KeyStore, and owns three threads:
+//   - the transport's receive thread runs onMessage(): authenticate, decode, queue (never blocks);
+//   - the ingest worker owns all map state: Hello -> session; Keyframe -> decode + validate images ->
+//     store durably -> acknowledge -> loop detection -> pose graph; optimisation results -> apply ->
+//     PoseCorrections to every robot;
+//   - the PoseGraphOptimizer worker solves snapshots of the graph (ingestion never waits for a solve);
+// plus a status thread that publishes ServerStatus.
+//
+// Identity of a keyframe: (robot, sender session, segment, keyframe id). A robot process that restarts has a
+// new session, so its keyframes form new odometry chains of the same robot, re-anchored by loop closure.
+// Acknowledgement only after the store returned (fdatasync): a killed server loses no acknowledged
+// keyframe. A restart on the same map directory restores robots, keyframes, odometry and loop edges, and
+// re-optimises; keyframes a robot re-sends after the restart are recognised and acknowledged again.
+#include <atomic>
+#include <condition_variable>
+#include <cstdint>
+#include <deque>
+#include <map>
+#include <memory>
+#include <mutex>
+#include <optional>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "rgbdmap/common/result.hpp"
+#include "rgbdmap/common/se3.hpp"
+#include "rgbdmap/loop/loop_detector.hpp"
+#include "rgbdmap/proto/envelope.hpp"
+#include "rgbdmap/proto/messages.hpp"
+#include "rgbdmap/server/map_store.hpp"
+#include "rgbdmap/server/pose_graph.hpp"
+#include "rgbdmap/server/pose_graph_optimizer.hpp"
+#include "rgbdmap/transport/transport.hpp"
+
+namespace rgbdmap {
+
+struct MapServerConfig {
+  std::string map_dir = "map";  ///< durable keyframes, loop edges and robot cameras
+  /// Robots whose channels are subscribed at start. With an empty list and an LCM transport, the server
+  /// subscribes "rgbdmap/*" and serves any robot the KeyStore admits (DDS needs the list).
+  std::vector<std::string> robots;
+  bool store_sync = true;          ///< fdatasync each keyframe before acknowledging it
+  double status_period_s = 1.0;    ///< ServerStatus to every known robot; 0 turns it off
+  size_t ingest_queue_capacity = 256;  ///< keyframes waiting for the worker; beyond, they are dropped
+                                       ///< unacknowledged (the robot resends)
+  /// Uncertainty of an odometry edge whose keyframe carried no information matrix (1 sigma per axis).
+  double default_odometry_sigma_m = 0.02;
+  double default_odometry_sigma_deg = 1.0;
+  /// Uncertainty added to every edge's covariance before optimisation (1 sigma per axis); see
+  /// withCovarianceFloor in map_server.cpp. 0 and 0 use the information as the robot and detector computed it.
+  double edge_sigma_floor_m = 0.01;
+  double edge_sigma_floor_deg = 0.5;
+  LoopDetectorConfig loop;
+  PoseGraphConfig graph;
+
+  std::string validate() const;  ///< "" when valid, else every problem ("; "-separated)
+};
+
+struct ServerRobotStats {
+  std::string robot_id;
+  int keyframes = 0;
+  int sessions = 0;           ///< robot processes seen (a restart is a new session)
+  int chains = 0;             ///< odometry chains (segments over all sessions)
+  int loops = 0;              ///< accepted loop edges touching this robot's keyframes
+  int map_id = -1;            ///< graph component of its newest keyframe (first node id of the component)
+  bool merged = false;        ///< its newest keyframe shares a component with another robot
+  uint64_t bytes_received = 0;
+  uint64_t bytes_sent = 0;
+  uint64_t keyframes_refused = 0;  ///< acknowledged with accepted = false
+  uint64_t duplicates = 0;         ///< re-sent keyframes acknowledged again
+  int64_t last_utime = 0;
+  std::optional<CameraIntrinsics> camera;
+};
+
+struct MapServerStats {
+  int keyframes = 0;
+  int loops_accepted = 0;           ///< verified by the detector and added to the graph
+  int loops_disabled = 0;           ///< currently disabled by the graph's consistency check
+  int loop_candidates = 0;
+  std::array<int, kLoopRejectionCount> loops_rejected_by_reason{};
+  int optimizations = 0;
+  double last_optimize_ms = 0.0;
+  int64_t graph_revision = 0;
+  int maps = 0;                     ///< connected components of the graph
+  uint64_t messages_rejected = 0;   ///< RejectCounters total (auth, replay, malformed, ...)
+  uint64_t keyframes_dropped_queue_full = 0;
+  uint64_t keyframes_refused = 0;
+  uint64_t unknown_robot_messages = 0;
+  double ingest_ms_median = 0.0, ingest_ms_p90 = 0.0, ingest_ms_max = 0.0;
+  int restored_keyframes = 0, restored_loops = 0;  ///< from the map directory at start
+  MapStoreRecovery recovery;
+  std::vector<ServerRobotStats> robots;
+};
+
+/// One optimised keyframe as the server holds it.
+struct ServerKeyframe {
+  int64_t node_id = 0;
+  std::string robot_id;
+  int64_t session = 0;
+  int segment = 0;
+  int keyframe_id = 0;
+  double timestamp = 0.0;
+  int map_id = 0;
+  SE3 T_map_kf = SE3::Identity();
+  SE3 T_odom_kf = SE3::Identity();
+};
+
+class MapServer {
+ public:
+  /// `transport` must outlive the server; it may be shared with robots in the same process.
+  MapServer(MapServerConfig config, transport::Transport& transport, msg::KeyStore keys);
+  ~MapServer();  ///< stop()
+  MapServer(const MapServer&) = delete;
+  MapServer& operator=(const MapServer&) = delete;
+
+  /// Opens (or creates) the map directory, restores what is stored, subscribes and starts the threads.
+  Status start();
+  /// Stops the threads promptly; everything acknowledged is already on disk. Idempotent.
+  void stop();
+
+  /// Blocks until the ingest queue is empty, every submitted optimisation has been applied and its
+  /// corrections published; false on timeout.
+  bool waitIdle(double timeout_s);
+  MapServerStats stats() const;
+  /// Keyframes with their current (optimised) poses, in ingestion order.
+  std::vector<ServerKeyframe> keyframes() const;
+  /// Robot ids grouped by the map they are in now (robots whose newest keyframes share a component).
+  std::vector<std::vector<std::string>> mergedMaps() const;
+  /// Ingest times (ms per keyframe) so far, in order.
+  std::vector<double> ingestTimesMs() const;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+/// Reads `robot_id hexkey` lines ('#' comments, blank lines ignored) into `keys` (e.g. an open-mode store,
+/// where robots with a key must then still sign).
+Result<msg::KeyStore> readKeysFile(const std::string& path, msg::KeyStore keys = {});
+
+}  // namespace rgbdmap

@@ -1,0 +1,24 @@
+#pragma once
+// What the rgbdmap-server program (and `rgbdmap run`) reads from its YAML configuration. Every key is
+// documented in deploy/config/server.yaml; a test keeps that file equal to these defaults.
+#include <string>
+
+#include "rgbdmap/common/config_reader.hpp"
+#include "rgbdmap/server/map_server.hpp"
+
+namespace rgbdmap {
+
+struct ServerAppConfig {
+  MapServerConfig server;
+  std::string transport_url = "memq://";  ///< memq:// | udpm://239.255.76.67:7667?ttl=0 | dds://?domain=0
+  std::string keys_file;                  ///< "robot_id hexkey" lines; empty: open mode must be on
+  bool open_mode = false;                 ///< accept unsigned messages from robots without a key (demos)
+};
+
+/// "a, b,c" -> {"a", "b", "c"}.
+std::vector<std::string> splitRobotList(const std::string& text);
+
+/// Reads every key (server.*, loop.*, graph.*); problems are recorded in the reader.
+void readServerConfig(ConfigReader& reader, ServerAppConfig* config);
+
+}  // namespace rgbdmap

@@ -1,0 +1,181 @@
+#include "robot_registry.hpp"
+
+#include <cstdio>
+#include <fcntl.h>
+#include <fstream>
+#include <iomanip>
+#include <sstream>
+#include <unistd.h>
+
+#include "rgbdmap/common/logging.hpp"
+
+namespace rgbdmap {
+namespace {
+
+constexpr const char* kFileName = "robots.txt";
+constexpr const char* kHeader = "# rgbdmap robots v1: id index fx fy cx cy width height k1 k2 p1 p2 k3 depth_scale";
+
+bool sameCamera(const CameraIntrinsics& a, const CameraIntrinsics& b) {
+  return a.fx == b.fx && a.fy == b.fy && a.cx == b.cx && a.cy == b.cy && a.width == b.width &&
+         a.height == b.height && a.distortion == b.distortion && a.depth_scale == b.depth_scale;
+}
+
+Status syncPath(const std::string& path, int flags) {
+  const int fd = ::open(path.c_str(), flags);
+  if (fd < 0) return Status::failure("cannot open " + path + " to sync");
+  const int r = ::fsync(fd);
+  ::close(fd);
+  return r == 0 ? Status::success() : Status::failure("fsync " + path + " failed");
+}
+
+}  // namespace
+
+RobotRegistry::Entry& RobotRegistry::entry(const std::string& robot_id) {
+  Entry& e = robots_[robot_id];
+  e.stats.robot_id = robot_id;
+  return e;
+}
+
+Result<bool> RobotRegistry::hello(const std::string& robot_id, int64_t session, const CameraIntrinsics& camera) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  Entry& e = entry(robot_id);
+  bool changed = false;
+  if (e.index < 0) {
+    e.index = next_index_++;
+    changed = true;
+  }
+  if (!e.stats.camera || !sameCamera(*e.stats.camera, camera)) {
+    if (e.stats.camera) log::warn("server: robot ", robot_id, " reports a different camera from now on");
+    e.stats.camera = camera;
+    changed = true;
+  }
+  if (session > e.session) {
+    e.session = session;
+    ++e.stats.sessions;
+  }
+  return changed;
+}
+
+Status RobotRegistry::save(const std::string& map_dir) const {
+  std::ostringstream out;
+  out << kHeader << "\n" << std::setprecision(17);
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    std::vector<const Entry*> ordered;
+    for (const auto& [id, e] : robots_)
+      if (e.index >= 0 && e.stats.camera) ordered.push_back(&e);
+    std::sort(ordered.begin(), ordered.end(), [](const Entry* a, const Entry* b) { return a->index < b->index; });
+    for (const Entry* e : ordered) {
+      const CameraIntrinsics& c = *e->stats.camera;
+      out << e->stats.robot_id << " " << e->index << " " << c.fx << " " << c.fy << " " << c.cx << " " << c.cy
+          << " " << c.width << " " << c.height;
+      for (const double d : c.distortion) out << " " << d;
+      out << " " << c.depth_scale << "\n";
+    }
+  }
+  const std::string path = map_dir + "/" + kFileName;
+  const std::string tmp = path + ".tmp";
+  {
+    std::ofstream f(tmp, std::ios::trunc);
+    f << out.str();
+    if (!f.flush()) return Status::failure("cannot write " + tmp);
+  }
+  if (const Status s = syncPath(tmp, O_RDONLY); !s) return s;
+  if (std::rename(tmp.c_str(), path.c_str()) != 0) return Status::failure("cannot rename " + tmp + " to " + path);
+  return syncPath(map_dir, O_RDONLY | O_DIRECTORY);
+}
+
+Status RobotRegistry::load(const std::string& map_dir) {
+  const std::string path = map_dir + "/" + kFileName;
+  std::ifstream in(path);
+  if (!in) return Status::success();
+  std::lock_guard<std::mutex> lock(mutex_);
+  std::string line;
+  int number = 0;
+  while (std::getline(in, line)) {
+    ++number;
+    if (line.empty() || line[0] == '#') continue;
+    std::istringstream f(line);
+    std::string id;
+    int index = -1;
+    CameraIntrinsics c;
+    f >> id >> index >> c.fx >> c.fy >> c.cx >> c.cy >> c.width >> c.height;
+    for (double& d : c.distortion) f >> d;
+    f >> c.depth_scale;
+    if (!f || index < 0 || robots_.count(id))
+      return Status::failure(path + ":" + std::to_string(number) + ": unreadable robot line");
+    Entry& e = entry(id);
+    e.index = index;
+    e.stats.camera = c;
+    next_index_ = std::max(next_index_, index + 1);
+  }
+  return Status::success();
+}
+
+int RobotRegistry::index(const std::string& robot_id) const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  const auto it = robots_.find(robot_id);
+  return it == robots_.end() ? -1 : it->second.index;
+}
+
+std::optional<CameraIntrinsics> RobotRegistry::camera(const std::string& robot_id) const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  const auto it = robots_.find(robot_id);
+  return it == robots_.end() ? std::nullopt : it->second.stats.camera;
+}
+
+int64_t RobotRegistry::currentSession(const std::string& robot_id) const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  const auto it = robots_.find(robot_id);
+  return it == robots_.end() ? 0 : it->second.session;
+}
+
+void RobotRegistry::addBytesReceived(const std::string& robot_id, size_t bytes, int64_t utime) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  Entry& e = entry(robot_id);
+  e.stats.bytes_received += bytes;
+  e.stats.last_utime = std::max(e.stats.last_utime, utime);
+}
+
+void RobotRegistry::addBytesSent(const std::string& robot_id, size_t bytes) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  entry(robot_id).stats.bytes_sent += bytes;
+}
+
+void RobotRegistry::countKeyframe(const std::string& robot_id) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  ++entry(robot_id).stats.keyframes;
+}
+void RobotRegistry::countLoop(const std::string& robot_id) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  ++entry(robot_id).stats.loops;
+}
+void RobotRegistry::countDuplicate(const std::string& robot_id) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  ++entry(robot_id).stats.duplicates;
+}
+void RobotRegistry::countRefused(const std::string& robot_id) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  ++entry(robot_id).stats.keyframes_refused;
+}
+void RobotRegistry::countOutOfOrder(const std::string& robot_id) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  ++entry(robot_id).out_of_order;
+}
+void RobotRegistry::countWaitingForHello(const std::string& robot_id) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  ++entry(robot_id).waiting_for_hello;
+}
+
+std::vector<ServerRobotStats> RobotRegistry::stats() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  std::vector<std::pair<int, ServerRobotStats>> ordered;
+  for (const auto& [id, e] : robots_)
+    if (e.index >= 0) ordered.emplace_back(e.index, e.stats);
+  std::sort(ordered.begin(), ordered.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
+  std::vector<ServerRobotStats> out;
+  for (auto& [i, s] : ordered) out.push_back(std::move(s));
+  return out;
+}
+
+}  // namespace rgbdmap

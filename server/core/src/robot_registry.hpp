@@ -1,0 +1,57 @@
+#pragma once
+// The robots a server knows: index (order of first Hello, persisted), camera, current session and counters.
+// Thread-safe (one internal mutex): the receive thread counts bytes, the worker registers and counts.
+// Cameras are persisted in <map_dir>/robots.txt (written to a temporary file, synced, then renamed), so a
+// restarted server can rebuild the features of stored keyframes before any robot says Hello again.
+#include <cstdint>
+#include <map>
+#include <mutex>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "rgbdmap/common/camera.hpp"
+#include "rgbdmap/common/result.hpp"
+#include "rgbdmap/server/map_server.hpp"
+
+namespace rgbdmap {
+
+class RobotRegistry {
+ public:
+  /// Registers a Hello. Returns true when something to persist changed (new robot or new camera).
+  Result<bool> hello(const std::string& robot_id, int64_t session, const CameraIntrinsics& camera);
+  Status save(const std::string& map_dir) const;
+  /// Reads robots.txt if present (a missing file is an empty registry).
+  Status load(const std::string& map_dir);
+
+  int index(const std::string& robot_id) const;  ///< -1 before its first Hello
+  std::optional<CameraIntrinsics> camera(const std::string& robot_id) const;
+  int64_t currentSession(const std::string& robot_id) const;
+
+  void addBytesReceived(const std::string& robot_id, size_t bytes, int64_t utime);
+  void addBytesSent(const std::string& robot_id, size_t bytes);
+  void countKeyframe(const std::string& robot_id);
+  void countLoop(const std::string& robot_id);
+  void countDuplicate(const std::string& robot_id);
+  void countRefused(const std::string& robot_id);
+  void countOutOfOrder(const std::string& robot_id);
+  void countWaitingForHello(const std::string& robot_id);
+
+  /// Robots that said Hello, in index order.
+  std::vector<ServerRobotStats> stats() const;
+
+ private:
+  struct Entry {
+    ServerRobotStats stats;
+    int index = -1;
+    int64_t session = 0;
+    uint64_t out_of_order = 0, waiting_for_hello = 0;
+  };
+  Entry& entry(const std::string& robot_id);  // caller holds mutex_
+
+  mutable std::mutex mutex_;
+  std::map<std::string, Entry> robots_;
+  int next_index_ = 0;
+};
+
+}  // namespace rgbdmap

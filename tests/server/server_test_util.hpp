@@ -1,0 +1,175 @@
+#pragma once
+// Shared by the server tests: odometry keyframes of synthetic sequences (computed once per process), and a
+// scripted robot that speaks the real protocol (signed Hello and Keyframes, acks and corrections back).
+#include <condition_variable>
+#include <map>
+#include <memory>
+#include <mutex>
+#include <set>
+
+#include "proto/proto_test_util.hpp"
+#include "rgbdmap/client/keyframe_message.hpp"
+#include "rgbdmap/client/odometry.hpp"
+#include "rgbdmap/common/evaluation.hpp"
+#include "rgbdmap/common/synth.hpp"
+#include "rgbdmap/proto/channels.hpp"
+#include "rgbdmap/proto/envelope.hpp"
+#include "rgbdmap/server/map_server.hpp"
+#include "rgbdmap/transport/transport.hpp"
+
+namespace rgbdmap::testing {
+
+struct OdometrySegment {
+  CameraIntrinsics camera;
+  Trajectory gt;  ///< every frame of the whole sequence, world frame
+  std::vector<std::shared_ptr<const Keyframe>> keyframes;
+  std::vector<EncodedImages> images;  ///< parallel to keyframes
+};
+
+/// Odometry over frames [first, end) of the synthetic "loop" scene with `frames` frames in all. Cached.
+inline const OdometrySegment& loopSegment(int frames, int first, int end) {
+  static std::mutex mutex;
+  static std::map<std::tuple<int, int, int>, std::unique_ptr<OdometrySegment>> cache;
+  std::lock_guard<std::mutex> lock(mutex);
+  auto& slot = cache[{frames, first, end}];
+  if (slot) return *slot;
+  slot = std::make_unique<OdometrySegment>();
+  SynthConfig cfg;
+  cfg.scene = "loop";
+  cfg.frames = frames;
+  auto scene = SyntheticScene::build(cfg);
+  EXPECT_TRUE(scene) << scene.error();
+  if (!scene) return *slot;
+  slot->camera = cfg.camera;
+  slot->gt = scene->trajectory();
+  VisualOdometry vo(cfg.camera, OdometryConfig{});
+  for (int i = first; i < end; ++i) {
+    const RgbdFrame frame = scene->renderFrame(i);
+    const TrackingResult r = vo.track(frame);
+    if (!r.new_keyframe) continue;
+    auto images = encodeImages(frame);
+    EXPECT_TRUE(images) << images.error();
+    slot->keyframes.push_back(r.new_keyframe);
+    slot->images.push_back(images ? *images : EncodedImages{});
+  }
+  return *slot;
+}
+
+/// Ground truth at the keyframes' stamps vs. poses given per keyframe id.
+inline Result<AteResult> keyframeAte(const Trajectory& gt, const Trajectory& est) { return computeAte(gt, est); }
+
+/// A robot driven by the test: signs and publishes, records what the server sends back.
+class ScriptedRobot {
+ public:
+  ScriptedRobot(transport::Transport& transport, std::string id, msg::Bytes key, int64_t session)
+      : transport_(transport), id_(std::move(id)), signer_(id_, key, session), state_(std::make_shared<State>()) {
+    msg::KeyStore keys = key.empty() ? msg::KeyStore::openMode() : msg::KeyStore();
+    if (!key.empty()) {
+      EXPECT_TRUE(keys.add(msg::kServerId, key));
+    }
+    state_->keys = std::move(keys);
+    std::weak_ptr<State> weak = state_;
+    auto handler = [weak](const std::string&, const uint8_t* data, size_t size) {
+      auto s = weak.lock();
+      if (s) s->onMessage(data, size);
+    };
+    for (const auto type : {msg::MessageType::kKeyframeAck, msg::MessageType::kPoseCorrections})
+      EXPECT_TRUE(transport_.subscribe(*msg::channelFor(type, id_), handler));
+  }
+
+  void hello(const CameraIntrinsics& camera) {
+    msg::Hello h;
+    h.robot_id = id_;
+    h.camera = camera;
+    h.software_version = "test";
+    publish(h);
+  }
+  void send(const Keyframe& kf, const EncodedImages& images) {
+    auto m = keyframeToMessage(kf, id_, images);
+    ASSERT_TRUE(m) << m.error();
+    publish(*m);
+  }
+  template <typename T>
+  void publish(const T& message) {
+    auto bytes = signer_.seal(message, 1);
+    ASSERT_TRUE(bytes) << bytes.error();
+    ASSERT_TRUE(transport_.publish(*msg::channelFor(T::kType, id_), *bytes));
+  }
+  void publishRaw(const std::string& suffix, const msg::Bytes& bytes) {
+    ASSERT_TRUE(transport_.publish("rgbdmap/" + id_ + "/" + suffix, bytes));
+  }
+  msg::Signer& signer() { return signer_; }
+
+  /// Waits until every id in `ids` has an ack (accepted or not).
+  bool waitAcked(const std::set<int>& ids, double timeout_s) {
+    std::unique_lock<std::mutex> lock(state_->mutex);
+    return state_->cv.wait_for(lock, std::chrono::duration<double>(timeout_s), [&] {
+      for (int id : ids)
+        if (!state_->acks.count(id)) return false;
+      return true;
+    });
+  }
+  std::map<int, bool> acks() const {
+    std::lock_guard<std::mutex> lock(state_->mutex);
+    return state_->acks;
+  }
+  int ackCount() const {
+    std::lock_guard<std::mutex> lock(state_->mutex);
+    return state_->ack_messages;
+  }
+  /// The latest corrections, waiting up to timeout_s for the first (delivery is asynchronous).
+  std::optional<msg::PoseCorrections> corrections(double timeout_s = 10.0) const {
+    std::unique_lock<std::mutex> lock(state_->mutex);
+    state_->cv.wait_for(lock, std::chrono::duration<double>(timeout_s), [&] { return state_->corrections.has_value(); });
+    return state_->corrections;
+  }
+  std::optional<msg::PoseCorrections> correctionsNow() const {
+    std::lock_guard<std::mutex> lock(state_->mutex);
+    return state_->corrections;
+  }
+
+ private:
+  struct State {
+    msg::KeyStore keys;
+    msg::ReplayGuard guard;
+    std::mutex mutex;
+    std::condition_variable cv;
+    std::map<int, bool> acks;
+    int ack_messages = 0;
+    std::optional<msg::PoseCorrections> corrections;
+    void onMessage(const uint8_t* data, size_t size) {
+      auto opened = msg::openEnvelope(data, size, keys, &guard);
+      if (!opened) return;
+      std::lock_guard<std::mutex> lock(mutex);
+      if (opened->type == msg::MessageType::kKeyframeAck) {
+        if (auto ack = msg::decodeMessage<msg::KeyframeAck>(*opened)) {
+          acks[ack->keyframe_id] = ack->accepted;
+          ++ack_messages;
+        }
+      } else if (opened->type == msg::MessageType::kPoseCorrections) {
+        if (auto c = msg::decodeMessage<msg::PoseCorrections>(*opened)) corrections = *c;
+      }
+      cv.notify_all();
+    }
+  };
+  transport::Transport& transport_;
+  std::string id_;
+  msg::Signer signer_;
+  std::shared_ptr<State> state_;
+};
+
+/// Server keyframes of one robot as a trajectory (optimised, map frame).
+inline Trajectory serverTrajectory(const MapServer& server, const std::string& robot) {
+  Trajectory t;
+  for (const ServerKeyframe& k : server.keyframes())
+    if (k.robot_id == robot) t.push_back({k.timestamp, k.T_map_kf});
+  return t;
+}
+
+inline Trajectory odometryTrajectory(const OdometrySegment& seg) {
+  Trajectory t;
+  for (const auto& k : seg.keyframes) t.push_back({k->timestamp, k->T_odom_cam});
+  return t;
+}
+
+}  // namespace rgbdmap::testing
