@@ -1,0 +1,224 @@
+// Map store crash recovery: a kill -9 mid-append leaves a prefix of the last record (truncation at every
+// offset), power loss may leave garbage, bits rot (flipped bytes in headers and payloads). Earlier records
+// must survive, the damage be counted and reported, and appending must work afterwards.
+#include <filesystem>
+#include <fstream>
+#include <iterator>
+
+#include <gtest/gtest.h>
+
+#include "common/temp_dir.hpp"
+#include "server/map_store_test_util.hpp"
+
+namespace rgbdmap {
+namespace {
+
+namespace fs = std::filesystem;
+using testing::expectSameKeyframe;
+using testing::makeKeyframe;
+using testing::makeLoop;
+using Bytes = std::vector<uint8_t>;
+
+Bytes readFile(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  return Bytes(std::istreambuf_iterator<char>(in), {});
+}
+
+void writeFile(const std::string& path, const Bytes& bytes, size_t size) {
+  std::ofstream(path, std::ios::binary | std::ios::trunc)
+      .write(reinterpret_cast<const char*>(bytes.data()), static_cast<std::streamsize>(size));
+}
+
+std::unique_ptr<MapStore> openStore(const std::string& dir) {
+  Result<std::unique_ptr<MapStore>> store = MapStore::open(dir, MapStoreOptions{false});
+  EXPECT_TRUE(store) << store.error();
+  return store ? std::move(store).value() : nullptr;
+}
+
+/// Three keyframes and two loops; records where the files' last records start.
+struct Written {
+  std::vector<StoredKeyframe> keyframes;
+  int64_t last_keyframe_at = 0, last_loop_at = 0;
+  Bytes keyframe_log, loop_log;
+};
+
+Written writeThree(const std::string& dir, const EncodedImages& images, int keypoints) {
+  Written w;
+  auto store = openStore(dir);
+  for (int64_t id = 0; id < 3; ++id) {
+    w.keyframes.push_back(makeKeyframe(id, 0, images, keypoints));
+    if (id == 2) w.last_keyframe_at = static_cast<int64_t>(fs::file_size(dir + "/keyframes.log"));
+    EXPECT_TRUE(store->appendKeyframe(w.keyframes.back()).ok());
+  }
+  EXPECT_TRUE(store->appendLoop(makeLoop(0, 1)).ok());
+  w.last_loop_at = static_cast<int64_t>(fs::file_size(dir + "/loops.log"));
+  EXPECT_TRUE(store->appendLoop(makeLoop(1, 0)).ok());
+  store.reset();
+  w.keyframe_log = readFile(dir + "/keyframes.log");
+  w.loop_log = readFile(dir + "/loops.log");
+  return w;
+}
+
+/// Truncates keyframes.log at `size` (inside the last record), reopens, checks; with `append_after` also
+/// appends the lost keyframe again and checks that it survives another reopen.
+void expectTruncationRecovered(const std::string& dir, const Written& w, size_t size, bool append_after) {
+  SCOPED_TRACE("keyframes.log truncated to " + std::to_string(size) + " bytes");
+  writeFile(dir + "/keyframes.log", w.keyframe_log, size);
+  auto store = openStore(dir);
+  ASSERT_TRUE(store);
+  const MapStoreRecovery& r = store->recovery();
+  ASSERT_EQ(r.keyframes, 2);
+  EXPECT_EQ(r.loops, 2);
+  EXPECT_EQ(r.corrupt_records, 0);
+  EXPECT_EQ(r.truncated_bytes, static_cast<int64_t>(size) - w.last_keyframe_at);
+  ASSERT_EQ(r.problems.size(), 1u);
+  EXPECT_EQ(static_cast<int64_t>(fs::file_size(dir + "/keyframes.log")), w.last_keyframe_at);  // repaired
+  if (!append_after) return;
+  ASSERT_TRUE(store->appendKeyframe(w.keyframes[2]).ok());
+  store.reset();  // releases the directory lock
+  store = openStore(dir);
+  ASSERT_TRUE(store);
+  EXPECT_EQ(store->recovery().keyframes, 3);
+  EXPECT_TRUE(store->recovery().problems.empty());
+  for (const StoredKeyframe& k : w.keyframes) {
+    Result<StoredKeyframe> read = store->readKeyframe(k.node_id);
+    ASSERT_TRUE(read) << read.error();
+    expectSameKeyframe(*read, k, true);
+  }
+}
+
+TEST(MapStoreRecovery, TruncationAtEveryOffsetOfTheLastRecord) {
+  const testing::QuietLog quiet;
+  testing::TempDir tmp;
+  const Written w = writeThree(tmp.dir(), testing::randomImages(16, 12, 1), 10);
+  ASSERT_LT(w.keyframe_log.size(), 8000u);  // keeps this sweep fast
+  for (size_t size = w.last_keyframe_at + 1; size < w.keyframe_log.size(); ++size)
+    expectTruncationRecovered(tmp.dir(), w, size, (size - w.last_keyframe_at) % 97 == 1);
+  writeFile(tmp.path("keyframes.log"), w.keyframe_log, w.keyframe_log.size());
+  for (size_t size = w.last_loop_at + 1; size < w.loop_log.size(); ++size) {
+    writeFile(tmp.path("loops.log"), w.loop_log, size);
+    auto store = openStore(tmp.dir());
+    ASSERT_TRUE(store);
+    EXPECT_EQ(store->recovery().loops, 1);
+    EXPECT_EQ(store->recovery().truncated_bytes, static_cast<int64_t>(size) - w.last_loop_at);
+    EXPECT_EQ(store->recovery().keyframes, 3);
+  }
+}
+
+TEST(MapStoreRecovery, TruncationOfARealisticRecordAtSampledOffsets) {
+  const testing::QuietLog quiet;
+  testing::TempDir tmp;
+  const Written w = writeThree(tmp.dir(), testing::renderedImages()[0], 300);
+  const size_t record = w.keyframe_log.size() - w.last_keyframe_at;
+  ASSERT_GT(record, 40000u);
+  std::vector<size_t> inside = {1, 2, 15, 19, 20, 21, 36, record - 1};
+  for (size_t at = 4099; at < record; at += 4099) inside.push_back(at);
+  for (size_t i = 0; i < inside.size(); ++i)
+    expectTruncationRecovered(tmp.dir(), w, w.last_keyframe_at + inside[i], i % 3 == 0);
+}
+
+/// Flips one byte of keyframes.log (or loops.log) at `at` and expects exactly the damaged record skipped.
+void expectFlipSkipsOneRecord(const std::string& dir, const Written& w, const std::string& log, size_t at) {
+  SCOPED_TRACE(log + ": byte " + std::to_string(at) + " flipped");
+  const bool keyframes = log == "keyframes.log";
+  Bytes bytes = keyframes ? w.keyframe_log : w.loop_log;
+  bytes[at] ^= 0x5a;
+  writeFile(dir + "/" + log, bytes, bytes.size());
+  auto store = openStore(dir);
+  ASSERT_TRUE(store);
+  // Both loops (0 -> 1, 1 -> 0) need node 1: losing it drops them too, as records that cannot be used.
+  const MapStoreRecovery& r = store->recovery();
+  EXPECT_EQ(r.corrupt_records, keyframes ? 3 : 1);
+  EXPECT_EQ(r.truncated_bytes, 0);
+  ASSERT_EQ(r.problems.size(), keyframes ? 3u : 1u);
+  EXPECT_NE(r.problems[0].find(dir + "/" + log + ": "), std::string::npos) << r.problems[0];
+  EXPECT_EQ(r.keyframes, keyframes ? 2 : 3);
+  EXPECT_EQ(r.loops, keyframes ? 0 : 1);
+  if (keyframes) {
+    EXPECT_FALSE(store->readKeyframe(1));
+    Result<StoredKeyframe> last = store->readKeyframe(2);
+    ASSERT_TRUE(last) << last.error();
+    expectSameKeyframe(*last, w.keyframes[2], true);
+  }
+  writeFile(dir + "/" + log, keyframes ? w.keyframe_log : w.loop_log, bytes.size());  // restore
+}
+
+TEST(MapStoreRecovery, FlippedByteInTheMiddleRecordIsSkippedOthersKept) {
+  const testing::QuietLog quiet;
+  testing::TempDir tmp;
+  const Written w = writeThree(tmp.dir(), testing::randomImages(32, 24, 2), 20);
+  const size_t first = w.last_keyframe_at - (w.keyframe_log.size() - w.last_keyframe_at);  // equal sizes
+  const size_t middle_size = w.last_keyframe_at - first;
+  for (size_t i = 0; i < 20; ++i)
+    expectFlipSkipsOneRecord(tmp.dir(), w, "keyframes.log", first + i);  // header
+  for (size_t i = 20; i < middle_size; i += 211)
+    expectFlipSkipsOneRecord(tmp.dir(), w, "keyframes.log", first + i);
+  expectFlipSkipsOneRecord(tmp.dir(), w, "keyframes.log", first + middle_size / 2);
+  expectFlipSkipsOneRecord(tmp.dir(), w, "loops.log", 5);
+  expectFlipSkipsOneRecord(tmp.dir(), w, "loops.log", w.last_loop_at / 2 + 7);
+}
+
+TEST(MapStoreRecovery, RecordDamagedWhileOpenNoLongerReads) {
+  testing::TempDir tmp;
+  const Written w = writeThree(tmp.dir(), testing::randomImages(32, 24, 3), 20);
+  auto store = openStore(tmp.dir());
+  ASSERT_TRUE(store);
+  Bytes bytes = w.keyframe_log;
+  bytes[w.last_keyframe_at - 100] ^= 1;  // inside the payload of node 1
+  writeFile(tmp.path("keyframes.log"), bytes, bytes.size());
+  Result<StoredKeyframe> damaged = store->readKeyframe(1);
+  ASSERT_FALSE(damaged);
+  EXPECT_NE(damaged.error().find("CRC"), std::string::npos) << damaged.error();
+  EXPECT_TRUE(store->readKeyframe(0));
+  EXPECT_TRUE(store->readKeyframe(2));
+}
+
+TEST(MapStoreRecovery, GarbageTailIsCutOffAndAppendingWorks) {
+  testing::TempDir tmp;
+  const Written w = writeThree(tmp.dir(), testing::randomImages(32, 24, 4), 20);
+  Bytes bytes = w.keyframe_log;
+  bytes.resize(bytes.size() + 4096, 0);  // power loss: the file grew but the data never arrived
+  writeFile(tmp.path("keyframes.log"), bytes, bytes.size());
+  {
+    std::vector<std::string> warnings;
+    log::setSink([&](log::Level level, const std::string& line) {
+      if (level == log::Level::kWarn) warnings.push_back(line);
+    });
+    auto store = openStore(tmp.dir());
+    log::setSink(nullptr);
+    ASSERT_TRUE(store);
+    ASSERT_EQ(warnings.size(), 1u);  // each problem is logged
+    EXPECT_NE(warnings[0].find("4096 bytes cut off"), std::string::npos) << warnings[0];
+    EXPECT_EQ(store->recovery().keyframes, 3);
+    EXPECT_EQ(store->recovery().corrupt_records, 1);
+    EXPECT_EQ(store->recovery().truncated_bytes, 4096);
+    EXPECT_EQ(fs::file_size(tmp.path("keyframes.log")), w.keyframe_log.size());
+    ASSERT_TRUE(store->appendKeyframe(makeKeyframe(3, 0, testing::randomImages(32, 24, 5), 20)).ok());
+  }
+  auto store = openStore(tmp.dir());
+  ASSERT_TRUE(store);
+  EXPECT_EQ(store->recovery().keyframes, 4);
+  EXPECT_TRUE(store->recovery().problems.empty());
+}
+
+TEST(MapStoreRecovery, LoopOfALostKeyframeIsDropped) {
+  testing::TempDir tmp;
+  const Written w = writeThree(tmp.dir(), testing::randomImages(32, 24, 6), 20);
+  {
+    auto store = openStore(tmp.dir());
+    ASSERT_TRUE(store->appendLoop(makeLoop(2, 0)).ok());
+  }
+  writeFile(tmp.path("keyframes.log"), w.keyframe_log, w.last_keyframe_at + 50);  // node 2 torn
+  auto store = openStore(tmp.dir());
+  ASSERT_TRUE(store);
+  EXPECT_EQ(store->recovery().keyframes, 2);
+  EXPECT_EQ(store->recovery().loops, 2);
+  EXPECT_EQ(store->recovery().corrupt_records, 1);
+  EXPECT_EQ(store->recovery().truncated_bytes, 50);
+  bool named = false;
+  for (const std::string& p : store->recovery().problems) named |= p.find("not stored") != std::string::npos;
+  EXPECT_TRUE(named);
+}
+
+}  // namespace
+}  // namespace rgbdmap
