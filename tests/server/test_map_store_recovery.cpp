@@ -5,6 +5,10 @@
 #include <fstream>
 #include <iterator>
 
+#include <signal.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
 #include <gtest/gtest.h>
 
 #include "common/temp_dir.hpp"
@@ -218,6 +222,58 @@ TEST(MapStoreRecovery, LoopOfALostKeyframeIsDropped) {
   bool named = false;
   for (const std::string& p : store->recovery().problems) named |= p.find("not stored") != std::string::npos;
   EXPECT_TRUE(named);
+}
+
+/// Child process: opens the store, appends keyframes (ids after the stored ones) with sync on and writes each
+/// acknowledged node id to `ack_fd`, until killed. Uses no test macros (they are not fork-safe); exits with 3
+/// on an unexpected failure.
+[[noreturn]] void appendUntilKilled(const std::string& dir, const EncodedImages& images, int ack_fd) {
+  Result<std::unique_ptr<MapStore>> store = MapStore::open(dir, MapStoreOptions{true});
+  const int64_t first = store ? static_cast<int64_t>(store.value()->keyframes().size()) : 0;
+  for (int64_t id = first; store; ++id) {
+    if (!store.value()->appendKeyframe(makeKeyframe(id, 0, images, 50))) break;
+    if (::write(ack_fd, &id, sizeof id) != static_cast<ssize_t>(sizeof id)) break;
+  }
+  ::_exit(3);
+}
+
+TEST(MapStoreRecovery, KilledWriterLosesNoAcknowledgedKeyframe) {
+  const testing::QuietLog quiet;
+  testing::TempDir tmp;
+  const EncodedImages images = testing::randomImages(160, 120, 8);
+  for (int round = 0; round < 3; ++round) {
+    int fds[2];
+    ASSERT_EQ(::pipe(fds), 0);
+    const pid_t child = ::fork();
+    ASSERT_GE(child, 0);
+    if (child == 0) {
+      ::close(fds[0]);
+      appendUntilKilled(tmp.dir(), images, fds[1]);
+    }
+    ::close(fds[1]);
+    int64_t acked = -1, id = 0;
+    for (int acks = 0; acks < 15 && ::read(fds[0], &id, sizeof id) == static_cast<ssize_t>(sizeof id); ++acks)
+      acked = id;
+    ::kill(child, SIGKILL);
+    while (::read(fds[0], &id, sizeof id) == static_cast<ssize_t>(sizeof id)) acked = id;  // acks sent before
+    ::close(fds[0]);
+    int status = 0;
+    ASSERT_EQ(::waitpid(child, &status, 0), child);
+    ASSERT_TRUE(WIFSIGNALED(status)) << "writer failed on its own, status " << status;
+
+    auto store = openStore(tmp.dir());  // the restarted server
+    ASSERT_TRUE(store);
+    ASSERT_GE(acked, 14 * (round + 1));
+    const int kept = store->recovery().keyframes;
+    EXPECT_GE(kept, acked + 1) << "round " << round;  // every acknowledged keyframe, maybe one more
+    EXPECT_LE(kept, acked + 2) << "round " << round;
+    EXPECT_EQ(store->recovery().corrupt_records, 0);
+    for (int64_t n = 0; n < kept; ++n) {
+      Result<StoredKeyframe> read = store->readKeyframe(n);
+      ASSERT_TRUE(read) << read.error();
+      EXPECT_TRUE(read->keyframe.images.color == images.color);
+    }
+  }
 }
 
 }  // namespace
