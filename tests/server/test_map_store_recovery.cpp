@@ -1,9 +1,12 @@
 // Map store crash recovery: a kill -9 mid-append leaves a prefix of the last record (truncation at every
 // offset), power loss may leave garbage, bits rot (flipped bytes in headers and payloads). Earlier records
 // must survive, the damage be counted and reported, and appending must work afterwards.
+#include <algorithm>
 #include <filesystem>
 #include <fstream>
 #include <iterator>
+#include <random>
+#include <set>
 
 #include <signal.h>
 #include <sys/wait.h>
@@ -39,24 +42,27 @@ std::unique_ptr<MapStore> openStore(const std::string& dir) {
   return store ? std::move(store).value() : nullptr;
 }
 
-/// Three keyframes and two loops; records where the files' last records start.
+/// Four keyframes and two loops between nodes 0 and 2; records where the records start.
 struct Written {
   std::vector<StoredKeyframe> keyframes;
+  std::vector<int64_t> starts;  ///< keyframe record i spans [starts[i], starts[i + 1])
   int64_t last_keyframe_at = 0, last_loop_at = 0;
   Bytes keyframe_log, loop_log;
 };
 
-Written writeThree(const std::string& dir, const EncodedImages& images, int keypoints) {
+Written writeFour(const std::string& dir, const EncodedImages& images, int keypoints) {
   Written w;
   auto store = openStore(dir);
-  for (int64_t id = 0; id < 3; ++id) {
+  for (int64_t id = 0; id < 4; ++id) {
     w.keyframes.push_back(makeKeyframe(id, 0, images, keypoints));
-    if (id == 2) w.last_keyframe_at = static_cast<int64_t>(fs::file_size(dir + "/keyframes.log"));
+    w.starts.push_back(store->bytesOnDisk());
     EXPECT_TRUE(store->appendKeyframe(w.keyframes.back()).ok());
   }
-  EXPECT_TRUE(store->appendLoop(makeLoop(0, 1)).ok());
+  w.starts.push_back(store->bytesOnDisk());
+  w.last_keyframe_at = w.starts[3];
+  EXPECT_TRUE(store->appendLoop(makeLoop(0, 2)).ok());
   w.last_loop_at = static_cast<int64_t>(fs::file_size(dir + "/loops.log"));
-  EXPECT_TRUE(store->appendLoop(makeLoop(1, 0)).ok());
+  EXPECT_TRUE(store->appendLoop(makeLoop(2, 0)).ok());
   store.reset();
   w.keyframe_log = readFile(dir + "/keyframes.log");
   w.loop_log = readFile(dir + "/loops.log");
@@ -71,18 +77,18 @@ void expectTruncationRecovered(const std::string& dir, const Written& w, size_t 
   auto store = openStore(dir);
   ASSERT_TRUE(store);
   const MapStoreRecovery& r = store->recovery();
-  ASSERT_EQ(r.keyframes, 2);
+  ASSERT_EQ(r.keyframes, 3);
   EXPECT_EQ(r.loops, 2);
   EXPECT_EQ(r.corrupt_records, 0);
   EXPECT_EQ(r.truncated_bytes, static_cast<int64_t>(size) - w.last_keyframe_at);
   ASSERT_EQ(r.problems.size(), 1u);
   EXPECT_EQ(static_cast<int64_t>(fs::file_size(dir + "/keyframes.log")), w.last_keyframe_at);  // repaired
   if (!append_after) return;
-  ASSERT_TRUE(store->appendKeyframe(w.keyframes[2]).ok());
+  ASSERT_TRUE(store->appendKeyframe(w.keyframes[3]).ok());
   store.reset();  // releases the directory lock
   store = openStore(dir);
   ASSERT_TRUE(store);
-  EXPECT_EQ(store->recovery().keyframes, 3);
+  EXPECT_EQ(store->recovery().keyframes, 4);
   EXPECT_TRUE(store->recovery().problems.empty());
   for (const StoredKeyframe& k : w.keyframes) {
     Result<StoredKeyframe> read = store->readKeyframe(k.node_id);
@@ -94,8 +100,8 @@ void expectTruncationRecovered(const std::string& dir, const Written& w, size_t 
 TEST(MapStoreRecovery, TruncationAtEveryOffsetOfTheLastRecord) {
   const testing::QuietLog quiet;
   testing::TempDir tmp;
-  const Written w = writeThree(tmp.dir(), testing::randomImages(16, 12, 1), 10);
-  ASSERT_LT(w.keyframe_log.size(), 8000u);  // keeps this sweep fast
+  const Written w = writeFour(tmp.dir(), testing::randomImages(16, 12, 1), 10);
+  ASSERT_LT(w.keyframe_log.size(), 12000u);  // keeps this sweep fast
   for (size_t size = w.last_keyframe_at + 1; size < w.keyframe_log.size(); ++size)
     expectTruncationRecovered(tmp.dir(), w, size, (size - w.last_keyframe_at) % 97 == 1);
   writeFile(tmp.path("keyframes.log"), w.keyframe_log, w.keyframe_log.size());
@@ -105,14 +111,14 @@ TEST(MapStoreRecovery, TruncationAtEveryOffsetOfTheLastRecord) {
     ASSERT_TRUE(store);
     EXPECT_EQ(store->recovery().loops, 1);
     EXPECT_EQ(store->recovery().truncated_bytes, static_cast<int64_t>(size) - w.last_loop_at);
-    EXPECT_EQ(store->recovery().keyframes, 3);
+    EXPECT_EQ(store->recovery().keyframes, 4);
   }
 }
 
 TEST(MapStoreRecovery, TruncationOfARealisticRecordAtSampledOffsets) {
   const testing::QuietLog quiet;
   testing::TempDir tmp;
-  const Written w = writeThree(tmp.dir(), testing::renderedImages()[0], 300);
+  const Written w = writeFour(tmp.dir(), testing::renderedImages()[0], 300);
   const size_t record = w.keyframe_log.size() - w.last_keyframe_at;
   ASSERT_GT(record, 40000u);
   std::vector<size_t> inside = {1, 2, 15, 19, 20, 21, 36, record - 1};
@@ -130,19 +136,20 @@ void expectFlipSkipsOneRecord(const std::string& dir, const Written& w, const st
   writeFile(dir + "/" + log, bytes, bytes.size());
   auto store = openStore(dir);
   ASSERT_TRUE(store);
-  // Both loops (0 -> 1, 1 -> 0) need node 1: losing it drops them too, as records that cannot be used.
   const MapStoreRecovery& r = store->recovery();
-  EXPECT_EQ(r.corrupt_records, keyframes ? 3 : 1);
+  EXPECT_EQ(r.corrupt_records, 1);
   EXPECT_EQ(r.truncated_bytes, 0);
-  ASSERT_EQ(r.problems.size(), keyframes ? 3u : 1u);
+  ASSERT_EQ(r.problems.size(), 1u);
   EXPECT_NE(r.problems[0].find(dir + "/" + log + ": "), std::string::npos) << r.problems[0];
-  EXPECT_EQ(r.keyframes, keyframes ? 2 : 3);
-  EXPECT_EQ(r.loops, keyframes ? 0 : 1);
+  EXPECT_EQ(r.keyframes, keyframes ? 3 : 4);
+  EXPECT_EQ(r.loops, keyframes ? 2 : 1);
   if (keyframes) {
     EXPECT_FALSE(store->readKeyframe(1));
-    Result<StoredKeyframe> last = store->readKeyframe(2);
-    ASSERT_TRUE(last) << last.error();
-    expectSameKeyframe(*last, w.keyframes[2], true);
+    for (int64_t id : {0, 2, 3}) {
+      Result<StoredKeyframe> kept = store->readKeyframe(id);
+      ASSERT_TRUE(kept) << kept.error();
+      expectSameKeyframe(*kept, w.keyframes[id], true);
+    }
   }
   writeFile(dir + "/" + log, keyframes ? w.keyframe_log : w.loop_log, bytes.size());  // restore
 }
@@ -150,9 +157,9 @@ void expectFlipSkipsOneRecord(const std::string& dir, const Written& w, const st
 TEST(MapStoreRecovery, FlippedByteInTheMiddleRecordIsSkippedOthersKept) {
   const testing::QuietLog quiet;
   testing::TempDir tmp;
-  const Written w = writeThree(tmp.dir(), testing::randomImages(32, 24, 2), 20);
-  const size_t first = w.last_keyframe_at - (w.keyframe_log.size() - w.last_keyframe_at);  // equal sizes
-  const size_t middle_size = w.last_keyframe_at - first;
+  const Written w = writeFour(tmp.dir(), testing::randomImages(32, 24, 2), 20);
+  const size_t first = w.starts[1];
+  const size_t middle_size = w.starts[2] - w.starts[1];
   for (size_t i = 0; i < 20; ++i)
     expectFlipSkipsOneRecord(tmp.dir(), w, "keyframes.log", first + i);  // header
   for (size_t i = 20; i < middle_size; i += 211)
@@ -164,22 +171,22 @@ TEST(MapStoreRecovery, FlippedByteInTheMiddleRecordIsSkippedOthersKept) {
 
 TEST(MapStoreRecovery, RecordDamagedWhileOpenNoLongerReads) {
   testing::TempDir tmp;
-  const Written w = writeThree(tmp.dir(), testing::randomImages(32, 24, 3), 20);
+  const Written w = writeFour(tmp.dir(), testing::randomImages(32, 24, 3), 20);
   auto store = openStore(tmp.dir());
   ASSERT_TRUE(store);
   Bytes bytes = w.keyframe_log;
-  bytes[w.last_keyframe_at - 100] ^= 1;  // inside the payload of node 1
+  bytes[w.last_keyframe_at - 100] ^= 1;  // inside the payload of node 2
   writeFile(tmp.path("keyframes.log"), bytes, bytes.size());
-  Result<StoredKeyframe> damaged = store->readKeyframe(1);
+  Result<StoredKeyframe> damaged = store->readKeyframe(2);
   ASSERT_FALSE(damaged);
   EXPECT_NE(damaged.error().find("CRC"), std::string::npos) << damaged.error();
-  EXPECT_TRUE(store->readKeyframe(0));
-  EXPECT_TRUE(store->readKeyframe(2));
+  EXPECT_TRUE(store->readKeyframe(1));
+  EXPECT_TRUE(store->readKeyframe(3));
 }
 
 TEST(MapStoreRecovery, GarbageTailIsCutOffAndAppendingWorks) {
   testing::TempDir tmp;
-  const Written w = writeThree(tmp.dir(), testing::randomImages(32, 24, 4), 20);
+  const Written w = writeFour(tmp.dir(), testing::randomImages(32, 24, 4), 20);
   Bytes bytes = w.keyframe_log;
   bytes.resize(bytes.size() + 4096, 0);  // power loss: the file grew but the data never arrived
   writeFile(tmp.path("keyframes.log"), bytes, bytes.size());
@@ -193,35 +200,74 @@ TEST(MapStoreRecovery, GarbageTailIsCutOffAndAppendingWorks) {
     ASSERT_TRUE(store);
     ASSERT_EQ(warnings.size(), 1u);  // each problem is logged
     EXPECT_NE(warnings[0].find("4096 bytes cut off"), std::string::npos) << warnings[0];
-    EXPECT_EQ(store->recovery().keyframes, 3);
+    EXPECT_EQ(store->recovery().keyframes, 4);
     EXPECT_EQ(store->recovery().corrupt_records, 1);
     EXPECT_EQ(store->recovery().truncated_bytes, 4096);
     EXPECT_EQ(fs::file_size(tmp.path("keyframes.log")), w.keyframe_log.size());
-    ASSERT_TRUE(store->appendKeyframe(makeKeyframe(3, 0, testing::randomImages(32, 24, 5), 20)).ok());
+    ASSERT_TRUE(store->appendKeyframe(makeKeyframe(4, 0, testing::randomImages(32, 24, 5), 20)).ok());
   }
   auto store = openStore(tmp.dir());
   ASSERT_TRUE(store);
-  EXPECT_EQ(store->recovery().keyframes, 4);
+  EXPECT_EQ(store->recovery().keyframes, 5);
   EXPECT_TRUE(store->recovery().problems.empty());
 }
 
 TEST(MapStoreRecovery, LoopOfALostKeyframeIsDropped) {
   testing::TempDir tmp;
-  const Written w = writeThree(tmp.dir(), testing::randomImages(32, 24, 6), 20);
+  const Written w = writeFour(tmp.dir(), testing::randomImages(32, 24, 6), 20);
   {
     auto store = openStore(tmp.dir());
-    ASSERT_TRUE(store->appendLoop(makeLoop(2, 0)).ok());
+    ASSERT_TRUE(store->appendLoop(makeLoop(3, 1)).ok());
   }
-  writeFile(tmp.path("keyframes.log"), w.keyframe_log, w.last_keyframe_at + 50);  // node 2 torn
+  writeFile(tmp.path("keyframes.log"), w.keyframe_log, w.last_keyframe_at + 50);  // node 3 torn
   auto store = openStore(tmp.dir());
   ASSERT_TRUE(store);
-  EXPECT_EQ(store->recovery().keyframes, 2);
+  EXPECT_EQ(store->recovery().keyframes, 3);
   EXPECT_EQ(store->recovery().loops, 2);
   EXPECT_EQ(store->recovery().corrupt_records, 1);
   EXPECT_EQ(store->recovery().truncated_bytes, 50);
   bool named = false;
   for (const std::string& p : store->recovery().problems) named |= p.find("not stored") != std::string::npos;
   EXPECT_TRUE(named);
+}
+
+TEST(MapStoreRecovery, RandomDamageKeepsExactlyTheIntactRecords) {
+  const testing::QuietLog quiet;
+  testing::TempDir tmp;
+  std::vector<int64_t> starts;  // record i spans [starts[i], starts[i + 1])
+  {
+    auto store = openStore(tmp.dir());
+    for (int64_t id = 0; id < 6; ++id) {
+      starts.push_back(store->bytesOnDisk());
+      ASSERT_TRUE(
+          store->appendKeyframe(makeKeyframe(id, 0, testing::randomImages(16, 12, 10 + id), 10)).ok());
+    }
+    starts.push_back(store->bytesOnDisk());
+  }
+  const Bytes original = readFile(tmp.path("keyframes.log"));
+  std::mt19937 rng(2024);
+  for (int trial = 0; trial < 150; ++trial) {
+    Bytes bytes = original;
+    std::set<int64_t> damaged;
+    const int flips = 1 + static_cast<int>(rng() % 4);
+    for (int f = 0; f < flips; ++f) {
+      const size_t at = rng() % bytes.size();
+      bytes[at] ^= static_cast<uint8_t>(1 + rng() % 255);
+      damaged.insert(std::upper_bound(starts.begin(), starts.end(), static_cast<int64_t>(at)) -
+                     starts.begin() - 1);
+    }
+    size_t size = bytes.size();
+    if (trial % 3 == 0) size = rng() % bytes.size();  // and a crash at a random point
+    writeFile(tmp.path("keyframes.log"), bytes, size);
+    auto store = openStore(tmp.dir());
+    ASSERT_TRUE(store);
+    std::vector<int64_t> expected, kept;
+    for (int64_t id = 0; id < 6; ++id)
+      if (!damaged.count(id) && starts[id + 1] <= static_cast<int64_t>(size)) expected.push_back(id);
+    for (const StoredKeyframe& k : store->keyframes()) kept.push_back(k.node_id);
+    EXPECT_EQ(kept, expected) << "trial " << trial;
+    for (int64_t id : kept) EXPECT_TRUE(store->readKeyframe(id)) << "trial " << trial;
+  }
 }
 
 /// Child process: opens the store, appends keyframes (ids after the stored ones) with sync on and writes each
