@@ -9,6 +9,7 @@
 #include <set>
 
 #include <signal.h>
+#include <sys/resource.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -268,6 +269,38 @@ TEST(MapStoreRecovery, RandomDamageKeepsExactlyTheIntactRecords) {
     EXPECT_EQ(kept, expected) << "trial " << trial;
     for (int64_t id : kept) EXPECT_TRUE(store->readKeyframe(id)) << "trial " << trial;
   }
+}
+
+TEST(MapStoreRecovery, FailedAppendCutsItsPartialRecordAndStopsAppends) {
+  const testing::QuietLog quiet;
+  testing::TempDir tmp;
+  const Written w = writeFour(tmp.dir(), testing::randomImages(32, 24, 7), 20);
+  {
+    auto store = openStore(tmp.dir());
+    ASSERT_TRUE(store);
+    // A file size limit makes the write stop part-way (EFBIG), like a full disk.
+    rlimit saved{};
+    ASSERT_EQ(::getrlimit(RLIMIT_FSIZE, &saved), 0);
+    rlimit limited = saved;
+    limited.rlim_cur = w.keyframe_log.size() + 1000;
+    auto* previous_handler = ::signal(SIGXFSZ, SIG_IGN);
+    ASSERT_EQ(::setrlimit(RLIMIT_FSIZE, &limited), 0);
+    const Status failed = store->appendKeyframe(makeKeyframe(4, 0, testing::randomImages(32, 24, 8), 20));
+    ::setrlimit(RLIMIT_FSIZE, &saved);
+    ::signal(SIGXFSZ, previous_handler);
+    ASSERT_FALSE(failed);
+    EXPECT_NE(failed.error().find("cannot write"), std::string::npos) << failed.error();
+    EXPECT_EQ(fs::file_size(tmp.path("keyframes.log")), w.keyframe_log.size());  // partial record cut off
+    EXPECT_EQ(store->keyframes().size(), 4u);
+    const Status after = store->appendKeyframe(makeKeyframe(5, 0, testing::randomImages(32, 24, 9), 20));
+    EXPECT_NE(after.error().find("reopen"), std::string::npos) << after.error();
+    EXPECT_TRUE(store->readKeyframe(3));  // reading still works
+  }
+  auto store = openStore(tmp.dir());
+  ASSERT_TRUE(store);
+  EXPECT_EQ(store->recovery().keyframes, 4);
+  EXPECT_TRUE(store->recovery().problems.empty());
+  EXPECT_TRUE(store->appendKeyframe(makeKeyframe(4, 0, testing::randomImages(32, 24, 8), 20)).ok());
 }
 
 /// Child process: opens the store, appends keyframes (ids after the stored ones) with sync on and writes each
