@@ -1,0 +1,88 @@
+#pragma once
+// Durable keyframe store of the mapping server: every received keyframe (with its images) and every
+// verified loop-closure edge, in append-only log files of a map directory, so that a server killed at any
+// point (kill -9, power loss after fdatasync) restarts on the same directory without losing an acknowledged
+// keyframe and resumes the same graph. Format, guarantees and limits: server/store/README.md.
+//
+// Threads: one MapStore per directory (an flock on <dir>/LOCK keeps other processes and other MapStore
+// objects out). appendKeyframe/appendLoop may be called from any thread (they serialise); readKeyframe,
+// recovery, bytesOnDisk and directory may run concurrently with them. keyframes() and loops() return the
+// in-memory lists that appends grow: read them from the appending thread, or not while appending.
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "rgbdmap/common/result.hpp"
+#include "rgbdmap/common/se3.hpp"
+#include "rgbdmap/proto/messages.hpp"
+
+namespace rgbdmap {
+
+/// Written into <dir>/MANIFEST; a store with another version is refused (no silent migration).
+constexpr int kMapStoreFormatVersion = 1;
+
+struct StoredKeyframe {
+  int64_t node_id = 0;     ///< the server's global keyframe id (unique in the map), >= 0
+  int64_t session = 0;     ///< sender session (Header::session) of the robot process that sent it
+  msg::Keyframe keyframe;  ///< as received (robot_id, segment_id, keyframe_id, poses, features, images)
+};
+
+struct StoredLoop {
+  int64_t from_node = 0, to_node = 0;  ///< node ids of stored keyframes, different from each other
+  SE3 T_from_to = SE3::Identity();
+  Mat6 information = Mat6::Identity();  ///< finite and symmetric
+  int inliers = 0;                      ///< >= 0
+  double motion_measure = 0.0;          ///< finite
+};
+
+struct MapStoreOptions {
+  bool sync = true;  ///< fdatasync after every append (durability); false only for benchmarks/tests
+};
+
+/// What open() found.
+struct MapStoreRecovery {
+  int keyframes = 0, loops = 0;
+  int corrupt_records = 0;            ///< bad CRC / undecodable, skipped (counted and logged)
+  int64_t truncated_bytes = 0;        ///< an incomplete tail record (crash mid-write) cut off
+  std::vector<std::string> problems;  ///< human-readable, one per problem
+};
+
+class MapStore {
+ public:
+  /// Creates the directory if missing; otherwise reads and verifies what is there. Never fails because of
+  /// a corrupt or truncated record (those are skipped, counted and the file is repaired by truncating an
+  /// incomplete tail); fails only if the directory cannot be created/opened/locked, or the store was
+  /// written by an incompatible format version (clear message). Holds an exclusive lock (flock on a LOCK
+  /// file) so two servers cannot write one map directory.
+  static Result<std::unique_ptr<MapStore>> open(const std::string& dir, MapStoreOptions options = {});
+  ~MapStore();
+  MapStore(const MapStore&) = delete;
+  MapStore& operator=(const MapStore&) = delete;
+
+  /// Durable on return (when options.sync). Fails (nothing written) on a duplicate node_id, a negative
+  /// node_id or a keyframe that msg::validate rejects. After an I/O error every later append fails.
+  Status appendKeyframe(const StoredKeyframe& keyframe);
+  /// Durable on return (when options.sync). Both nodes must be stored keyframes.
+  Status appendLoop(const StoredLoop& loop);
+
+  /// Keyframes in append order WITHOUT images (images.depth and images.color empty; width, height and
+  /// colour codec kept) - the server keeps these in memory; images are read back on demand.
+  const std::vector<StoredKeyframe>& keyframes() const;
+  const std::vector<StoredLoop>& loops() const;
+  /// Reads one keyframe (with images) back from disk; fails for an unknown id or a record that no longer
+  /// verifies. Thread-safe with respect to concurrent appends.
+  Result<StoredKeyframe> readKeyframe(int64_t node_id) const;
+
+  const MapStoreRecovery& recovery() const;
+  /// Bytes of the two log files (what the records occupy).
+  int64_t bytesOnDisk() const;
+  const std::string& directory() const;
+
+ private:
+  struct State;
+  explicit MapStore(std::unique_ptr<State> state);
+  std::unique_ptr<State> state_;
+};
+
+}  // namespace rgbdmap

@@ -1,0 +1,228 @@
+#include "rgbdmap/server/map_store.hpp"
+
+#include <atomic>
+#include <mutex>
+#include <unordered_map>
+#include <utility>
+
+#include "log_scan.hpp"
+#include "rgbdmap/common/logging.hpp"
+#include "store_codec.hpp"
+#include "store_files.hpp"
+
+namespace rgbdmap {
+namespace {
+
+constexpr const char* kKeyframeLog = "keyframes.log";
+constexpr const char* kLoopLog = "loops.log";
+constexpr size_t kMaxProblemsLogged = 20;
+
+struct RecordLocation {
+  int64_t offset = 0;
+  int64_t size = 0;  ///< header + payload
+};
+
+/// One append-only log: its descriptor and where the next record goes.
+struct LogFile {
+  store::UniqueFd fd;
+  std::string path;
+  std::atomic<int64_t> end{0};
+};
+
+void dropImages(StoredKeyframe* k) {
+  msg::Bytes().swap(k->keyframe.images.depth);
+  msg::Bytes().swap(k->keyframe.images.color);
+}
+
+}  // namespace
+
+struct MapStore::State {
+  std::string dir;
+  MapStoreOptions options;
+  store::UniqueFd lock;
+  LogFile keyframe_log, loop_log;
+  std::vector<StoredKeyframe> keyframes;
+  std::vector<StoredLoop> loops;
+  MapStoreRecovery recovery;
+
+  std::mutex append_mutex;  ///< serialises appends; guards `failed`
+  std::string failed;       ///< set by an append that hit an I/O error: the log state is no longer known
+  mutable std::mutex index_mutex;
+  std::unordered_map<int64_t, RecordLocation> index;  ///< node id -> keyframe record
+
+  bool hasNode(int64_t node_id) const {
+    std::lock_guard<std::mutex> lock(index_mutex);
+    return index.count(node_id) > 0;
+  }
+  Status load(LogFile* log, store::RecordType type, const store::RecordVisitor& visit);
+  Status loadKeyframes();
+  Status loadLoops();
+  Status append(LogFile* log, const msg::Bytes& record);
+};
+
+Status MapStore::State::load(LogFile* log, store::RecordType type, const store::RecordVisitor& visit) {
+  Result<int64_t> size = store::fileSize(log->fd.get(), log->path);
+  if (!size) return Status::failure(size.error());
+  Result<store::ScanReport> scan = store::scanLog(log->fd.get(), *size, type, log->path, visit);
+  if (!scan) return Status::failure(scan.error());
+  if (scan->valid_end < *size) {  // repair: the next append starts at a record boundary
+    if (Status s = store::truncateTo(log->fd.get(), scan->valid_end, log->path); !s) return s;
+    if (options.sync)
+      if (Status s = store::syncData(log->fd.get(), log->path); !s) return s;
+  }
+  log->end = scan->valid_end;
+  recovery.corrupt_records += scan->corrupt_records;
+  recovery.truncated_bytes += scan->truncated_bytes;
+  for (std::string& p : scan->problems) recovery.problems.push_back(std::move(p));
+  return Status::success();
+}
+
+Status MapStore::State::loadKeyframes() {
+  return load(&keyframe_log, store::RecordType::kKeyframe,
+              [this](int64_t offset, const uint8_t* payload, size_t size) -> Status {
+                Result<StoredKeyframe> k = store::decodeKeyframePayload(payload, size);
+                if (!k) return Status::failure(k.error());
+                if (index.count(k->node_id))
+                  return Status::failure("duplicate node id " + std::to_string(k->node_id));
+                index[k->node_id] = {offset, static_cast<int64_t>(store::kRecordHeaderSize + size)};
+                dropImages(&k.value());
+                keyframes.push_back(std::move(k).value());
+                return Status::success();
+              });
+}
+
+Status MapStore::State::loadLoops() {
+  return load(&loop_log, store::RecordType::kLoop, [this](int64_t, const uint8_t* payload, size_t size) {
+    Result<StoredLoop> loop = store::decodeLoopPayload(payload, size);
+    if (!loop) return Status::failure(loop.error());
+    if (!index.count(loop->from_node) || !index.count(loop->to_node))
+      return Status::failure("loop " + std::to_string(loop->from_node) + " -> " +
+                             std::to_string(loop->to_node) + " refers to a node that is not stored");
+    loops.push_back(loop.value());
+    return Status::success();
+  });
+}
+
+Status MapStore::State::append(LogFile* log, const msg::Bytes& record) {
+  const int64_t offset = log->end;
+  Status s = store::writeAt(log->fd.get(), record.data(), record.size(), offset, log->path);
+  if (s && options.sync) s = store::syncData(log->fd.get(), log->path);
+  if (!s) {
+    // Cut a partial record off so the file still ends at a record boundary; after an I/O error (above all
+    // a failed fdatasync) what the file holds is not known, so this store takes no more appends.
+    (void)store::truncateTo(log->fd.get(), offset, log->path);
+    failed = s.error();
+    log::error("map store '", dir, "': append failed, no further appends: ", s.error());
+    return s;
+  }
+  log->end = offset + static_cast<int64_t>(record.size());
+  return Status::success();
+}
+
+Result<std::unique_ptr<MapStore>> MapStore::open(const std::string& dir, MapStoreOptions options) {
+  using R = Result<std::unique_ptr<MapStore>>;
+  if (dir.empty()) return R::failure("map store: empty directory name");
+  auto state = std::make_unique<State>();
+  state->dir = dir;
+  state->options = options;
+  if (Status s = store::makeDirectory(dir); !s) return R::failure(s.error());
+  Result<store::UniqueFd> lock = store::lockDirectory(dir);
+  if (!lock) return R::failure(lock.error());
+  state->lock = std::move(lock).value();
+  if (Status s = store::checkOrCreateManifest(dir, kKeyframeLog); !s) return R::failure(s.error());
+  for (auto [log, name] :
+       {std::pair{&state->keyframe_log, kKeyframeLog}, std::pair{&state->loop_log, kLoopLog}}) {
+    Result<store::UniqueFd> fd = store::openLog(dir, name);
+    if (!fd) return R::failure(fd.error());
+    log->fd = std::move(fd).value();
+    log->path = dir + "/" + name;
+  }
+  if (Status s = state->loadKeyframes(); !s) return R::failure(s.error());
+  if (Status s = state->loadLoops(); !s) return R::failure(s.error());
+
+  MapStoreRecovery& r = state->recovery;
+  r.keyframes = static_cast<int>(state->keyframes.size());
+  r.loops = static_cast<int>(state->loops.size());
+  for (size_t i = 0; i < r.problems.size() && i < kMaxProblemsLogged; ++i)
+    log::warn("map store: ", r.problems[i]);
+  if (r.problems.size() > kMaxProblemsLogged)
+    log::warn("map store: ", r.problems.size() - kMaxProblemsLogged, " more problems not logged");
+  log::info("map store '", dir, "': ", r.keyframes, " keyframes, ", r.loops, " loops, ", r.corrupt_records,
+            " corrupt records skipped, ", r.truncated_bytes, " bytes of incomplete tail cut off");
+  return std::unique_ptr<MapStore>(new MapStore(std::move(state)));
+}
+
+MapStore::MapStore(std::unique_ptr<State> state) : state_(std::move(state)) {}
+MapStore::~MapStore() = default;
+
+Status MapStore::appendKeyframe(const StoredKeyframe& keyframe) {
+  State& s = *state_;
+  std::lock_guard<std::mutex> lock(s.append_mutex);
+  if (!s.failed.empty()) return Status::failure("map store failed earlier (" + s.failed + "); reopen it");
+  if (keyframe.node_id < 0) return Status::failure("negative node id " + std::to_string(keyframe.node_id));
+  if (s.hasNode(keyframe.node_id))
+    return Status::failure("duplicate node id " + std::to_string(keyframe.node_id) + ": already stored");
+  Result<msg::Bytes> payload = store::encodeKeyframePayload(keyframe);
+  if (!payload) return Status::failure(payload.error());
+  const msg::Bytes record = store::frameRecord(store::RecordType::kKeyframe, *payload);
+  const int64_t offset = s.keyframe_log.end;
+  if (Status st = s.append(&s.keyframe_log, record); !st) return st;
+  {
+    std::lock_guard<std::mutex> index_lock(s.index_mutex);
+    s.index[keyframe.node_id] = {offset, static_cast<int64_t>(record.size())};
+  }
+  StoredKeyframe kept = keyframe;
+  dropImages(&kept);
+  s.keyframes.push_back(std::move(kept));
+  return Status::success();
+}
+
+Status MapStore::appendLoop(const StoredLoop& loop) {
+  State& s = *state_;
+  std::lock_guard<std::mutex> lock(s.append_mutex);
+  if (!s.failed.empty()) return Status::failure("map store failed earlier (" + s.failed + "); reopen it");
+  Result<msg::Bytes> payload = store::encodeLoopPayload(loop);
+  if (!payload) return Status::failure(payload.error());
+  for (int64_t node : {loop.from_node, loop.to_node})
+    if (!s.hasNode(node)) return Status::failure("loop refers to unknown node id " + std::to_string(node));
+  if (Status st = s.append(&s.loop_log, store::frameRecord(store::RecordType::kLoop, *payload)); !st)
+    return st;
+  s.loops.push_back(loop);
+  return Status::success();
+}
+
+Result<StoredKeyframe> MapStore::readKeyframe(int64_t node_id) const {
+  using R = Result<StoredKeyframe>;
+  RecordLocation where;
+  {
+    std::lock_guard<std::mutex> lock(state_->index_mutex);
+    auto it = state_->index.find(node_id);
+    if (it == state_->index.end()) return R::failure("unknown node id " + std::to_string(node_id));
+    where = it->second;
+  }
+  const LogFile& log = state_->keyframe_log;
+  msg::Bytes bytes(static_cast<size_t>(where.size));
+  if (Status s = store::readAt(log.fd.get(), bytes.data(), bytes.size(), where.offset, log.path); !s)
+    return R::failure(s.error());
+  const std::string context = "keyframe " + std::to_string(node_id) + " at offset " +
+                              std::to_string(where.offset) + " of '" + log.path + "': ";
+  const std::optional<store::RecordHeader> header = store::parseRecordHeader(bytes.data());
+  if (!header || header->payload_size + store::kRecordHeaderSize != bytes.size())
+    return R::failure(context + "record header no longer verifies");
+  const uint8_t* payload = bytes.data() + store::kRecordHeaderSize;
+  if (Status s = store::verifyRecord(*header, store::RecordType::kKeyframe, payload); !s)
+    return R::failure(context + s.error());
+  Result<StoredKeyframe> k = store::decodeKeyframePayload(payload, header->payload_size);
+  if (!k) return R::failure(context + k.error());
+  if (k->node_id != node_id)
+    return R::failure(context + "record holds node id " + std::to_string(k->node_id));
+  return k;
+}
+
+const std::vector<StoredKeyframe>& MapStore::keyframes() const { return state_->keyframes; }
+const std::vector<StoredLoop>& MapStore::loops() const { return state_->loops; }
+const MapStoreRecovery& MapStore::recovery() const { return state_->recovery; }
+int64_t MapStore::bytesOnDisk() const { return state_->keyframe_log.end + state_->loop_log.end; }
+const std::string& MapStore::directory() const { return state_->dir; }
+
+}  // namespace rgbdmap
