@@ -189,6 +189,7 @@ struct MapServer::Impl {
   int64_t next_edge_id = 0;
   MapServerStats counters;  ///< the counting fields; robots and derived fields are filled in stats()
   std::vector<double> ingest_ms;
+  std::array<std::vector<double>, 3> stage_ms;  ///< decode + features, store, loops + graph
   std::vector<std::vector<int64_t>> components;
   std::atomic<uint64_t> dropped_queue_full{0};
   std::atomic<uint64_t> unknown_robot{0};
@@ -495,6 +496,7 @@ struct MapServer::Impl {
     };
     if (kf.images.width != camera->width || kf.images.height != camera->height)
       return refuse("image size differs from the camera in the robot's Hello");
+    const auto t_decode = Clock::now();
     const auto images = msg::decodeKeyframeImages(kf);
     if (!images) return refuse("images: " + images.error());
     const auto features = featuresFromMessage(kf, PinholeCamera(*camera));
@@ -504,12 +506,16 @@ struct MapServer::Impl {
     stored.node_id = static_cast<int64_t>(nodes.size());
     stored.session = session;
     stored.keyframe = kf;
+    const double decode_ms = msSince(t_decode);
+    const auto t_store = Clock::now();
     if (const Status s = store->appendKeyframe(stored); !s) {
       log::error("server: cannot store keyframe ", kf.keyframe_id, " of ", kf.robot_id, ": ", s.error());
       return;  // not acknowledged: the robot sends it again
     }
     stored.keyframe.images = {};
+    const double store_ms = msSince(t_store);
     acknowledge(kf.robot_id, kf.keyframe_id, true, "");
+    const auto t_loops = Clock::now();
 
     LoopStats loop_stats;
     const std::vector<LoopEdge> edges = integrate(stored, *features, true, &loop_stats);
@@ -532,6 +538,9 @@ struct MapServer::Impl {
     ++counters.keyframes;
     registry.countKeyframe(kf.robot_id);
     if (added > 0) submitOptimization();
+    stage_ms[0].push_back(decode_ms);
+    stage_ms[1].push_back(store_ms);
+    stage_ms[2].push_back(msSince(t_loops));
     ingest_ms.push_back(msSince(t0));
   }
 
@@ -774,6 +783,9 @@ MapServerStats MapServer::stats() const {
   s.unknown_robot_messages = m.unknown_robot.load();
   s.ingest_ms_median = quantile(m.ingest_ms, 0.5);
   s.ingest_ms_p90 = quantile(m.ingest_ms, 0.9);
+  s.decode_ms_median = quantile(m.stage_ms[0], 0.5);
+  s.store_ms_median = quantile(m.stage_ms[1], 0.5);
+  s.loops_ms_median = quantile(m.stage_ms[2], 0.5);
   s.ingest_ms_max = m.ingest_ms.empty() ? 0.0 : *std::max_element(m.ingest_ms.begin(), m.ingest_ms.end());
   s.maps = static_cast<int>(m.components.size());
   s.robots = m.registry.stats();

@@ -14,6 +14,7 @@
 // Acknowledgement only after the store returned (fdatasync): a killed server loses no acknowledged
 // keyframe. A restart on the same map directory restores robots, keyframes, odometry and loop edges, and
 // re-optimises; keyframes a robot re-sends after the restart are recognised and acknowledged again.
+#include <array>
 #include <atomic>
 #include <condition_variable>
 #include <cstdint>
@@ -90,7 +91,12 @@ struct MapServerStats {
   uint64_t keyframes_dropped_queue_full = 0;
   uint64_t keyframes_refused = 0;
   uint64_t unknown_robot_messages = 0;
+  /// Per keyframe, from dequeue to the graph update (decode + validate images, features, durable store,
+  /// acknowledgement, loop candidates and verification, graph insertion).
   double ingest_ms_median = 0.0, ingest_ms_p90 = 0.0, ingest_ms_max = 0.0;
+  double decode_ms_median = 0.0;  ///< image decoding (validation) and features
+  double store_ms_median = 0.0;   ///< durable append (fdatasync when store_sync)
+  double loops_ms_median = 0.0;   ///< loop detection and graph insertion
   int restored_keyframes = 0, restored_loops = 0;  ///< from the map directory at start
   MapStoreRecovery recovery;
   std::vector<ServerRobotStats> robots;
