@@ -45,6 +45,8 @@ void readServerConfig(ConfigReader& r, ServerAppConfig* c) {
   s.ingest_queue_capacity = static_cast<size_t>(capacity);
   r.read("server.default_odometry_sigma_m", &s.default_odometry_sigma_m, 1e-4, 10.0);
   r.read("server.default_odometry_sigma_deg", &s.default_odometry_sigma_deg, 1e-3, 90.0);
+  r.read("server.edge_sigma_floor_m", &s.edge_sigma_floor_m, 0.0, 10.0);
+  r.read("server.edge_sigma_floor_deg", &s.edge_sigma_floor_deg, 0.0, 90.0);
 
   LoopCandidateConfig& lc = s.loop.candidates;
   r.read("loop.recent_k", &lc.recent_k, 0, 100);
