@@ -2,6 +2,8 @@
 
 #include <algorithm>
 #include <chrono>
+#include <ctime>
+#include <pthread.h>
 #include <cstdio>
 #include <fstream>
 #include <sstream>
@@ -24,6 +26,13 @@ int64_t nowUtime() {
   return std::chrono::duration_cast<std::chrono::microseconds>(
              std::chrono::system_clock::now().time_since_epoch())
       .count();
+}
+
+/// CPU time of the calling thread (ms): what a keyframe costs, whatever else the machine is doing.
+double threadCpuMs() {
+  timespec ts{};
+  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
+  return ts.tv_sec * 1e3 + ts.tv_nsec * 1e-6;
 }
 
 double msSince(Clock::time_point t0) {
@@ -189,6 +198,8 @@ struct MapServer::Impl {
   int64_t next_edge_id = 0;
   MapServerStats counters;  ///< the counting fields; robots and derived fields are filled in stats()
   std::vector<double> ingest_ms;
+  std::vector<double> ingest_cpu_ms;
+  std::vector<double> verify_ms;
   std::array<std::vector<double>, 3> stage_ms;  ///< decode + features, store, loops + graph
   std::vector<std::vector<int64_t>> components;
   std::atomic<uint64_t> dropped_queue_full{0};
@@ -311,6 +322,7 @@ struct MapServer::Impl {
 
   // ---- worker ----------------------------------------------------------------------------------------
   void run() {
+    pthread_setname_np(pthread_self(), "rgbdmap-ingest");
     for (;;) {
       Event e;
       {
@@ -460,6 +472,7 @@ struct MapServer::Impl {
 
   void handleKeyframe(const msg::Keyframe& kf) {
     const auto t0 = Clock::now();
+    const double cpu0 = threadCpuMs();
     std::unique_lock<std::mutex> lock(state_mutex);
     const int robot = registry.index(kf.robot_id);
     const std::optional<CameraIntrinsics> camera = registry.camera(kf.robot_id);
@@ -520,6 +533,7 @@ struct MapServer::Impl {
     LoopStats loop_stats;
     const std::vector<LoopEdge> edges = integrate(stored, *features, true, &loop_stats);
     counters.loop_candidates += loop_stats.candidates;
+    verify_ms.push_back(loop_stats.verify_ms);
     for (int r = 0; r < kLoopRejectionCount; ++r) counters.loops_rejected_by_reason[r] += loop_stats.rejected_by_reason[r];
     int added = 0;
     for (const LoopEdge& edge : edges) {
@@ -542,6 +556,7 @@ struct MapServer::Impl {
     stage_ms[1].push_back(store_ms);
     stage_ms[2].push_back(msSince(t_loops));
     ingest_ms.push_back(msSince(t0));
+    ingest_cpu_ms.push_back(threadCpuMs() - cpu0);
   }
 
   void submitOptimization() {
@@ -783,6 +798,9 @@ MapServerStats MapServer::stats() const {
   s.unknown_robot_messages = m.unknown_robot.load();
   s.ingest_ms_median = quantile(m.ingest_ms, 0.5);
   s.ingest_ms_p90 = quantile(m.ingest_ms, 0.9);
+  s.ingest_cpu_ms_median = quantile(m.ingest_cpu_ms, 0.5);
+  s.ingest_cpu_ms_p90 = quantile(m.ingest_cpu_ms, 0.9);
+  s.verify_ms_median = quantile(m.verify_ms, 0.5);
   s.decode_ms_median = quantile(m.stage_ms[0], 0.5);
   s.store_ms_median = quantile(m.stage_ms[1], 0.5);
   s.loops_ms_median = quantile(m.stage_ms[2], 0.5);

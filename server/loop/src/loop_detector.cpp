@@ -102,10 +102,11 @@ LoopThresholds LoopDetector::thresholdsFor(const LoopKeyframe& kf, const LoopCan
 
 void LoopDetector::verifyCandidates(const LoopKeyframe& kf, LoopDetection* out) const {
   const PinholeCamera& camera = cameraOf(kf.robot_id);
+  const FeatureGrid grid(kf.features, camera.intrinsics().width, camera.intrinsics().height);
   for (const LoopCandidate& c : out->candidates) {
     const LoopKeyframe& other = keyframes_[slot_of_.at(c.keyframe_id)];
     const LoopVerification v = verifyLoop(kf.id, kf.features, other.id, other.features, camera,
-                                          config_.verify, thresholdsFor(kf, c, other));
+                                          config_.verify, thresholdsFor(kf, c, other), &grid);
     ++out->stats.rejected_by_reason[static_cast<int>(v.rejection)];
     if (v.edge) out->edges.push_back(*v.edge);
   }

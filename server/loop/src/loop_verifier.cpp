@@ -65,12 +65,21 @@ LoopRejection checkPose(const RansacResult& ransac, const RefineResult& refined,
 
 LoopVerification verifyLoop(int from_id, const FrameFeatures& from, int to_id, const FrameFeatures& to,
                             const PinholeCamera& camera_from, const LoopVerifyConfig& config,
-                            const LoopThresholds& thresholds) {
+                            const LoopThresholds& thresholds, const FeatureGrid* from_grid) {
   LoopVerification v;
-  std::vector<char> to_mask(to.size());
-  for (size_t i = 0; i < to_mask.size(); ++i) to_mask[i] = to.hasDepth(i);
-  const std::vector<FeatureMatch> raw =
-      matchDescriptors(from.descriptors, to.descriptors, config.matcher, &to_mask);
+  std::vector<FeatureMatch> raw;
+  if (from_grid && thresholds.T_from_to_prior && config.guided_radius_px > 0.0) {
+    GuidedMatchConfig guided;
+    guided.radius_px = config.guided_radius_px;
+    guided.max_distance = config.matcher.max_distance;
+    guided.ratio = config.matcher.ratio;
+    raw = matchByProjection(from, *from_grid, to, *thresholds.T_from_to_prior, camera_from, guided);
+  }
+  if (static_cast<int>(raw.size()) < config.min_matches) {
+    std::vector<char> to_mask(to.size());
+    for (size_t i = 0; i < to_mask.size(); ++i) to_mask[i] = to.hasDepth(i);
+    raw = matchDescriptors(from.descriptors, to.descriptors, config.matcher, &to_mask);
+  }
   // cur = from (the new keyframe), ref = to (the candidate): RANSAC estimates T_from_to = T_cur_ref.
   const std::vector<PointMatch> matches = toPointMatches(from, to, raw, config.scale_factor);
   v.matches = static_cast<int>(matches.size());

@@ -94,9 +94,11 @@ struct MapServerStats {
   /// Per keyframe, from dequeue to the graph update (decode + validate images, features, durable store,
   /// acknowledgement, loop candidates and verification, graph insertion).
   double ingest_ms_median = 0.0, ingest_ms_p90 = 0.0, ingest_ms_max = 0.0;
+  double ingest_cpu_ms_median = 0.0, ingest_cpu_ms_p90 = 0.0;  ///< the same in worker-thread CPU time
   double decode_ms_median = 0.0;  ///< image decoding (validation) and features
   double store_ms_median = 0.0;   ///< durable append (fdatasync when store_sync)
-  double loops_ms_median = 0.0;   ///< loop detection and graph insertion
+  double loops_ms_median = 0.0;   ///< loop detection, graph insertion, loop edges stored
+  double verify_ms_median = 0.0;  ///< of which geometric verification of the candidates
   int restored_keyframes = 0, restored_loops = 0;  ///< from the map directory at start
   MapStoreRecovery recovery;
   std::vector<ServerRobotStats> robots;

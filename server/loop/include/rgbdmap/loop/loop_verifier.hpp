@@ -7,6 +7,7 @@
 #include <string>
 
 #include "rgbdmap/client/features.hpp"
+#include "rgbdmap/client/guided_matcher.hpp"
 #include "rgbdmap/client/odometry_config.hpp"
 #include "rgbdmap/common/camera.hpp"
 #include "rgbdmap/common/se3.hpp"
@@ -37,6 +38,11 @@ struct LoopVerifyConfig {
   /// the one from the current pose estimates must not exceed this (odometry drift over a local loop is far
   /// smaller; an aliased match is not).
   double max_prior_disagreement = 1.0;
+  /// Candidates with a pose prior (same map) are matched by projection under the prior first: each of the
+  /// candidate's 3-D points is compared only with keypoints within this radius (scaled by octave) of its
+  /// projection, instead of all of them (several times faster than brute force). Falls back to brute force
+  /// when that finds fewer than min_matches (a prior off by more than the radius). 0 turns it off.
+  double guided_radius_px = 40.0;
   float scale_factor = 1.2f;  ///< ORB pyramid scale of the features (for keypoint noise by octave)
   MatcherConfig matcher;
   RansacConfig ransac;
@@ -87,8 +93,10 @@ LoopThresholds localThresholds(const LoopVerifyConfig& config, std::optional<SE3
 LoopThresholds retrievalThresholds(const LoopVerifyConfig& config);
 
 /// Verifies `to` (candidate, needs depth) against `from` (new keyframe, seen by `camera_from`).
+/// `from_grid` (a FeatureGrid over `from`, optional) enables matching by projection when the thresholds
+/// carry a prior.
 LoopVerification verifyLoop(int from_id, const FrameFeatures& from, int to_id, const FrameFeatures& to,
                             const PinholeCamera& camera_from, const LoopVerifyConfig& config,
-                            const LoopThresholds& thresholds);
+                            const LoopThresholds& thresholds, const FeatureGrid* from_grid = nullptr);
 
 }  // namespace rgbdmap
