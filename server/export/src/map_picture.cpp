@@ -113,7 +113,8 @@ void drawOccupied(cv::Mat* image, const MapPictureLayout& layout, std::vector<Le
   for (int i = 0; i < 256; ++i) ramp.at<uint8_t>(0, i) = static_cast<uint8_t>(i);
   cv::applyColorMap(ramp, lut, cv::COLORMAP_TURBO);
   for (const Leaf& l : occupied) {
-    const int i = hi > lo ? static_cast<int>(std::lround(255.0 * (l.height - lo) / (hi - lo))) : 128;
+    // Turbo without its darkest blues (index < 35), which would hide the trajectories' outlines.
+    const int i = hi > lo ? 35 + static_cast<int>(std::lround(220.0 * (l.height - lo) / (hi - lo))) : 128;
     const cv::Vec3b c = lut.at<cv::Vec3b>(0, i);
     fillLeaf(image, layout, l, cv::Scalar(c[0], c[1], c[2]));
   }
@@ -129,10 +130,14 @@ void drawTrajectories(cv::Mat* image, const MapPictureLayout& layout,
     if (poses.empty()) continue;
     std::vector<cv::Point> line;
     for (const SE3& T : poses) line.push_back(px(layout.toPixel(T.translation())));
-    const cv::Scalar colour = bgr(o.trajectory_rgb[k % o.trajectory_rgb.size()]);
-    cv::polylines(*image, line, false, cv::Scalar(0, 0, 0), t + 2, cv::LINE_8);
+    const auto& rgb = o.trajectory_rgb[k % o.trajectory_rgb.size()];
+    const cv::Scalar colour = bgr(rgb);
+    // Outline in black, or in white for a dark colour, so the line stands out on any map colour.
+    const bool dark = 0.299 * rgb[0] + 0.587 * rgb[1] + 0.114 * rgb[2] < 60.0;
+    const cv::Scalar outline = dark ? cv::Scalar(255, 255, 255) : cv::Scalar(0, 0, 0);
+    cv::polylines(*image, line, false, outline, t + 2, cv::LINE_8);
     cv::polylines(*image, line, false, colour, t, cv::LINE_8);
-    cv::circle(*image, line.front(), 2 * t + 2, cv::Scalar(0, 0, 0), cv::FILLED, cv::LINE_AA);
+    cv::circle(*image, line.front(), 2 * t + 2, outline, cv::FILLED, cv::LINE_AA);
     cv::circle(*image, line.front(), 2 * t, colour, cv::FILLED, cv::LINE_AA);
   }
 }
