@@ -54,12 +54,15 @@ std::string AvoidanceConfig::validate() const {
         "corridor_width_m must be in (0, 10]", &bad);
   check(std::isfinite(lookahead_m) && lookahead_m > safety_distance_m && lookahead_m <= 50.0,
         "lookahead_m must be in (safety_distance_m, 50]", &bad);
-  check(unit(forward_throttle) && unit(forward_yaw) && unit(turn_throttle) && unit(turn_yaw) && unit(back_throttle) &&
-            unit(back_yaw),
+  check(unit(forward_throttle) && unit(forward_yaw) && unit(turn_throttle) && unit(turn_yaw) &&
+            unit(back_throttle) && unit(back_yaw),
         "throttle and yaw values must be in [-1, 1]", &bad);
-  check(std::isfinite(turn_min_duration_s) && turn_min_duration_s >= 0.0, "turn_min_duration_s must be >= 0", &bad);
-  check(std::isfinite(clear_hysteresis_m) && clear_hysteresis_m >= 0.0, "clear_hysteresis_m must be >= 0", &bad);
-  check(std::isfinite(emergency_distance_m) && emergency_distance_m >= 0.0 && emergency_distance_m < safety_distance_m,
+  check(std::isfinite(turn_min_duration_s) && turn_min_duration_s >= 0.0, "turn_min_duration_s must be >= 0",
+        &bad);
+  check(std::isfinite(clear_hysteresis_m) && clear_hysteresis_m >= 0.0, "clear_hysteresis_m must be >= 0",
+        &bad);
+  check(std::isfinite(emergency_distance_m) && emergency_distance_m >= 0.0 &&
+            emergency_distance_m < safety_distance_m,
         "emergency_distance_m must be in [0, safety_distance_m)", &bad);
   check(up_in_map.allFinite() && up_in_map.norm() > 1e-6, "up_in_map must be a finite non-zero vector", &bad);
   check(std::isfinite(max_slice_age_s) && max_slice_age_s > 0.0, "max_slice_age_s must be > 0", &bad);
@@ -67,7 +70,8 @@ std::string AvoidanceConfig::validate() const {
         "max_speed_mps must be in (0, 10]", &bad);
   check(std::isfinite(max_yaw_rate_radps) && max_yaw_rate_radps > 0.0 && max_yaw_rate_radps <= msg::kMaxSpeed,
         "max_yaw_rate_radps must be in (0, 10]", &bad);
-  check(std::isfinite(command_duration_s) && command_duration_s > 0.0 && command_duration_s <= msg::kMaxCommandDuration,
+  check(std::isfinite(command_duration_s) && command_duration_s > 0.0 &&
+            command_duration_s <= msg::kMaxCommandDuration,
         "command_duration_s must be in (0, 10]", &bad);
   std::string out;
   for (const std::string& b : bad) out += (out.empty() ? "" : "; ") + b;
@@ -77,7 +81,8 @@ std::string AvoidanceConfig::validate() const {
 double closestObstacleInCorridor(const msg::OccupancySlice& slice, const SE3& T_map_cam, double width_m,
                                  double lookahead_m, Vec3 up_in_map, bool unknown_is_obstacle) {
   if (!usableGrid(slice) || !se3::isValid(T_map_cam) || !(width_m > 0.0) || !(lookahead_m > 0.0) ||
-      !std::isfinite(width_m) || !std::isfinite(lookahead_m) || !up_in_map.allFinite() || up_in_map.norm() < 1e-9)
+      !std::isfinite(width_m) || !std::isfinite(lookahead_m) || !up_in_map.allFinite() ||
+      up_in_map.norm() < 1e-9)
     return kNaN;
   const Vec3 up = up_in_map.normalized();
   const Vec3 forward_map = T_map_cam.linear().col(2) - up * up.dot(T_map_cam.linear().col(2));
@@ -144,12 +149,14 @@ AvoidanceDecision AvoidanceController::update(const msg::OccupancySlice& slice, 
   if (slice.cells.empty()) return stop(d, "no slice yet");
   const double age_s = now_s - static_cast<double>(slice.header.utime) * 1e-6;
   if (age_s > config_.max_slice_age_s) return stop(d, "slice is stale (" + fmt(age_s) + " s old)");
-  if (age_s < -config_.max_slice_age_s) return stop(d, "slice is from the future (" + fmt(-age_s) + " s ahead)");
+  if (age_s < -config_.max_slice_age_s)
+    return stop(d, "slice is from the future (" + fmt(-age_s) + " s ahead)");
   if (!usableGrid(slice)) return stop(d, "slice is malformed");
   d.slice_stale = false;
   if (!se3::isValid(T_map_cam)) return stop(d, "invalid camera pose");
-  const double closest = closestObstacleInCorridor(slice, T_map_cam, config_.corridor_width_m, config_.lookahead_m,
-                                                   config_.up_in_map, config_.unknown_is_obstacle);
+  const double closest =
+      closestObstacleInCorridor(slice, T_map_cam, config_.corridor_width_m, config_.lookahead_m,
+                                config_.up_in_map, config_.unknown_is_obstacle);
   if (std::isnan(closest)) return stop(d, "camera looks straight up or down, or the slice is not horizontal");
   d.closest_obstacle_m = closest;
 
@@ -193,7 +200,8 @@ msg::VelocityCommand AvoidanceController::command(const AvoidanceDecision& decis
                                                   const std::string& robot_id) const {
   msg::VelocityCommand cmd;
   cmd.robot_id = robot_id;
-  cmd.header.utime = std::isfinite(decision.now_s) ? static_cast<int64_t>(std::llround(decision.now_s * 1e6)) : 0;
+  cmd.header.utime =
+      std::isfinite(decision.now_s) ? static_cast<int64_t>(std::llround(decision.now_s * 1e6)) : 0;
   cmd.duration_s = config_error_.empty() ? config_.command_duration_s : 0.0;
   if (decision.stopped || !config_error_.empty()) return cmd;
   const double steering_sign = (config_.yaw_is_steering && decision.throttle < 0.0) ? -1.0 : 1.0;

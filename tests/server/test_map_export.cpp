@@ -10,8 +10,8 @@
 #include <set>
 #include <sstream>
 
-#include <opencv2/imgcodecs.hpp>
 #include <yaml-cpp/yaml.h>
+#include <opencv2/imgcodecs.hpp>
 
 #include "common/temp_dir.hpp"
 #include "rgbdmap/export/map_picture.hpp"
@@ -93,10 +93,11 @@ TEST(ExportPly, TruncatedOrMalformedFilesAreRejected) {
     h.replace(h.find(from), from.size(), to);
     return h;
   };
-  for (const std::string& bad : {replaced("binary_little_endian", "binary_big_endian"), replaced("ply\n", "plx\n"),
-                                 replaced("vertex 100", "vertex -1"), replaced("vertex 100", "vertex 99999999999"),
-                                 replaced("property float z", "property double z"),
-                                 replaced("element vertex 100", "element face 100")}) {
+  for (const std::string& bad :
+       {replaced("binary_little_endian", "binary_big_endian"), replaced("ply\n", "plx\n"),
+        replaced("vertex 100", "vertex -1"), replaced("vertex 100", "vertex 99999999999"),
+        replaced("property float z", "property double z"),
+        replaced("element vertex 100", "element face 100")}) {
     writeBytes(tmp.path("bad.ply"), bad);
     EXPECT_FALSE(readPly(tmp.path("bad.ply"))) << bad.substr(0, body);
   }
@@ -115,8 +116,8 @@ TEST(ExportPly, NonFinitePointIsAnErrorAndNothingIsWritten) {
 }
 
 TEST(ExportVoxelCloud, OnePointPerVoxelMeanPositionAndColourInMapFrame) {
-  // 4000 points in a 1 m cube, 0.1 m voxels: at most 1000 voxels (1331 if the cube straddles boundaries), every
-  // output point inside the cube, and in a different voxel.
+  // 4000 points in a 1 m cube, 0.1 m voxels: at most 1000 voxels (1331 if the cube straddles boundaries),
+  // every output point inside the cube, and in a different voxel.
   std::mt19937 rng(5);
   std::uniform_real_distribution<float> u(0.0f, 1.0f);
   std::vector<Eigen::Vector3f> points_cam;
@@ -133,7 +134,8 @@ TEST(ExportVoxelCloud, OnePointPerVoxelMeanPositionAndColourInMapFrame) {
   const size_t voxels = cloud.size();
   EXPECT_LE(voxels, 1331u);
   EXPECT_GE(voxels, 500u);
-  // The same points again (another keyframe seeing the same surface) add no voxel: memory is bounded by voxels.
+  // The same points again (another keyframe seeing the same surface) add no voxel: memory is bounded by
+  // voxels.
   ASSERT_TRUE(cloud.add(points_cam, rgb, T_map_cam));
   EXPECT_EQ(cloud.size(), voxels);
   const auto out = cloud.points();
@@ -150,8 +152,8 @@ TEST(ExportVoxelCloud, OnePointPerVoxelMeanPositionAndColourInMapFrame) {
 
   // Two points in one voxel average; non-finite points are skipped and counted.
   VoxelCloud two(0.5);
-  ASSERT_TRUE(two.add({{0.1f, 0.1f, 0.1f}, {0.3f, 0.2f, 0.1f}, {NAN, 0.f, 0.f}}, {{0, 0, 0}, {100, 51, 255}, {1, 1, 1}},
-                      SE3::Identity()));
+  ASSERT_TRUE(two.add({{0.1f, 0.1f, 0.1f}, {0.3f, 0.2f, 0.1f}, {NAN, 0.f, 0.f}},
+                      {{0, 0, 0}, {100, 51, 255}, {1, 1, 1}}, SE3::Identity()));
   ASSERT_EQ(two.size(), 1u);
   EXPECT_EQ(two.skipped(), 1u);
   const ColoredPoint mean = two.points()[0];
@@ -170,7 +172,8 @@ TEST(ExportVoxelCloud, BadInputIsAnError) {
   ASSERT_TRUE(cloud.add({{1e9f, 0, 0}}, {{1, 2, 3}}, SE3::Identity()));  // beyond +-2^20 voxels: skipped
   EXPECT_EQ(cloud.size(), 0u);
   EXPECT_EQ(cloud.skipped(), 1u);
-  for (double v : {0.0, -1.0, std::nan("")}) EXPECT_FALSE(VoxelCloud(v).add({{1, 2, 3}}, {{1, 2, 3}}, SE3::Identity())) << v;
+  for (double v : {0.0, -1.0, std::nan("")})
+    EXPECT_FALSE(VoxelCloud(v).add({{1, 2, 3}}, {{1, 2, 3}}, SE3::Identity())) << v;
 }
 
 /// A 7 x 5 slice with every kind of value, its grid turned by `yaw` in the plane and lifted by `height_m`.
@@ -186,11 +189,11 @@ msg::OccupancySlice craftedSlice(double x, double y, double yaw, double height_m
   s.T_map_grid.linear() = R_map_plane() * Eigen::AngleAxisd(yaw, Vec3::UnitZ()).toRotationMatrix();
   s.T_map_grid.translation() = R_map_plane() * Vec3(x, y, height_m);
   s.cells.assign(35, msg::OccupancySlice::kFree);
-  s.cells[0] = msg::OccupancySlice::kOccupied;      // (col 0, row 0): the origin corner
-  s.cells[6] = msg::OccupancySlice::kUnknown;       // (6, 0)
-  s.cells[4 * 7 + 0] = 70;                          // (0, 4): above occupied_thresh -> occupied
-  s.cells[4 * 7 + 6] = 30;                          // (6, 4): between the thresholds -> unknown
-  s.cells[2 * 7 + 3] = 10;                          // (3, 2): below free_thresh -> free
+  s.cells[0] = msg::OccupancySlice::kOccupied;  // (col 0, row 0): the origin corner
+  s.cells[6] = msg::OccupancySlice::kUnknown;   // (6, 0)
+  s.cells[4 * 7 + 0] = 70;                      // (0, 4): above occupied_thresh -> occupied
+  s.cells[4 * 7 + 6] = 30;                      // (6, 4): between the thresholds -> unknown
+  s.cells[2 * 7 + 3] = 10;                      // (3, 2): below free_thresh -> free
   return s;
 }
 
@@ -245,13 +248,15 @@ TEST(ExportSlice, PlainMapServerYamlReadsThroughOrigin) {
   TempDir tmp;
   const auto s = craftedSlice(-0.5, 3.0, -2.0, 0.0);
   ASSERT_TRUE(writeSlice(s, tmp.path("m.pgm"), tmp.path("m.yaml")));
-  tmp.write("plain.yaml", "image: m.pgm\nresolution: 0.1\norigin: [-0.5, 3.0, -2.0]\nnegate: 0\n"
-                          "occupied_thresh: 0.65\nfree_thresh: 0.196\n");
+  tmp.write("plain.yaml",
+            "image: m.pgm\nresolution: 0.1\norigin: [-0.5, 3.0, -2.0]\nnegate: 0\n"
+            "occupied_thresh: 0.65\nfree_thresh: 0.196\n");
   auto back = readSlice(tmp.path("plain.yaml"));
   ASSERT_TRUE(back) << back.error();
   EXPECT_TRUE(back->T_map_grid.isApprox(s.T_map_grid, 1e-9));
   EXPECT_EQ(back->cells[0], 100);
-  // Cell (col, row) centre = T_map_grid * ((col + 0.5) res, (row + 0.5) res, 0): the plane's x axis turned by yaw.
+  // Cell (col, row) centre = T_map_grid * ((col + 0.5) res, (row + 0.5) res, 0): the plane's x axis turned by
+  // yaw.
   const Vec3 c10 = back->T_map_grid * Vec3(0.15, 0.05, 0.0);
   const Vec3 c00 = back->T_map_grid * Vec3(0.05, 0.05, 0.0);
   const Vec3 step_plane = R_map_plane().transpose() * (c10 - c00);
@@ -354,7 +359,8 @@ TEST(ExportPicture, WrittenWithTrajectoriesInTheirColoursAndTreeUntouched) {
     for (int i : {5, 15, 25}) {  // along the polyline
       const cv::Point2d p = layout.toPixel(trajectories[k].second[i].translation());
       const cv::Vec3b got = png.at<cv::Vec3b>(static_cast<int>(p.y), static_cast<int>(p.x));
-      EXPECT_TRUE(near(got, want)) << trajectories[k].first << " pose " << i << " pixel " << p << " = " << got;
+      EXPECT_TRUE(near(got, want)) << trajectories[k].first << " pose " << i << " pixel " << p << " = "
+                                   << got;
     }
   }
   // Forward (map z) is up in the picture, x to the right: the wall block (z = 2.55) is near the top.
@@ -403,7 +409,8 @@ TEST(ExportPicture, FreeSpaceGreyUnknownWhiteAndBadInputRejected) {
   auto image = renderMapPicture(tree, {}, options, &layout);
   ASSERT_TRUE(image) << image.error();
   const cv::Point2d free_pt = layout.toPixel(Vec3(0.45, 0.0, 0.05));
-  EXPECT_EQ(image->at<cv::Vec3b>(static_cast<int>(free_pt.y), static_cast<int>(free_pt.x)), cv::Vec3b(225, 225, 225));
+  EXPECT_EQ(image->at<cv::Vec3b>(static_cast<int>(free_pt.y), static_cast<int>(free_pt.x)),
+            cv::Vec3b(225, 225, 225));
   const cv::Point2d unknown_pt = layout.toPixel(Vec3(1.5, 0.0, 0.05));
   EXPECT_EQ(image->at<cv::Vec3b>(static_cast<int>(unknown_pt.y), static_cast<int>(unknown_pt.x)),
             cv::Vec3b(255, 255, 255));

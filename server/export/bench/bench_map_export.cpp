@@ -37,7 +37,8 @@ void BM_VoxelCloudAddKeyframe(benchmark::State& state) {
     benchmark::DoNotOptimize(cloud.add(points, rgb, T));
   }
   state.counters["voxels"] = static_cast<double>(cloud.size());
-  state.counters["points_per_s"] = benchmark::Counter(static_cast<double>(points.size()), benchmark::Counter::kIsIterationInvariantRate);
+  state.counters["points_per_s"] =
+      benchmark::Counter(static_cast<double>(points.size()), benchmark::Counter::kIsIterationInvariantRate);
 }
 BENCHMARK(BM_VoxelCloudAddKeyframe)->Arg(1)->Arg(2)->Arg(5)->Unit(benchmark::kMillisecond);
 
@@ -56,9 +57,9 @@ octomap::OcTree roomTree() {
   octomap::OcTree tree(0.05);
   for (double x = -3.0; x <= 3.0; x += 0.05)
     for (double z = -2.5; z <= 2.5; z += 0.05) {
-      tree.updateNode(octomap::point3d(x, 1.3f, z), true);    // floor
-      tree.updateNode(octomap::point3d(x, -1.5f, z), true);   // ceiling
-      tree.updateNode(octomap::point3d(x, 0.0f, z), false);   // free at camera height
+      tree.updateNode(octomap::point3d(x, 1.3f, z), true);   // floor
+      tree.updateNode(octomap::point3d(x, -1.5f, z), true);  // ceiling
+      tree.updateNode(octomap::point3d(x, 0.0f, z), false);  // free at camera height
       const bool wall = std::abs(x) > 2.95 || std::abs(z) > 2.45;
       if (wall)
         for (double y = -1.5; y <= 1.3; y += 0.05) tree.updateNode(octomap::point3d(x, y, z), true);

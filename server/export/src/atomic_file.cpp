@@ -39,7 +39,8 @@ Result<std::string> readWholeFile(const std::string& path, size_t max_bytes) {
   if (!in) return Result<std::string>::failure(path + ": cannot open");
   std::string bytes(static_cast<size_t>(size), '\0');
   in.read(bytes.data(), static_cast<std::streamsize>(bytes.size()));
-  if (static_cast<size_t>(in.gcount()) != bytes.size()) return Result<std::string>::failure(path + ": short read");
+  if (static_cast<size_t>(in.gcount()) != bytes.size())
+    return Result<std::string>::failure(path + ": short read");
   return bytes;
 }
 

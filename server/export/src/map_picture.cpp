@@ -82,7 +82,8 @@ Status fitLayout(const std::vector<Leaf>& drawn, const std::vector<NamedTrajecto
   for (const Leaf& l : drawn) extend(l.p, l.size / 2);
   for (const auto& [name, poses] : trajectories)
     for (const SE3& T : poses) extend(T.translation(), 0.0);
-  if (!(u_min <= u_max)) return Status::failure("map picture: nothing to draw (no leaves, no trajectory poses)");
+  if (!(u_min <= u_max))
+    return Status::failure("map picture: nothing to draw (no leaves, no trajectory poses)");
   const double extent = std::max({u_max - u_min, v_max - v_min, resolution});
   const int inner_px = std::max(1, o.max_side_px - 2 * o.margin_px);
   layout->pixel_m = o.pixel_m > 0.0 ? o.pixel_m : extent / inner_px;
@@ -107,7 +108,8 @@ void fillLeaf(cv::Mat* image, const MapPictureLayout& layout, const Leaf& l, con
 
 void drawOccupied(cv::Mat* image, const MapPictureLayout& layout, std::vector<Leaf> occupied) {
   if (occupied.empty()) return;
-  std::sort(occupied.begin(), occupied.end(), [](const Leaf& a, const Leaf& b) { return a.height < b.height; });
+  std::sort(occupied.begin(), occupied.end(),
+            [](const Leaf& a, const Leaf& b) { return a.height < b.height; });
   const double lo = occupied.front().height, hi = occupied.back().height;
   cv::Mat ramp(1, 256, CV_8UC1), lut;
   for (int i = 0; i < 256; ++i) ramp.at<uint8_t>(0, i) = static_cast<uint8_t>(i);
@@ -120,7 +122,9 @@ void drawOccupied(cv::Mat* image, const MapPictureLayout& layout, std::vector<Le
   }
 }
 
-cv::Point px(const cv::Point2d& p) { return cv::Point(static_cast<int>(std::floor(p.x)), static_cast<int>(std::floor(p.y))); }
+cv::Point px(const cv::Point2d& p) {
+  return cv::Point(static_cast<int>(std::floor(p.x)), static_cast<int>(std::floor(p.y)));
+}
 
 void drawTrajectories(cv::Mat* image, const MapPictureLayout& layout,
                       const std::vector<NamedTrajectory>& trajectories, const MapPictureOptions& o) {
@@ -142,7 +146,8 @@ void drawTrajectories(cv::Mat* image, const MapPictureLayout& layout,
   }
 }
 
-void drawLegend(cv::Mat* image, const std::vector<NamedTrajectory>& trajectories, const MapPictureOptions& o) {
+void drawLegend(cv::Mat* image, const std::vector<NamedTrajectory>& trajectories,
+                const MapPictureOptions& o) {
   const int font = cv::FONT_HERSHEY_SIMPLEX, row_px = 20;
   for (size_t k = 0; k < trajectories.size(); ++k) {
     const int y = 16 + static_cast<int>(k) * row_px;
@@ -151,7 +156,8 @@ void drawLegend(cv::Mat* image, const std::vector<NamedTrajectory>& trajectories
     cv::line(*image, cv::Point(8, y - 3), cv::Point(26, y - 3), colour, o.trajectory_thickness_px);
     cv::putText(*image, trajectories[k].first, cv::Point(32, y + 2), font, 0.5, cv::Scalar(255, 255, 255), 3,
                 cv::LINE_AA);
-    cv::putText(*image, trajectories[k].first, cv::Point(32, y + 2), font, 0.5, cv::Scalar(0, 0, 0), 1, cv::LINE_AA);
+    cv::putText(*image, trajectories[k].first, cv::Point(32, y + 2), font, 0.5, cv::Scalar(0, 0, 0), 1,
+                cv::LINE_AA);
   }
 }
 
@@ -164,13 +170,13 @@ void drawScaleBar(cv::Mat* image, const MapPictureLayout& layout) {
     if (f * decade <= target_m) length_m = f * decade;
   const int len_px = std::max(1, static_cast<int>(std::lround(length_m / layout.pixel_m)));
   const int x0 = 10, y0 = image->rows - 12;
-  cv::rectangle(*image, cv::Point(x0 - 2, y0 - 22), cv::Point(x0 + len_px + 2, y0 + 4), cv::Scalar(255, 255, 255),
-                cv::FILLED);
+  cv::rectangle(*image, cv::Point(x0 - 2, y0 - 22), cv::Point(x0 + len_px + 2, y0 + 4),
+                cv::Scalar(255, 255, 255), cv::FILLED);
   cv::rectangle(*image, cv::Point(x0, y0 - 3), cv::Point(x0 + len_px, y0), cv::Scalar(0, 0, 0), cv::FILLED);
   std::ostringstream label;
   label << length_m << " m";
-  cv::putText(*image, label.str(), cv::Point(x0, y0 - 8), cv::FONT_HERSHEY_SIMPLEX, 0.45, cv::Scalar(0, 0, 0), 1,
-              cv::LINE_AA);
+  cv::putText(*image, label.str(), cv::Point(x0, y0 - 8), cv::FONT_HERSHEY_SIMPLEX, 0.45, cv::Scalar(0, 0, 0),
+              1, cv::LINE_AA);
 }
 
 }  // namespace
@@ -178,14 +184,18 @@ void drawScaleBar(cv::Mat* image, const MapPictureLayout& layout) {
 std::string MapPictureOptions::validate() const {
   std::vector<std::string> bad;
   if (max_side_px < 100 || max_side_px > kMaxSidePx) bad.push_back("max_side_px must be in [100, 10000]");
-  if (!(up_in_map.allFinite() && up_in_map.norm() > 1e-6)) bad.push_back("up_in_map must be a finite non-zero vector");
+  if (!(up_in_map.allFinite() && up_in_map.norm() > 1e-6))
+    bad.push_back("up_in_map must be a finite non-zero vector");
   if (!(std::isfinite(pixel_m) && pixel_m >= 0.0)) bad.push_back("pixel_m must be >= 0 (0 = auto)");
-  if (margin_px < 0 || 2 * margin_px >= max_side_px) bad.push_back("margin_px must be in [0, max_side_px / 2)");
+  if (margin_px < 0 || 2 * margin_px >= max_side_px)
+    bad.push_back("margin_px must be in [0, max_side_px / 2)");
   if (std::isnan(min_height_m) || std::isnan(max_height_m) || !(min_height_m < max_height_m))
     bad.push_back("min_height_m must be < max_height_m");
-  if (!(ceiling_min_cover >= 0.0 && ceiling_min_cover <= 1.0)) bad.push_back("ceiling_min_cover must be in [0, 1]");
+  if (!(ceiling_min_cover >= 0.0 && ceiling_min_cover <= 1.0))
+    bad.push_back("ceiling_min_cover must be in [0, 1]");
   if (trajectory_rgb.empty()) bad.push_back("trajectory_rgb must not be empty");
-  if (trajectory_thickness_px < 1 || trajectory_thickness_px > 20) bad.push_back("trajectory_thickness_px must be in [1, 20]");
+  if (trajectory_thickness_px < 1 || trajectory_thickness_px > 20)
+    bad.push_back("trajectory_thickness_px must be in [1, 20]");
   std::string out;
   for (const std::string& b : bad) out += (out.empty() ? "" : "; ") + b;
   return out;
@@ -195,24 +205,28 @@ cv::Point2d MapPictureLayout::toPixel(const Vec3& p_map) const {
   return cv::Point2d((p_map.dot(u_axis) - u0) / pixel_m, (p_map.dot(v_axis) - v0) / pixel_m);
 }
 
-Result<cv::Mat> renderMapPicture(const octomap::OcTree& tree, const std::vector<NamedTrajectory>& trajectories,
+Result<cv::Mat> renderMapPicture(const octomap::OcTree& tree,
+                                 const std::vector<NamedTrajectory>& trajectories,
                                  const MapPictureOptions& options, MapPictureLayout* layout_out) {
   using R = Result<cv::Mat>;
-  if (const std::string bad = options.validate(); !bad.empty()) return R::failure("map picture options: " + bad);
+  if (const std::string bad = options.validate(); !bad.empty())
+    return R::failure("map picture options: " + bad);
   for (const auto& [name, poses] : trajectories)
     for (const SE3& T : poses)
-      if (!T.matrix().allFinite()) return R::failure("map picture: trajectory '" + name + "' has a non-finite pose");
+      if (!T.matrix().allFinite())
+        return R::failure("map picture: trajectory '" + name + "' has a non-finite pose");
   const Vec3 up = options.up_in_map.normalized();
   MapPictureLayout layout = makeAxes(up);
   Leaves leaves = collectLeaves(tree, up);
-  const double cut = std::min(options.max_height_m,
-                              ceilingCut(leaves.occupied, layout, tree.getResolution(), options.ceiling_min_cover));
+  const double cut = std::min(options.max_height_m, ceilingCut(leaves.occupied, layout, tree.getResolution(),
+                                                               options.ceiling_min_cover));
   std::vector<Leaf> occupied;
   for (const Leaf& l : leaves.occupied)
     if (l.height >= options.min_height_m && l.height < cut) occupied.push_back(l);
   std::vector<Leaf> footprint = occupied;
   footprint.insert(footprint.end(), leaves.free.begin(), leaves.free.end());
-  if (Status s = fitLayout(footprint, trajectories, options, tree.getResolution(), &layout); !s) return R::failure(s.error());
+  if (Status s = fitLayout(footprint, trajectories, options, tree.getResolution(), &layout); !s)
+    return R::failure(s.error());
 
   cv::Mat image(layout.height_px, layout.width_px, CV_8UC3, bgr(options.unknown_rgb));
   for (const Leaf& l : leaves.free) fillLeaf(&image, layout, l, bgr(options.free_rgb));

@@ -59,11 +59,13 @@ Result<uint64_t> parsePlyHeader(const std::string& header) {
     if (line_no == 1) {
       if (line != "ply") return Result<uint64_t>::failure("not a PLY file (no 'ply' magic)");
     } else if (w0 == "format") {
-      if (w1 != "binary_little_endian" || w2 != "1.0") return Result<uint64_t>::failure("unsupported format '" + line + "'");
+      if (w1 != "binary_little_endian" || w2 != "1.0")
+        return Result<uint64_t>::failure("unsupported format '" + line + "'");
       have_format = true;
     } else if (w0 == "comment" || w0 == "obj_info") {
     } else if (w0 == "element") {
-      if (w1 != "vertex" || have_vertex) return Result<uint64_t>::failure("unexpected element '" + line + "'");
+      if (w1 != "vertex" || have_vertex)
+        return Result<uint64_t>::failure("unexpected element '" + line + "'");
       if (w2.empty() || w2.find_first_not_of("0123456789") != std::string::npos || w2.size() > 12)
         return Result<uint64_t>::failure("bad vertex count '" + w2 + "'");
       count = std::stoull(w2);
@@ -78,8 +80,10 @@ Result<uint64_t> parsePlyHeader(const std::string& header) {
   }
   if (!have_format) return Result<uint64_t>::failure("no format line");
   if (!have_vertex) return Result<uint64_t>::failure("no vertex element");
-  const std::vector<std::string> expected{"float x", "float y", "float z", "uchar red", "uchar green", "uchar blue"};
-  if (props != expected) return Result<uint64_t>::failure("vertex properties are not x y z float, red green blue uchar");
+  const std::vector<std::string> expected{"float x",   "float y",     "float z",
+                                          "uchar red", "uchar green", "uchar blue"};
+  if (props != expected)
+    return Result<uint64_t>::failure("vertex properties are not x y z float, red green blue uchar");
   return count;
 }
 
@@ -87,9 +91,10 @@ Result<uint64_t> parsePlyHeader(const std::string& header) {
 
 VoxelCloud::VoxelCloud(double voxel_m) : voxel_m_(voxel_m) {}
 
-Status VoxelCloud::add(const std::vector<Eigen::Vector3f>& points_cam, const std::vector<std::array<uint8_t, 3>>& rgb,
-                       const SE3& T_map_cam) {
-  if (!(std::isfinite(voxel_m_) && voxel_m_ > 0.0)) return Status::failure("voxel size must be finite and > 0");
+Status VoxelCloud::add(const std::vector<Eigen::Vector3f>& points_cam,
+                       const std::vector<std::array<uint8_t, 3>>& rgb, const SE3& T_map_cam) {
+  if (!(std::isfinite(voxel_m_) && voxel_m_ > 0.0))
+    return Status::failure("voxel size must be finite and > 0");
   if (points_cam.size() != rgb.size()) return Status::failure("points and colours differ in count");
   if (!se3::isValid(T_map_cam)) return Status::failure("T_map_cam is not a rigid transform");
   for (size_t i = 0; i < points_cam.size(); ++i) {
@@ -126,7 +131,8 @@ std::vector<ColoredPoint> VoxelCloud::points() const {
   for (const auto& [key, s] : sorted) {
     const double n = s->n;
     ColoredPoint c;
-    c.p = Eigen::Vector3f(static_cast<float>(s->x / n), static_cast<float>(s->y / n), static_cast<float>(s->z / n));
+    c.p = Eigen::Vector3f(static_cast<float>(s->x / n), static_cast<float>(s->y / n),
+                          static_cast<float>(s->z / n));
     auto mean = [n](uint32_t v) { return static_cast<uint8_t>(std::lround(v / n)); };
     c.rgb = {mean(s->r), mean(s->g), mean(s->b)};
     out.push_back(c);
@@ -136,7 +142,8 @@ std::vector<ColoredPoint> VoxelCloud::points() const {
 
 Status writePly(const std::string& path, const std::vector<ColoredPoint>& points) {
   std::string bytes =
-      "ply\nformat binary_little_endian 1.0\ncomment rgbdmap map point cloud (map frame, metres)\nelement vertex " +
+      "ply\nformat binary_little_endian 1.0\ncomment rgbdmap map point cloud (map frame, metres)\nelement "
+      "vertex " +
       std::to_string(points.size()) +
       "\nproperty float x\nproperty float y\nproperty float z\nproperty uchar red\nproperty uchar green\n"
       "property uchar blue\nend_header\n";
@@ -164,8 +171,9 @@ PlyResult readPly(const std::string& path) {
   const size_t body = end + end_marker.size();
   const size_t expected = *count * kPlyVertexBytes;
   if (bytes.size() - body != expected)
-    return PlyResult::failure(path + ": body has " + std::to_string(bytes.size() - body) + " bytes, header says " +
-                              std::to_string(expected) + (bytes.size() - body < expected ? " (truncated)" : ""));
+    return PlyResult::failure(path + ": body has " + std::to_string(bytes.size() - body) +
+                              " bytes, header says " + std::to_string(expected) +
+                              (bytes.size() - body < expected ? " (truncated)" : ""));
   std::vector<ColoredPoint> points(*count);
   const auto* b = reinterpret_cast<const unsigned char*>(bytes.data()) + body;
   for (ColoredPoint& c : points) {

@@ -24,7 +24,8 @@ Status checkSlice(const msg::OccupancySlice& s) {
     return Status::failure("grid size out of range");
   if (s.cells.size() != static_cast<size_t>(s.width) * static_cast<size_t>(s.height))
     return Status::failure("cell count != width * height");
-  if (!(std::isfinite(s.resolution_m) && s.resolution_m > 0.0f)) return Status::failure("resolution must be > 0");
+  if (!(std::isfinite(s.resolution_m) && s.resolution_m > 0.0f))
+    return Status::failure("resolution must be > 0");
   if (!se3::isValid(s.T_map_grid)) return Status::failure("T_map_grid is not a rigid transform");
   for (int8_t c : s.cells)
     if (c < -1 || c > 100) return Status::failure("cell value out of range (-1..100)");
@@ -59,7 +60,8 @@ std::string sliceYaml(const msg::OccupancySlice& s, const std::string& image) {
     << "\nfree_thresh: " << kFreeThresh << "\n# rgbdmap (ignored by map_server): the exact 3-D grid pose\n"
     << "robot_id: \"" << s.robot_id << "\"\nutime: " << s.header.utime << "\nz_min_m: " << s.z_min_m
     << "\nz_max_m: " << s.z_max_m << "\nT_map_grid: [" << T.translation().x() << ", " << T.translation().y()
-    << ", " << T.translation().z() << ", " << q.x() << ", " << q.y() << ", " << q.z() << ", " << q.w() << "]\n";
+    << ", " << T.translation().z() << ", " << q.x() << ", " << q.y() << ", " << q.z() << ", " << q.w()
+    << "]\n";
   return y.str();
 }
 
@@ -99,7 +101,8 @@ Result<Pgm> readPgm(const std::string& path) {
   auto file = export_detail::readWholeFile(path, 64 + size_t{msg::kMaxGridSide} * msg::kMaxGridSide + 4096);
   if (!file) return Result<Pgm>::failure(file.error());
   const std::string& b = *file;
-  if (b.size() < 2 || b[0] != 'P' || b[1] != '5') return Result<Pgm>::failure(path + ": not a binary PGM (P5)");
+  if (b.size() < 2 || b[0] != 'P' || b[1] != '5')
+    return Result<Pgm>::failure(path + ": not a binary PGM (P5)");
   size_t i = 2;
   Pgm pgm;
   int maxval = 0;
@@ -113,8 +116,8 @@ Result<Pgm> readPgm(const std::string& path) {
   ++i;
   const size_t n = static_cast<size_t>(pgm.width) * static_cast<size_t>(pgm.height);
   if (b.size() - i != n)
-    return Result<Pgm>::failure(path + ": PGM has " + std::to_string(b.size() - i) + " pixel bytes, expected " +
-                                std::to_string(n));
+    return Result<Pgm>::failure(path + ": PGM has " + std::to_string(b.size() - i) +
+                                " pixel bytes, expected " + std::to_string(n));
   pgm.pixels = b.substr(i);
   return pgm;
 }
@@ -164,17 +167,18 @@ SliceResult parseSliceYaml(const std::string& yaml_path, const YAML::Node& y) {
 }  // namespace
 
 Mat3 R_map_plane() {
-  Mat3 R;  // columns: plane x (forward = map z), plane y (left = -map x), plane z (up = -map y)
+  Mat3 R;         // columns: plane x (forward = map z), plane y (left = -map x), plane z (up = -map y)
   R << 0, -1, 0,  //
       0, 0, -1,   //
       1, 0, 0;
   return R;
 }
 
-Status writeSlice(const msg::OccupancySlice& slice, const std::string& pgm_path, const std::string& yaml_path) {
+Status writeSlice(const msg::OccupancySlice& slice, const std::string& pgm_path,
+                  const std::string& yaml_path) {
   if (Status s = checkSlice(slice); !s) return Status::failure("slice: " + s.error());
-  std::string pgm = "P5\n# rgbdmap occupancy slice of " + slice.robot_id + "\n" + std::to_string(slice.width) +
-                    " " + std::to_string(slice.height) + "\n255\n";
+  std::string pgm = "P5\n# rgbdmap occupancy slice of " + slice.robot_id + "\n" +
+                    std::to_string(slice.width) + " " + std::to_string(slice.height) + "\n255\n";
   const size_t header = pgm.size();
   pgm.resize(header + slice.cells.size());
   for (int row = 0; row < slice.height; ++row) {
@@ -183,8 +187,10 @@ Status writeSlice(const msg::OccupancySlice& slice, const std::string& pgm_path,
       pgm[header + static_cast<size_t>(image_row) * slice.width + col] =
           static_cast<char>(pgmValue(slice.cells[static_cast<size_t>(row) * slice.width + col]));
   }
-  if (Status s = export_detail::writeFileAtomically(pgm_path, pgm); !s) return Status::failure("slice: " + s.error());
-  Status s = export_detail::writeFileAtomically(yaml_path, sliceYaml(slice, imageReference(pgm_path, yaml_path)));
+  if (Status s = export_detail::writeFileAtomically(pgm_path, pgm); !s)
+    return Status::failure("slice: " + s.error());
+  Status s =
+      export_detail::writeFileAtomically(yaml_path, sliceYaml(slice, imageReference(pgm_path, yaml_path)));
   return s ? s : Status::failure("slice: " + s.error());
 }
 

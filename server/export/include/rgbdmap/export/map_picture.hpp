@@ -3,8 +3,8 @@
 //
 // Looking down along -up: occupied leaves coloured by height (turbo colour map, blue low, red high, highest
 // leaf on top), free space light grey, unknown white; each robot's trajectory (map frame) as a coloured
-// polyline with a black (white for dark colours) outline, a filled circle at its start, a legend of robot names and a scale bar.
-// Const access to the tree only (leaf iteration); the tree is not pruned or changed.
+// polyline with a black (white for dark colours) outline, a filled circle at its start, a legend of robot
+// names and a scale bar. Const access to the tree only (leaf iteration); the tree is not pruned or changed.
 #include <array>
 #include <cstdint>
 #include <limits>
@@ -34,8 +34,8 @@ struct MapPictureOptions {
   std::array<uint8_t, 3> unknown_rgb{255, 255, 255};
   std::array<uint8_t, 3> free_rgb{225, 225, 225};
   /// Trajectory colours, used in order (wrapping around).
-  std::vector<std::array<uint8_t, 3>> trajectory_rgb{
-      {230, 0, 126}, {0, 0, 0}, {255, 130, 0}, {0, 150, 60}, {120, 0, 200}, {0, 90, 255}, {140, 90, 40}};
+  std::vector<std::array<uint8_t, 3>> trajectory_rgb{{230, 0, 126}, {0, 0, 0},    {255, 130, 0}, {0, 150, 60},
+                                                     {120, 0, 200}, {0, 90, 255}, {140, 90, 40}};
   int trajectory_thickness_px = 3;
 
   /// Empty when every value is in range, else every reason ("; "-separated).
@@ -46,7 +46,7 @@ struct MapPictureOptions {
 struct MapPictureLayout {
   Vec3 u_axis = Vec3::UnitX();  ///< map direction of picture +x (right)
   Vec3 v_axis = Vec3::UnitZ();  ///< map direction of picture +y (down)
-  double u0 = 0, v0 = 0;        ///< map coordinates (along u_axis, v_axis) of the picture's pixel (0, 0) corner
+  double u0 = 0, v0 = 0;  ///< map coordinates (along u_axis, v_axis) of the picture's pixel (0, 0) corner
   double pixel_m = 0.05;
   int width_px = 0, height_px = 0;
   /// Pixel coordinates (x right, y down; pixel centres at integer + 0.5) of a map point.
@@ -57,7 +57,8 @@ using NamedTrajectory = std::pair<std::string, std::vector<SE3>>;  ///< robot na
 
 /// Renders the picture (CV_8UC3, BGR). layout (optional) receives the projection used. Fails on invalid
 /// options, non-finite poses, or nothing to draw (no leaves and no trajectory poses).
-Result<cv::Mat> renderMapPicture(const octomap::OcTree& tree, const std::vector<NamedTrajectory>& trajectories,
+Result<cv::Mat> renderMapPicture(const octomap::OcTree& tree,
+                                 const std::vector<NamedTrajectory>& trajectories,
                                  const MapPictureOptions& options = {}, MapPictureLayout* layout = nullptr);
 
 /// renderMapPicture, then a PNG at png_path (written beside, then renamed).

@@ -27,7 +27,8 @@ Mat3 R_map_plane();
 
 /// Writes the PGM and the YAML (each atomically: written beside, then renamed). Fails on an invalid slice
 /// (size, cell values, resolution, pose) or an I/O error.
-Status writeSlice(const msg::OccupancySlice& slice, const std::string& pgm_path, const std::string& yaml_path);
+Status writeSlice(const msg::OccupancySlice& slice, const std::string& pgm_path,
+                  const std::string& yaml_path);
 
 /// Reads a map_server map back (the YAML, then the PGM it names, relative to the YAML's folder). Cells come
 /// back as -1 / 0 / 100 by the YAML's thresholds (negate honoured). T_map_grid, robot_id, utime and the
