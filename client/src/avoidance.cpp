@@ -5,6 +5,7 @@
 #include <cmath>
 #include <limits>
 #include <sstream>
+#include <utility>
 #include <vector>
 
 namespace rgbdmap {
@@ -144,7 +145,10 @@ AvoidanceDecision AvoidanceController::update(const msg::OccupancySlice& slice, 
   d.closest_obstacle_m = kNaN;
   if (!config_error_.empty()) return stop(d, "invalid avoidance config: " + config_error_);
   if (!std::isfinite(now_s)) return stop(d, "invalid time");
-  if (!started_) state_since_s_ = now_s, started_ = true;
+  if (!started_) {
+    state_since_s_ = now_s;
+    started_ = true;
+  }
   d.slice_stale = true;
   if (slice.cells.empty()) return stop(d, "no slice yet");
   const double age_s = now_s - static_cast<double>(slice.header.utime) * 1e-6;

@@ -5,6 +5,7 @@
 #include <cmath>
 #include <map>
 #include <sstream>
+#include <unordered_set>
 
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
@@ -45,12 +46,12 @@ double ceilingCut(const std::vector<Leaf>& occupied, const MapPictureLayout& lay
                   double min_cover) {
   if (occupied.empty() || min_cover <= 0.0) return std::numeric_limits<double>::infinity();
   std::map<long, double> bin_cover;  // height bin -> covered area (m^2)
-  std::map<std::pair<long, long>, bool> columns;
+  std::unordered_set<uint64_t> columns;
   for (const Leaf& l : occupied) {
     bin_cover[std::lround(std::floor(l.height / resolution))] += l.size * l.size;
-    const long cu = std::lround(std::floor(l.p.dot(layout.u_axis) / resolution));
-    const long cv = std::lround(std::floor(l.p.dot(layout.v_axis) / resolution));
-    columns[{cu, cv}] = true;
+    const auto cu = static_cast<uint32_t>(std::lround(std::floor(l.p.dot(layout.u_axis) / resolution)));
+    const auto cv = static_cast<uint32_t>(std::lround(std::floor(l.p.dot(layout.v_axis) / resolution)));
+    columns.insert(uint64_t{cu} << 32 | cv);
   }
   const double footprint = static_cast<double>(columns.size()) * resolution * resolution;
   double cut = std::numeric_limits<double>::infinity();

@@ -1,6 +1,7 @@
 // OccupancySlice <-> ROS map_server PGM + YAML.
 #include "rgbdmap/export/slice_export.hpp"
 
+#include <cctype>
 #include <cmath>
 #include <filesystem>
 #include <iomanip>
