@@ -302,6 +302,42 @@ TEST(ExportSlice, BadSlicesAndFilesAreErrors) {
   EXPECT_FALSE(readSlice(tmp.path("missing.yaml")));
 }
 
+TEST(ExportSlice, PgmInAnotherFolderIsNamedByAbsolutePath) {
+  TempDir tmp;
+  std::filesystem::create_directories(tmp.path("images"));
+  const auto s = craftedSlice(0.5, 0.5, 0.3, 0.0);
+  ASSERT_TRUE(writeSlice(s, tmp.path("images/r.pgm"), tmp.path("r.yaml")));
+  const YAML::Node y = YAML::LoadFile(tmp.path("r.yaml"));
+  EXPECT_TRUE(std::filesystem::path(y["image"].as<std::string>()).is_absolute());
+  auto back = readSlice(tmp.path("r.yaml"));
+  ASSERT_TRUE(back) << back.error();
+  EXPECT_EQ(back->cells[0], 100);
+}
+
+TEST(ExportFuzz, CorruptedFilesNeverCrashTheReaders) {
+  TempDir tmp;
+  ASSERT_TRUE(writePly(tmp.path("m.ply"), randomPoints(20, 9)));
+  ASSERT_TRUE(writeSlice(craftedSlice(0, 0, 0, 0), tmp.path("s.pgm"), tmp.path("s.yaml")));
+  const std::string ply = readBytes(tmp.path("m.ply")), pgm = readBytes(tmp.path("s.pgm"));
+  const std::string yaml = readBytes(tmp.path("s.yaml"));
+  std::mt19937 rng(11);
+  int rejected = 0;
+  for (int trial = 0; trial < 300; ++trial) {
+    auto corrupt = [&](std::string bytes, size_t limit) {
+      const int flips = 1 + static_cast<int>(rng() % 4);
+      for (int f = 0; f < flips; ++f) bytes[rng() % std::min(limit, bytes.size())] = static_cast<char>(rng());
+      if (rng() % 4 == 0) bytes.resize(rng() % bytes.size());
+      return bytes;
+    };
+    writeBytes(tmp.path("c.ply"), corrupt(ply, 300));
+    rejected += readPly(tmp.path("c.ply")).ok() ? 0 : 1;
+    writeBytes(tmp.path("s.pgm"), corrupt(pgm, 60));
+    writeBytes(tmp.path("c.yaml"), trial % 2 ? yaml : corrupt(yaml, yaml.size()));
+    rejected += readSlice(tmp.path("c.yaml")).ok() ? 0 : 1;
+  }
+  EXPECT_GT(rejected, 100) << "most corruptions of headers are detected";
+}
+
 /// Map frame y down: a floor (y = 1.0), a 1 m wall block, a ceiling (y = -1.5) and free space between.
 octomap::OcTree smallRoom(bool with_ceiling) {
   octomap::OcTree tree(0.1);
