@@ -31,7 +31,9 @@
 // the space beside and behind it would otherwise stop the robot at once); unknown_is_obstacle = true makes
 // the robot only drive into space it has observed free. Cells with occupancy >= 50 are obstacles.
 //
-// Algorithms only: plain structs in and out; publishing the command is the caller's business.
+// Algorithms only: plain structs in and out; publishing the command is the caller's business. Cost: only the
+// cells under the corridor's bounding box are read, 0.43 us CPU per update whatever the slice size
+// (build/bin/bench_avoidance).
 #include <string>
 
 #include "rgbdmap/common/se3.hpp"
