@@ -63,6 +63,7 @@ Status RobotLink::Impl::start() {
   {
     std::lock_guard<std::mutex> lock(mutex_);
     if (started_) return Status::failure("RobotLink::start: already started");
+    if (stopping_) return Status::failure("RobotLink::start: stopped before it started");
     started_ = true;
   }
   if (const std::string e = options_.validate(); !e.empty()) return Status::failure("RobotLink: " + e);
