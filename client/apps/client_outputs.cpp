@@ -78,13 +78,15 @@ std::string clientSummary(const RobotRunResult& r) {
                 "wall %.1f s%s\ncorrections %llu (graph revision %lld, covering the last keyframe: %s), "
                 "rejected %llu, sent %.1f KB, received %.1f KB",
                 r.frames, r.keyframes, static_cast<unsigned long long>(l.keyframes_sent),
-                static_cast<unsigned long long>(l.keyframes_acked), static_cast<unsigned long long>(l.keyframes_refused),
+                static_cast<unsigned long long>(l.keyframes_acked),
+                static_cast<unsigned long long>(l.keyframes_refused),
                 static_cast<unsigned long long>(l.keyframes_given_up), r.keyframes_not_sent,
                 static_cast<unsigned long long>(l.retransmissions), r.losses, r.segments, r.unreadable_frames,
                 r.medianMs(), r.wall_s, r.interrupted ? " (interrupted)" : "",
-                static_cast<unsigned long long>(l.corrections_received), static_cast<long long>(l.graph_revision),
-                r.final_correction_received ? "yes" : "no", static_cast<unsigned long long>(l.messages_rejected),
-                l.bytes_sent / 1e3, l.bytes_received / 1e3);
+                static_cast<unsigned long long>(l.corrections_received),
+                static_cast<long long>(l.graph_revision), r.final_correction_received ? "yes" : "no",
+                static_cast<unsigned long long>(l.messages_rejected), l.bytes_sent / 1e3,
+                l.bytes_received / 1e3);
   return buf;
 }
 
@@ -97,9 +99,12 @@ Status writeClientOutputs(const std::string& out_dir, const ClientRunInfo& info,
     std::string what;
   } files[] = {
       {base + "trajectory_" + R + ".txt", &r.final_map,
-       "robot " + R + ", every frame in the map frame (final corrections, re-anchored on reference keyframes)"},
-      {base + "trajectory_" + R + "_live.txt", &r.live, "robot " + R + ", every frame as known live (map frame)"},
-      {base + "keyframes_" + R + ".txt", &r.keyframes_final, "robot " + R + ", keyframes, final corrected (map frame)"},
+       "robot " + R +
+           ", every frame in the map frame (final corrections, re-anchored on reference keyframes)"},
+      {base + "trajectory_" + R + "_live.txt", &r.live,
+       "robot " + R + ", every frame as known live (map frame)"},
+      {base + "keyframes_" + R + ".txt", &r.keyframes_final,
+       "robot " + R + ", keyframes, final corrected (map frame)"},
   };
   for (const auto& f : files)
     if (Status s = writeTumTrajectory(f.path, *f.trajectory, f.what); !s) return s;

@@ -12,7 +12,8 @@ struct ClientRunInfo {
 };
 
 /// Writes trajectory_<R>.txt (final_map), trajectory_<R>_live.txt, keyframes_<R>.txt, client_<R>.json.
-Status writeClientOutputs(const std::string& out_dir, const ClientRunInfo& info, const RobotRunResult& result);
+Status writeClientOutputs(const std::string& out_dir, const ClientRunInfo& info,
+                          const RobotRunResult& result);
 
 /// The JSON summary (one object; numbers, counters, flags).
 std::string clientJson(const ClientRunInfo& info, const RobotRunResult& result);

@@ -33,7 +33,8 @@ OdometrySetup loadOdometrySetup(cli::Args& args, const std::string& dataset_dir,
   return loadOdometrySetup(args, dataset_dir, errors, nullptr);
 }
 
-OdometrySetup loadOdometrySetup(cli::Args& args, const std::string& dataset_dir, std::vector<std::string>* errors,
+OdometrySetup loadOdometrySetup(cli::Args& args, const std::string& dataset_dir,
+                                std::vector<std::string>* errors,
                                 const std::function<void(ConfigReader&)>& read_more) {
   OdometrySetup s;
   if (!dataset_dir.empty()) {

@@ -28,7 +28,8 @@ OdometrySetup loadOdometrySetup(cli::Args& args, const std::string& dataset_dir,
 
 /// The same, for programs whose --config file has sections of their own: `read_more` reads them from the
 /// configuration before its errors (unknown keys included) are collected.
-OdometrySetup loadOdometrySetup(cli::Args& args, const std::string& dataset_dir, std::vector<std::string>* errors,
+OdometrySetup loadOdometrySetup(cli::Args& args, const std::string& dataset_dir,
+                                std::vector<std::string>* errors,
                                 const std::function<void(ConfigReader&)>& read_more);
 
 /// Applies --log-level if given.

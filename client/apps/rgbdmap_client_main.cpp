@@ -23,8 +23,10 @@ namespace {
 
 const char* kUsage =
     "usage: rgbdmap-client --dataset DIR [--config FILE] [--robot-id R] [options]\n"
-    "Runs visual odometry on a TUM-layout dataset as robot R, sends keyframes to the mapping server, applies\n"
-    "its pose corrections and writes into --out: trajectory_R.txt (every frame, map frame, final corrections),\n"
+    "Runs visual odometry on a TUM-layout dataset as robot R, sends keyframes to the mapping server, "
+    "applies\n"
+    "its pose corrections and writes into --out: trajectory_R.txt (every frame, map frame, final "
+    "corrections),\n"
     "trajectory_R_live.txt (as known at each frame), keyframes_R.txt, client_R.json (counters, timings).\n"
     "  --config FILE           YAML: robot, transport, link (see deploy/config/client.yaml) and the camera,\n"
     "                          dataset and odometry sections of deploy/config/odometry.yaml\n"
@@ -77,12 +79,12 @@ ClientArgs parseArgs(cli::Args& args, std::vector<std::string>* errors) {
 RobotClientConfig loadClientConfig(cli::Args& args, const ClientArgs& a, OdometrySetup* setup,
                                    std::vector<std::string>* errors) {
   RobotClientConfig c;
-  *setup = loadOdometrySetup(args, a.dataset, errors, [&c](ConfigReader& r) { readRobotClientConfig(r, &c); });
+  *setup =
+      loadOdometrySetup(args, a.dataset, errors, [&c](ConfigReader& r) { readRobotClientConfig(r, &c); });
   c.robot_id = args.getOr("robot-id", c.robot_id);
   c.transport_url = args.getOr("transport", c.transport_url);
   if (!c.key_file.empty()) {
-    const std::string config_dir =
-        std::filesystem::path(args.getOr("config", "")).parent_path().string();
+    const std::string config_dir = std::filesystem::path(args.getOr("config", "")).parent_path().string();
     if (auto key = readKeyFile(c.key_file, config_dir))
       c.link.key = *key;
     else
@@ -175,7 +177,8 @@ int run(int argc, char** argv) {
 
   const ClientRunInfo info{config.robot_id, a.dataset, config.transport_url, !config.link.key.empty()};
   if (Status s = writeClientOutputs(a.out, info, result); !s) return log::error(s.error()), 1;
-  std::fprintf(stderr, "%s\nwrote %s/trajectory_%s.txt, trajectory_%s_live.txt, keyframes_%s.txt, client_%s.json\n",
+  std::fprintf(stderr,
+               "%s\nwrote %s/trajectory_%s.txt, trajectory_%s_live.txt, keyframes_%s.txt, client_%s.json\n",
                clientSummary(result).c_str(), a.out.c_str(), config.robot_id.c_str(), config.robot_id.c_str(),
                config.robot_id.c_str(), config.robot_id.c_str());
   return 0;

@@ -24,7 +24,7 @@ struct FakeServerOptions {
   int ignore_first_transmissions = 0;  ///< keyframe messages dropped before any processing (lost on the way)
   std::set<int> refuse_ids;            ///< acknowledged with accepted = false
   bool ack = true;
-  int acks_per_keyframe = 1;      ///< > 1: every ack is sent that many times (duplicates)
+  int acks_per_keyframe = 1;  ///< > 1: every ack is sent that many times (duplicates)
   bool send_corrections = true;
   std::map<int, SE3> T_map_odom;  ///< per segment; identity when absent
 };
@@ -49,12 +49,15 @@ class FakeMapServer {
   void start() {
     auto core = core_;
     const std::string& r = core->options.robot_id;
-    core->transport.subscribe(msg::channelFor(msg::MessageType::kKeyframe, r).value(),
-                              [core](const std::string&, const uint8_t* d, size_t n) { core->onKeyframe(d, n); });
-    core->transport.subscribe(msg::channelFor(msg::MessageType::kHello, r).value(),
-                              [core](const std::string&, const uint8_t* d, size_t n) { core->onHello(d, n); });
-    core->transport.subscribe(msg::channelFor(msg::MessageType::kHeartbeat, r).value(),
-                              [core](const std::string&, const uint8_t* d, size_t n) { core->onHeartbeat(d, n); });
+    core->transport.subscribe(
+        msg::channelFor(msg::MessageType::kKeyframe, r).value(),
+        [core](const std::string&, const uint8_t* d, size_t n) { core->onKeyframe(d, n); });
+    core->transport.subscribe(
+        msg::channelFor(msg::MessageType::kHello, r).value(),
+        [core](const std::string&, const uint8_t* d, size_t n) { core->onHello(d, n); });
+    core->transport.subscribe(
+        msg::channelFor(msg::MessageType::kHeartbeat, r).value(),
+        [core](const std::string&, const uint8_t* d, size_t n) { core->onHeartbeat(d, n); });
     core->transport.start();
   }
 
@@ -76,7 +79,10 @@ class FakeMapServer {
  private:
   struct Core {
     Core(transport::Transport& t, FakeServerOptions o)
-        : transport(t), options(std::move(o)), keys(makeKeys(options)), signer(msg::kServerId, options.sign_key) {}
+        : transport(t),
+          options(std::move(o)),
+          keys(makeKeys(options)),
+          signer(msg::kServerId, options.sign_key) {}
     static msg::KeyStore makeKeys(const FakeServerOptions& o) {
       if (o.verify_key.empty()) return msg::KeyStore::openMode();
       msg::KeyStore k;

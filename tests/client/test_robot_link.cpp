@@ -43,7 +43,8 @@ TEST(RobotLink, SignedKeyframesAreAckedHelloAndHeartbeatsArrive) {
   sendKeyframes(link, 5);
   link.setTrackingState(4, 0, TrackingState::kTracking);
   ASSERT_TRUE(link.waitAllAcked(5.0));
-  ASSERT_TRUE(server.waitFor([](auto& s) { return s.hellos >= 1 && s.last_heartbeat.last_keyframe_id == 4; }));
+  ASSERT_TRUE(
+      server.waitFor([](auto& s) { return s.hellos >= 1 && s.last_heartbeat.last_keyframe_id == 4; }));
   const RobotLinkStats st = link.stats();
   EXPECT_EQ(st.keyframes_sent, 5u);
   EXPECT_EQ(st.keyframes_acked, 5u);
@@ -249,7 +250,8 @@ TEST(RobotLink, WrongKeysAreRejectedInBothDirections) {
   RobotLink intruder(*transport2, linkOptions("robot0", linkKey(10)));
   ASSERT_TRUE(intruder.start());
   sendKeyframes(intruder, 1);
-  ASSERT_TRUE(server2.waitFor([&](auto&) { return server2.rejects().get(msg::RejectReason::kBadSignature) >= 2; }));
+  ASSERT_TRUE(
+      server2.waitFor([&](auto&) { return server2.rejects().get(msg::RejectReason::kBadSignature) >= 2; }));
   std::lock_guard<std::mutex> lock(server2.state().mutex);
   EXPECT_EQ(server2.state().stored.size(), 0u);
   EXPECT_EQ(server2.state().hellos, 0);
@@ -267,7 +269,8 @@ TEST(RobotLink, StopIsPromptAndWakesBlockedCalls) {
   RobotLink link(*transport, lo);
   ASSERT_TRUE(link.start());
   sendKeyframes(link, 2);
-  auto blocked = std::async(std::launch::async, [&] { return link.sendKeyframe(smallKeyframe(2, 0, testPose(2)), smallFrame(2)); });
+  auto blocked = std::async(
+      std::launch::async, [&] { return link.sendKeyframe(smallKeyframe(2, 0, testPose(2)), smallFrame(2)); });
   auto waiting = std::async(std::launch::async, [&] { return link.waitAllAcked(60.0); });
   EXPECT_EQ(blocked.wait_for(std::chrono::milliseconds(200)), std::future_status::timeout) << "window full";
   const auto t0 = std::chrono::steady_clock::now();

@@ -30,16 +30,17 @@ struct AckingServer {
   std::mutex mutex;
   explicit AckingServer(transport::Transport& t) : transport(t) {
     (void)keys.add("robot0", kKey);
-    (void)transport.subscribe("rgbdmap/robot0/keyframe", [this](const std::string&, const uint8_t* d, size_t n) {
-      auto env = msg::openEnvelope(d, n, keys, &guard);
-      if (!env) return;
-      auto kf = msg::decodeMessage<msg::Keyframe>(*env);
-      if (!kf) return;
-      msg::KeyframeAck ack;
-      ack.robot_id = "robot0";
-      ack.keyframe_id = kf->keyframe_id;
-      send(ack);
-    });
+    (void)transport.subscribe("rgbdmap/robot0/keyframe",
+                              [this](const std::string&, const uint8_t* d, size_t n) {
+                                auto env = msg::openEnvelope(d, n, keys, &guard);
+                                if (!env) return;
+                                auto kf = msg::decodeMessage<msg::Keyframe>(*env);
+                                if (!kf) return;
+                                msg::KeyframeAck ack;
+                                ack.robot_id = "robot0";
+                                ack.keyframe_id = kf->keyframe_id;
+                                send(ack);
+                              });
   }
   template <typename T>
   void send(const T& m) {

@@ -38,7 +38,9 @@ void readCodec(ConfigReader& reader, ImageCodecOptions* c) {
   reader.read("link.codec.max_keyframe_bytes", &max_bytes, 0, msg::kMaxEnvelopeBytes);
   c->max_keyframe_bytes = static_cast<size_t>(max_bytes);
   reader.read("link.codec.zstd_level", &c->zstd_level, 1, 19);
-  c->color = color == "lossless" ? ColorCodec::kLossless : color == "none" ? ColorCodec::kNone : ColorCodec::kJpeg;
+  c->color = color == "lossless" ? ColorCodec::kLossless
+             : color == "none"   ? ColorCodec::kNone
+                                 : ColorCodec::kJpeg;
   c->depth_filter = depth == "row-delta" ? DepthFilter::kRowDelta
                     : depth == "none"    ? DepthFilter::kNone
                                          : DepthFilter::kRankMed;
@@ -66,7 +68,8 @@ Result<msg::Bytes> readKeyFile(const std::string& path, const std::string& base_
   if (!in) return Result<msg::Bytes>::failure("cannot read key file " + p.string());
   std::string hex, line;
   while (std::getline(in, line)) {
-    if (line.find_first_not_of(" \t") != std::string::npos && line[line.find_first_not_of(" \t")] == '#') continue;
+    if (line.find_first_not_of(" \t") != std::string::npos && line[line.find_first_not_of(" \t")] == '#')
+      continue;
     for (const char ch : line)
       if (!std::isspace(static_cast<unsigned char>(ch))) hex += ch;
   }

@@ -40,8 +40,8 @@ std::string RobotLinkOptions::validate() const {
   if (!key.empty() && key.size() < msg::kMinKeyBytes)
     fail("key must be empty (unsigned) or at least " + std::to_string(msg::kMinKeyBytes) + " bytes");
   if (const std::string e = camera.validate(); !e.empty()) fail("camera: " + e);
-  for (const auto& [name, value] : {std::pair{"heartbeat_period_s", heartbeat_period_s},
-                                    std::pair{"hello_period_s", hello_period_s}})
+  for (const auto& [name, value] :
+       {std::pair{"heartbeat_period_s", heartbeat_period_s}, std::pair{"hello_period_s", hello_period_s}})
     if (!(value >= 0.01 && value <= 3600.0)) fail(std::string(name) + " must be in [0.01, 3600]");
   if (!(send_timeout_s >= 0.0 && send_timeout_s <= 3600.0)) fail("send_timeout_s must be in [0, 3600]");
   if (reliable.max_pending < 1) fail("reliable.max_pending must be >= 1");
@@ -76,7 +76,8 @@ Status RobotLink::Impl::start() {
   if (Status s = sendHello(); !s) log::warn("robot ", options_.robot_id, ": first Hello failed: ", s.error());
   periodic_ = std::thread([this] { runPeriodic(); });
   log::info("robot ", options_.robot_id, ": link started (", options_.key.empty() ? "unsigned" : "signed",
-            ", heartbeat ", options_.heartbeat_period_s, " s, send window ", options_.reliable.max_pending, ")");
+            ", heartbeat ", options_.heartbeat_period_s, " s, send window ", options_.reliable.max_pending,
+            ")");
   return Status::success();
 }
 
@@ -169,8 +170,9 @@ Status RobotLink::Impl::sendKeyframe(const Keyframe& keyframe, const RgbdFrame& 
     return stopping_ || reliable_.pending() < options_.reliable.max_pending;
   });
   if (stopping_) return Status::failure(what + ": link stopped");
-  if (!room) return Status::failure(what + ": send window still full after " +
-                                    std::to_string(options_.send_timeout_s) + " s");
+  if (!room)
+    return Status::failure(what + ": send window still full after " +
+                           std::to_string(options_.send_timeout_s) + " s");
   SentKeyframe& entry = sent_[keyframe.id];
   entry.segment = keyframe.segment;
   entry.T_odom_cam = keyframe.T_odom_cam;
@@ -220,9 +222,9 @@ bool RobotLink::Impl::waitAllAcked(double timeout_s) {
 
 bool RobotLink::Impl::waitForCorrection(int keyframe_id, double timeout_s) {
   std::unique_lock<std::mutex> lock(mutex_);
-  return changed_.wait_for(lock, seconds(timeout_s),
-                           [&] { return stopping_ || T_map_cam_.count(keyframe_id) > 0; }) &&
-         T_map_cam_.count(keyframe_id) > 0;
+  return changed_.wait_for(lock, seconds(timeout_s), [&] {
+    return stopping_ || T_map_cam_.count(keyframe_id) > 0;
+  }) && T_map_cam_.count(keyframe_id) > 0;
 }
 
 void RobotLink::Impl::setTrackingState(int last_keyframe_id, int segment, TrackingState state) {
@@ -278,7 +280,9 @@ std::optional<SE3> RobotLink::correctedKeyframe(int keyframe_id) const {
   return impl_->correctedKeyframe(keyframe_id);
 }
 std::optional<msg::OccupancySlice> RobotLink::latestSlice() const { return impl_->latest(&Impl::slice_); }
-std::optional<msg::VelocityCommand> RobotLink::latestCommand() const { return impl_->latest(&Impl::command_); }
+std::optional<msg::VelocityCommand> RobotLink::latestCommand() const {
+  return impl_->latest(&Impl::command_);
+}
 std::optional<msg::ServerStatus> RobotLink::latestServerStatus() const {
   return impl_->latest(&Impl::status_);
 }

@@ -19,9 +19,9 @@ Status RobotLink::Impl::subscribe() {
 }
 
 Status RobotLink::Impl::subscribeAll() {
-  for (Status s : {subscribe<msg::KeyframeAck>(), subscribe<msg::PoseCorrections>(),
-                   subscribe<msg::OccupancySlice>(), subscribe<msg::VelocityCommand>(),
-                   subscribe<msg::ServerStatus>()})
+  for (Status s :
+       {subscribe<msg::KeyframeAck>(), subscribe<msg::PoseCorrections>(), subscribe<msg::OccupancySlice>(),
+        subscribe<msg::VelocityCommand>(), subscribe<msg::ServerStatus>()})
     if (!s) return Status::failure("RobotLink: subscribe: " + s.error());
   return Status::success();
 }
@@ -34,10 +34,10 @@ void RobotLink::Impl::onMessage(const uint8_t* data, size_t size) {
   }
   bytes_received_ += size;
   Result<msg::OpenedEnvelope> opened = msg::openEnvelope(data, size, keys_, &replay_guard_, &rejects_);
-  if (!opened) return;  // counted and logged (rate-limited) by rejects_
+  if (!opened) return;                            // counted and logged (rate-limited) by rejects_
   if (opened->header.sender != msg::kServerId) {  // open mode accepts any id: only the server talks to us
-    rejects_.add(msg::RejectReason::kUnknownSender, "robot " + options_.robot_id + " expects 'server', got '" +
-                                                        opened->header.sender + "'");
+    rejects_.add(msg::RejectReason::kUnknownSender,
+                 "robot " + options_.robot_id + " expects 'server', got '" + opened->header.sender + "'");
     return;
   }
   Result<T> message = msg::decodeMessage<T>(*opened, &rejects_);
@@ -75,7 +75,8 @@ void RobotLink::Impl::handle(const msg::KeyframeAck& ack) {
       entry.message.reset();
       ++(ack.accepted ? counts_.keyframes_acked : counts_.keyframes_refused);
       if (!ack.accepted)
-        log::warn("robot ", options_.robot_id, ": server refused keyframe ", ack.keyframe_id, ": ", ack.reason);
+        log::warn("robot ", options_.robot_id, ": server refused keyframe ", ack.keyframe_id, ": ",
+                  ack.reason);
     }
   }
   reliable_.acknowledge(static_cast<uint64_t>(ack.keyframe_id));  // no resend, whatever the answer
@@ -87,7 +88,8 @@ void RobotLink::Impl::handle(const msg::PoseCorrections& corrections) {
     std::lock_guard<std::mutex> lock(mutex_);
     // A greater session is a restarted server: its revisions start again.
     if (corrections.header.session < corrections_session_ ||
-        (corrections.header.session == corrections_session_ && corrections.graph_revision <= graph_revision_)) {
+        (corrections.header.session == corrections_session_ &&
+         corrections.graph_revision <= graph_revision_)) {
       ++counts_.corrections_stale;
       return;
     }

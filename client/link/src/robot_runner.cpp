@@ -83,8 +83,9 @@ void sendKeyframe(const TrackingResult& r, const RgbdFrame& frame, RobotLink& li
   state->last_sent_keyframe = kf.id;
 }
 
-void trackFrames(const TumDataset& dataset, VisualOdometry& vo, RobotLink& link, const RobotRunOptions& options,
-                 size_t first, size_t end, RunState* state, RobotRunResult* out) {
+void trackFrames(const TumDataset& dataset, VisualOdometry& vo, RobotLink& link,
+                 const RobotRunOptions& options, size_t first, size_t end, RunState* state,
+                 RobotRunResult* out) {
   const Clock::time_point wall0 = Clock::now();
   const double t0 = dataset.entry(first).rgb_timestamp;
   log::RateLimiter limiter(1.0);
@@ -99,7 +100,8 @@ void trackFrames(const TumDataset& dataset, VisualOdometry& vo, RobotLink& link,
     if (!frame) {
       ++out->unreadable_frames;
       uint64_t suppressed = 0;
-      if (limiter.allow(&suppressed)) log::warn("skipping frame ", i, ": ", frame.error(), " (", suppressed, " more)");
+      if (limiter.allow(&suppressed))
+        log::warn("skipping frame ", i, ": ", frame.error(), " (", suppressed, " more)");
       continue;
     }
     const TrackingResult r = vo.track(*frame);
@@ -140,21 +142,23 @@ void finish(const RunState& state, RobotLink& link, const RobotRunOptions& optio
     out->final_map.push_back({f.timestamp, se3::normalized(finalMapFromOdom(f, state, link) * f.T_odom_cam)});
   for (const auto& [id, kf] : state.keyframes) {
     const std::optional<SE3> T_map_kf = link.correctedKeyframe(id);
-    out->keyframes_final.push_back({kf.timestamp, T_map_kf ? *T_map_kf : link.mapFromOdom(kf.segment) * kf.T_odom_cam});
+    out->keyframes_final.push_back(
+        {kf.timestamp, T_map_kf ? *T_map_kf : link.mapFromOdom(kf.segment) * kf.T_odom_cam});
   }
 }
 
 }  // namespace
 
-RobotRunResult runRobot(const TumDataset& dataset, const CameraIntrinsics& camera, const OdometryConfig& odometry,
-                        RobotLink& link, const RobotRunOptions& options) {
+RobotRunResult runRobot(const TumDataset& dataset, const CameraIntrinsics& camera,
+                        const OdometryConfig& odometry, RobotLink& link, const RobotRunOptions& options) {
   RobotRunResult out;
   const Clock::time_point start = Clock::now();
   RunState state;
   const size_t first = static_cast<size_t>(std::clamp<long long>(options.first_frame, 0, dataset.size()));
-  const size_t end = options.end_frame < 0
-                         ? dataset.size()
-                         : static_cast<size_t>(std::clamp<long long>(options.end_frame, first, dataset.size()));
+  const size_t end =
+      options.end_frame < 0
+          ? dataset.size()
+          : static_cast<size_t>(std::clamp<long long>(options.end_frame, first, dataset.size()));
   try {
     VisualOdometry vo(camera, odometry);
     if (first < end) trackFrames(dataset, vo, link, options, first, end, &state, &out);

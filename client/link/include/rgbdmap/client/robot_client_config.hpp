@@ -13,9 +13,9 @@ namespace rgbdmap {
 
 struct RobotClientConfig {
   std::string robot_id = "robot0";
-  std::string key_file;                 ///< hex key (64 digits for 32 bytes); empty = unsigned (open-mode server)
+  std::string key_file;  ///< hex key (64 digits for 32 bytes); empty = unsigned (open-mode server)
   std::string transport_url = "memq://";  ///< memq:// | udpm://... | dds://?domain=N
-  double final_wait_s = 20.0;           ///< at the end, wait this long for acks and the last correction
+  double final_wait_s = 20.0;             ///< at the end, wait this long for acks and the last correction
   /// heartbeat/hello periods, send timeout, reliable and codec settings; robot_id, key and camera are filled
   /// in by the program.
   RobotLinkOptions link;

@@ -35,12 +35,12 @@ namespace rgbdmap {
 
 struct RobotLinkOptions {
   std::string robot_id;
-  msg::Bytes key;                 ///< empty: unsigned messages (server in open mode); else >= 16 bytes
-  CameraIntrinsics camera;        ///< sent in Hello
-  ImageCodecOptions codec;        ///< keyframe images (common/image_codec.hpp)
+  msg::Bytes key;           ///< empty: unsigned messages (server in open mode); else >= 16 bytes
+  CameraIntrinsics camera;  ///< sent in Hello
+  ImageCodecOptions codec;  ///< keyframe images (common/image_codec.hpp)
   transport::ReliableSenderOptions reliable;
   double heartbeat_period_s = 1.0, hello_period_s = 1.0;
-  double send_timeout_s = 30.0;   ///< sendKeyframe waits at most this for room in the send window
+  double send_timeout_s = 30.0;  ///< sendKeyframe waits at most this for room in the send window
   std::string software_version = "rgbdmap-client 0.1.0";  ///< sent in Hello
 
   /// Empty when valid, else every reason ("; "-separated).
@@ -54,8 +54,8 @@ struct RobotLinkStats {
   uint64_t keyframes_given_up = 0;  ///< max_attempts reached without an answer
   uint64_t keyframes_pending = 0;   ///< still waiting for an answer
   uint64_t retransmissions = 0;
-  uint64_t duplicate_acks = 0;      ///< acks for an id already answered (the server re-acks duplicates)
-  uint64_t unknown_acks = 0;        ///< acks for an id this process never sent
+  uint64_t duplicate_acks = 0;        ///< acks for an id already answered (the server re-acks duplicates)
+  uint64_t unknown_acks = 0;          ///< acks for an id this process never sent
   uint64_t corrections_received = 0;  ///< PoseCorrections applied
   uint64_t corrections_stale = 0;     ///< ignored: graph_revision not newer
   uint64_t slices_received = 0, commands_received = 0, status_received = 0;

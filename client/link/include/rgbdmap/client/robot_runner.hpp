@@ -41,10 +41,11 @@ struct RobotRunOptions {
 };
 
 struct RobotRunResult {
-  Trajectory live;       ///< every frame, T_map_cam as known at that moment (mapFromOdom(segment) * T_odom_cam)
-  Trajectory final_map;  ///< every frame re-anchored on the final corrected pose of its reference keyframe:
-                         ///< T_map_kf(final) * T_odom_kf^-1 * T_odom_cam (mapFromOdom(segment) when uncorrected)
-  Trajectory odometry;   ///< every frame, odometry frame
+  Trajectory live;  ///< every frame, T_map_cam as known at that moment (mapFromOdom(segment) * T_odom_cam)
+  Trajectory
+      final_map;  ///< every frame re-anchored on the final corrected pose of its reference keyframe:
+                  ///< T_map_kf(final) * T_odom_kf^-1 * T_odom_cam (mapFromOdom(segment) when uncorrected)
+  Trajectory odometry;         ///< every frame, odometry frame
   Trajectory keyframes_final;  ///< keyframe poses, final corrected (map frame)
   std::vector<StageTimes> times;
   int frames = 0, keyframes = 0, losses = 0, segments = 0, unreadable_frames = 0;
@@ -61,7 +62,7 @@ struct RobotRunResult {
 /// Runs VisualOdometry over frames [first_frame, end_frame) of the dataset, sends each new keyframe through
 /// `link` (which the caller has started), keeps heartbeats' tracking state current. Never throws; unreadable
 /// frames are logged and counted.
-RobotRunResult runRobot(const TumDataset& dataset, const CameraIntrinsics& camera, const OdometryConfig& odometry,
-                        RobotLink& link, const RobotRunOptions& options);
+RobotRunResult runRobot(const TumDataset& dataset, const CameraIntrinsics& camera,
+                        const OdometryConfig& odometry, RobotLink& link, const RobotRunOptions& options);
 
 }  // namespace rgbdmap
