@@ -21,12 +21,15 @@ class RobotRun : public ::testing::Test {
     dir_ = new rgbdmap::testing::TempDir();
     config_.scene = "sweep";
     config_.frames = 20;
+    config_.camera = {262.5, 262.5, 159.5, 119.5, 320, 240, {0, 0, 0, 0, 0}, 5000.0};  // quarter size: fast
     ASSERT_TRUE(writeSyntheticSequence(config_, dir_->dir()));
   }
   static void TearDownTestSuite() { delete dir_; }
   TumDataset dataset() const {
     DatasetOptions o;
     o.depth_scale = config_.camera.depth_scale;
+    o.expected_width = config_.camera.width;
+    o.expected_height = config_.camera.height;
     auto d = TumDataset::open(dir_->dir(), o);
     EXPECT_TRUE(d) << d.error();
     return std::move(d).value();
