@@ -54,5 +54,8 @@ contains "bad robot id named" "$tmp/err.txt" "invalid robot id"
 check "bad --frames" 2 "$client" --dataset "$tmp/seq" --frames 9:3
 check "missing --dataset" 2 "$client" --fast
 check "unknown transport is a run-time error" 1 "$client" --dataset "$tmp/seq" --transport "tcp://x" --fast
+check "dds:// without CYCLONEDDS_URI is refused" 1 env -u CYCLONEDDS_URI "$client" --dataset "$tmp/seq" \
+  --transport "dds://?domain=0" --fast
+contains "the refusal names CYCLONEDDS_URI" "$tmp/err.txt" "CYCLONEDDS_URI"
 if [ "$fail" -eq 0 ]; then echo "client cli: all checks passed"; fi
 exit "$fail"
