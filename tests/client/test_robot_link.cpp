@@ -27,6 +27,14 @@ FakeServerOptions serverOptions(const msg::Bytes& key) {
   return o;
 }
 
+/// Sealed bytes (a failure is a test failure, never a dereferenced empty result).
+template <typename T>
+msg::Bytes sealOrFail(msg::Signer& signer, const T& message) {
+  Result<msg::Bytes> bytes = signer.seal(message, 1);
+  EXPECT_TRUE(bytes) << bytes.error();
+  return bytes ? *bytes : msg::Bytes{};
+}
+
 void sendKeyframes(RobotLink& link, int count, int segment = 0, int first_id = 0) {
   for (int i = first_id; i < first_id + count; ++i) {
     const Status s = link.sendKeyframe(smallKeyframe(i, segment, testPose(i)), smallFrame(i));
@@ -207,13 +215,13 @@ TEST(RobotLink, GarbageForgedReplayedAndMisaddressedMessagesAreRejected) {
   forged.robot_id = "robot0";
   forged.graph_revision = 100;
   forged.keyframes = {{0, testPose(50)}};
-  ASSERT_TRUE(transport->publish(corr_channel, *forger.seal(forged, 1)));
-  ++expected;
-  msg::Signer robot_claim("robot1", linkKey(6));  // right key, but not the server
-  ASSERT_TRUE(transport->publish(ack_channel, *robot_claim.seal(testing::makeAck("robot0", 0), 1)));
+  ASSERT_TRUE(transport->publish(corr_channel, sealOrFail(forger, forged)));
   ++expected;
   msg::Signer genuine(msg::kServerId, linkKey(6), msg::newSessionId() + 1000000);
-  const msg::Bytes other_robot = *genuine.seal(testing::makeAck("robot1", 0), 1);
+  // A valid ServerStatus, but on the ack channel.
+  ASSERT_TRUE(transport->publish(ack_channel, sealOrFail(genuine, msg::ServerStatus{})));
+  ++expected;
+  const msg::Bytes other_robot = sealOrFail(genuine, testing::makeAck("robot1", 0));
   ASSERT_TRUE(transport->publish(ack_channel, other_robot));  // misaddressed
   ++expected;
   ASSERT_TRUE(transport->publish(ack_channel, other_robot));  // and replayed
@@ -224,7 +232,7 @@ TEST(RobotLink, GarbageForgedReplayedAndMisaddressedMessagesAreRejected) {
   EXPECT_EQ(link.stats().corrections_received, 0u);
   EXPECT_TRUE(link.mapFromOdom(0).isApprox(SE3::Identity()));
   // The genuine server is still heard afterwards.
-  ASSERT_TRUE(transport->publish(ack_channel, *genuine.seal(testing::makeAck("robot0", 0), 1)));
+  ASSERT_TRUE(transport->publish(ack_channel, sealOrFail(genuine, testing::makeAck("robot0", 0))));
   EXPECT_TRUE(link.waitAllAcked(5.0));
 }
 

@@ -45,7 +45,8 @@ struct AckingServer {
   template <typename T>
   void send(const T& m) {
     std::lock_guard<std::mutex> lock(mutex);
-    (void)transport.publish(*msg::channelFor(T::kType, "robot0"), *signer.seal(m, 1));
+    if (Result<msg::Bytes> bytes = signer.seal(m, 1))
+      (void)transport.publish(*msg::channelFor(T::kType, "robot0"), *bytes);
   }
 };
 
