@@ -41,10 +41,11 @@ struct RobotRunOptions {
 };
 
 struct RobotRunResult {
-  Trajectory live;  ///< every frame, T_map_cam as known at that moment (mapFromOdom(segment) * T_odom_cam)
-  Trajectory
-      final_map;  ///< every frame re-anchored on the final corrected pose of its reference keyframe:
-                  ///< T_map_kf(final) * T_odom_kf^-1 * T_odom_cam (mapFromOdom(segment) when uncorrected)
+  /// Every frame, T_map_cam as known at that moment: mapFromOdom(segment) * T_odom_cam.
+  Trajectory live;
+  /// Every frame re-anchored on the final corrected pose of its reference keyframe:
+  /// T_map_kf(final) * T_odom_kf^-1 * T_odom_cam (mapFromOdom(segment) when uncorrected).
+  Trajectory final_map;
   Trajectory odometry;         ///< every frame, odometry frame
   Trajectory keyframes_final;  ///< keyframe poses, final corrected (map frame)
   std::vector<StageTimes> times;
