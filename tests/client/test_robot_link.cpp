@@ -319,6 +319,33 @@ TEST(RobotLink, InvalidOptionsAndInputsAreErrors) {
   EXPECT_EQ(good.stats().keyframes_sent, 1u);
 }
 
+TEST(RobotLink, TwoRobotsShareOneTransport) {
+  auto transport = testing::makeMemq();
+  FakeServerOptions a = serverOptions(linkKey(11)), b = serverOptions(linkKey(12));
+  a.robot_id = "alpha";
+  b.robot_id = "beta";
+  a.T_map_odom = {{0, testPose(1)}};
+  b.T_map_odom = {{0, testPose(-2)}};
+  FakeMapServer server_a(*transport, a), server_b(*transport, b);
+  server_a.start();
+  server_b.start();
+  RobotLink alpha(*transport, linkOptions("alpha", linkKey(11)));
+  RobotLink beta(*transport, linkOptions("beta", linkKey(12)));
+  ASSERT_TRUE(alpha.start());
+  ASSERT_TRUE(beta.start());
+  sendKeyframes(alpha, 3);
+  sendKeyframes(beta, 2);
+  ASSERT_TRUE(alpha.waitForCorrection(2, 5.0));
+  ASSERT_TRUE(beta.waitForCorrection(1, 5.0));
+  EXPECT_TRUE(alpha.waitAllAcked(5.0) && beta.waitAllAcked(5.0));
+  EXPECT_LT(testing::maxPoseDifference(alpha.mapFromOdom(0), testPose(1)), 1e-9);
+  EXPECT_LT(testing::maxPoseDifference(beta.mapFromOdom(0), testPose(-2)), 1e-9);
+  EXPECT_EQ(alpha.stats().keyframes_acked, 3u);
+  EXPECT_EQ(beta.stats().keyframes_acked, 2u);
+  EXPECT_EQ(alpha.stats().messages_rejected + beta.stats().messages_rejected, 0u)
+      << "each hears only its own";
+}
+
 TEST(RobotLink, HandlersAreHarmlessAfterTheLinkIsGone) {
   auto transport = testing::makeMemq();
   FakeMapServer server(*transport, serverOptions({}));
