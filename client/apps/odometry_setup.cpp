@@ -30,6 +30,12 @@ void applyOverrides(cli::Args& args, OdometrySetup* s, std::vector<std::string>*
 
 OdometrySetup loadOdometrySetup(cli::Args& args, const std::string& dataset_dir,
                                 std::vector<std::string>* errors) {
+  return loadOdometrySetup(args, dataset_dir, errors, nullptr);
+}
+
+OdometrySetup loadOdometrySetup(cli::Args& args, const std::string& dataset_dir,
+                                std::vector<std::string>* errors,
+                                const std::function<void(ConfigReader&)>& read_more) {
   OdometrySetup s;
   if (!dataset_dir.empty()) {
     const auto cam = readDatasetCamera(dataset_dir);
@@ -53,6 +59,7 @@ OdometrySetup loadOdometrySetup(cli::Args& args, const std::string& dataset_dir,
   readCameraConfig(reader, "camera.", &s.camera);
   readOdometryConfig(reader, &s.odometry);
   reader.read("dataset.max_time_diff", &s.dataset.max_time_diff, 0.0, 10.0);
+  if (read_more) read_more(reader);
   for (const auto& e : reader.errors()) errors->push_back(e);
   applyOverrides(args, &s, errors);
   const std::string cam_err = s.camera.validate();

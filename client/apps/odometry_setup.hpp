@@ -1,6 +1,7 @@
 #pragma once
 // What a dataset-reading command needs, assembled once from (lowest to highest priority): built-in
 // defaults (TUM fr1), the dataset's camera.yaml, the --config YAML file, and command-line overrides.
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -24,6 +25,12 @@ struct OdometrySetup {
 /// All problems are appended to *errors.
 OdometrySetup loadOdometrySetup(cli::Args& args, const std::string& dataset_dir,
                                 std::vector<std::string>* errors);
+
+/// The same, for programs whose --config file has sections of their own: `read_more` reads them from the
+/// configuration before its errors (unknown keys included) are collected.
+OdometrySetup loadOdometrySetup(cli::Args& args, const std::string& dataset_dir,
+                                std::vector<std::string>* errors,
+                                const std::function<void(ConfigReader&)>& read_more);
 
 /// Applies --log-level if given.
 void applyLogLevel(cli::Args& args, std::vector<std::string>* errors);

@@ -1,0 +1,105 @@
+#pragma once
+// The robot's side of the mapping protocol (proto/README.md) over any transport::Transport:
+//  - says Hello at start (again every hello_period_s until the server has answered anything) and sends a
+//    Heartbeat every heartbeat_period_s with the tracking state the odometry last reported;
+//  - sends each keyframe (images encoded once, message kept unsealed) through a ReliableSender keyed by the
+//    keyframe id; every (re)transmission is sealed afresh with a new seq; KeyframeAck removes it (accepted)
+//    or refuses it for good (accepted = false: counted, not resent);
+//  - applies PoseCorrections: per odometry segment s, T_map_odom(s) = T_map_cam(k) * T_odom_cam(k)^-1 for
+//    the newest corrected keyframe k of s (the robot knows T_odom_cam of its own keyframes); corrections
+//    whose graph_revision is not newer than the last one of the same server session are ignored;
+//  - keeps the latest OccupancySlice, VelocityCommand and ServerStatus.
+// Every received message goes through msg::openEnvelope + msg::decodeMessage with a ReplayGuard and
+// RejectCounters; it must come from sender "server" and name this robot, or it is counted and ignored.
+//
+// Threads: the transport's receive thread runs the handlers (short: decode, update state under a mutex,
+// acknowledge; they never wait); one worker sends Hello/Heartbeat; the ReliableSender's worker retransmits.
+// The transport may be shared by several links and a server; it must outlive the link. Handlers the link
+// registered stay registered (Transport has no unsubscribe) but do nothing once the link is stopped or gone.
+#include <cstdint>
+#include <memory>
+#include <optional>
+#include <string>
+
+#include "rgbdmap/client/odometry.hpp"
+#include "rgbdmap/common/camera.hpp"
+#include "rgbdmap/common/image_codec.hpp"
+#include "rgbdmap/common/result.hpp"
+#include "rgbdmap/common/rgbd_frame.hpp"
+#include "rgbdmap/common/se3.hpp"
+#include "rgbdmap/proto/messages.hpp"
+#include "rgbdmap/transport/reliable.hpp"
+#include "rgbdmap/transport/transport.hpp"
+
+namespace rgbdmap {
+
+struct RobotLinkOptions {
+  std::string robot_id;
+  msg::Bytes key;           ///< empty: unsigned messages (server in open mode); else >= 16 bytes
+  CameraIntrinsics camera;  ///< sent in Hello
+  ImageCodecOptions codec;  ///< keyframe images (common/image_codec.hpp)
+  transport::ReliableSenderOptions reliable;
+  double heartbeat_period_s = 1.0, hello_period_s = 1.0;
+  double send_timeout_s = 30.0;  ///< sendKeyframe waits at most this for room in the send window
+  std::string software_version = "rgbdmap-client 0.1.0";  ///< sent in Hello
+
+  /// Empty when valid, else every reason ("; "-separated).
+  std::string validate() const;
+};
+
+struct RobotLinkStats {
+  uint64_t keyframes_sent = 0;      ///< submitted (first transmission)
+  uint64_t keyframes_acked = 0;     ///< accepted by the server (each id once)
+  uint64_t keyframes_refused = 0;   ///< accepted = false (each id once); not resent
+  uint64_t keyframes_given_up = 0;  ///< max_attempts reached without an answer
+  uint64_t keyframes_pending = 0;   ///< still waiting for an answer
+  uint64_t retransmissions = 0;
+  uint64_t duplicate_acks = 0;        ///< acks for an id already answered (the server re-acks duplicates)
+  uint64_t unknown_acks = 0;          ///< acks for an id this process never sent
+  uint64_t corrections_received = 0;  ///< PoseCorrections applied
+  uint64_t corrections_stale = 0;     ///< ignored: graph_revision not newer
+  uint64_t slices_received = 0, commands_received = 0, status_received = 0;
+  uint64_t hellos_sent = 0, heartbeats_sent = 0;
+  uint64_t messages_rejected = 0;  ///< every rejection (envelope, payload, wrong sender or robot)
+  uint64_t bytes_sent = 0, bytes_received = 0;  ///< this link's messages only (the transport may be shared)
+  int64_t graph_revision = -1;                  ///< of the last applied PoseCorrections; -1 before any
+};
+
+class RobotLink {  // thread-safe; handlers never block the transport's receive thread
+ public:
+  RobotLink(transport::Transport& transport, RobotLinkOptions options);
+  ~RobotLink();  ///< stop()s
+  RobotLink(const RobotLink&) = delete;
+  RobotLink& operator=(const RobotLink&) = delete;
+
+  /// Checks the options, subscribes the server->robot channels, starts the transport (idempotent), the
+  /// sender and heartbeat threads, and says Hello. Fails on invalid options or a second start.
+  Status start();
+  /// Stops the threads at once and wakes every waiter (they return false); idempotent. Received messages
+  /// are ignored from then on; the state (corrections, stats) stays readable.
+  void stop();
+
+  /// Encodes the images, builds the message (keyframeToMessage), submits it reliably; blocks while the send
+  /// window is full (up to send_timeout_s, less if stop() is called). Remembers T_odom_cam and segment.
+  Status sendKeyframe(const Keyframe& keyframe, const RgbdFrame& frame);
+  /// What the next heartbeats report.
+  void setTrackingState(int last_keyframe_id, int segment, TrackingState state);
+
+  SE3 mapFromOdom(int segment) const;  ///< T_map_odom; identity until a correction covers the segment
+  std::optional<SE3> correctedKeyframe(int keyframe_id) const;  ///< latest T_map_cam from the server
+  std::optional<msg::OccupancySlice> latestSlice() const;
+  std::optional<msg::VelocityCommand> latestCommand() const;
+  std::optional<msg::ServerStatus> latestServerStatus() const;
+  /// True once every keyframe sent has been answered (accepted or refused); false on timeout, on stop(),
+  /// or when one was given up. A give-up is noticed within one heartbeat period.
+  bool waitAllAcked(double timeout_s);
+  /// True once a PoseCorrections covering keyframe `keyframe_id` has arrived; false on timeout or stop().
+  bool waitForCorrection(int keyframe_id, double timeout_s);
+  RobotLinkStats stats() const;
+
+ private:
+  class Impl;
+  std::shared_ptr<Impl> impl_;  ///< handlers hold a weak_ptr, so a handler never outlives what it uses
+};
+
+}  // namespace rgbdmap

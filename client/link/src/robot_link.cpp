@@ -1,0 +1,295 @@
+// RobotLink: lifecycle, Hello/Heartbeat worker, keyframe sending through the ReliableSender.
+#include "rgbdmap/client/robot_link.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+
+#include "rgbdmap/client/keyframe_message.hpp"
+#include "rgbdmap/common/logging.hpp"
+#include "rgbdmap/proto/channels.hpp"
+#include "robot_link_impl.hpp"
+
+namespace rgbdmap {
+namespace {
+
+int64_t nowUtime() {
+  return std::chrono::duration_cast<std::chrono::microseconds>(
+             std::chrono::system_clock::now().time_since_epoch())
+      .count();
+}
+
+std::chrono::nanoseconds seconds(double s) {
+  return std::chrono::nanoseconds(static_cast<int64_t>(std::clamp(s, 0.0, 1e9) * 1e9));
+}
+
+msg::KeyStore makeKeyStore(const RobotLinkOptions& options) {
+  if (options.key.empty()) return msg::KeyStore::openMode();
+  msg::KeyStore keys;
+  (void)keys.add(msg::kServerId, options.key);  // validate() reports a bad key before start() uses it
+  return keys;
+}
+
+}  // namespace
+
+std::string RobotLinkOptions::validate() const {
+  std::string out;
+  auto fail = [&out](const std::string& reason) { out += (out.empty() ? "" : "; ") + reason; };
+  if (!msg::channelFor(msg::MessageType::kHello, robot_id)) fail("invalid robot id '" + robot_id + "'");
+  if (robot_id == msg::kServerId) fail("robot id must not be 'server'");
+  if (!key.empty() && key.size() < msg::kMinKeyBytes)
+    fail("key must be empty (unsigned) or at least " + std::to_string(msg::kMinKeyBytes) + " bytes");
+  if (const std::string e = camera.validate(); !e.empty()) fail("camera: " + e);
+  for (const auto& [name, value] :
+       {std::pair{"heartbeat_period_s", heartbeat_period_s}, std::pair{"hello_period_s", hello_period_s}})
+    if (!(value >= 0.01 && value <= 3600.0)) fail(std::string(name) + " must be in [0.01, 3600]");
+  if (!(send_timeout_s >= 0.0 && send_timeout_s <= 3600.0)) fail("send_timeout_s must be in [0, 3600]");
+  if (reliable.max_pending < 1) fail("reliable.max_pending must be >= 1");
+  if (reliable.max_attempts < 1) fail("reliable.max_attempts must be >= 1");
+  return out;
+}
+
+RobotLink::Impl::Impl(transport::Transport& transport, RobotLinkOptions options)
+    : transport_(transport),
+      options_(std::move(options)),
+      keys_(makeKeyStore(options_)),
+      signer_(options_.robot_id, options_.key),
+      reliable_(options_.reliable, [this](uint64_t id) { return transmitKeyframe(id); }) {}
+
+RobotLink::Impl::~Impl() { stop(); }
+
+Status RobotLink::Impl::start() {
+  std::lock_guard<std::mutex> life(lifecycle_);
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (started_) return Status::failure("RobotLink::start: already started");
+    if (stopping_) return Status::failure("RobotLink::start: stopped before it started");
+    started_ = true;
+  }
+  if (const std::string e = options_.validate(); !e.empty()) return Status::failure("RobotLink: " + e);
+  hello_channel_ = *msg::channelFor(msg::MessageType::kHello, options_.robot_id);
+  heartbeat_channel_ = *msg::channelFor(msg::MessageType::kHeartbeat, options_.robot_id);
+  keyframe_channel_ = *msg::channelFor(msg::MessageType::kKeyframe, options_.robot_id);
+  if (Status s = subscribeAll(); !s) return s;
+  if (Status s = transport_.start(); !s) return Status::failure("RobotLink: transport: " + s.error());
+  reliable_.start();
+  if (Status s = sendHello(); !s) log::warn("robot ", options_.robot_id, ": first Hello failed: ", s.error());
+  periodic_ = std::thread([this] { runPeriodic(); });
+  log::info("robot ", options_.robot_id, ": link started (", options_.key.empty() ? "unsigned" : "signed",
+            ", heartbeat ", options_.heartbeat_period_s, " s, send window ", options_.reliable.max_pending,
+            ")");
+  return Status::success();
+}
+
+void RobotLink::Impl::stop() {
+  std::lock_guard<std::mutex> life(lifecycle_);
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    stopping_ = true;
+  }
+  changed_.notify_all();
+  if (periodic_.joinable()) periodic_.join();
+  reliable_.stop();
+}
+
+template <typename T>
+Status RobotLink::Impl::sealAndPublish(const T& message, const std::string& channel) {
+  Result<msg::Bytes> bytes = [&] {
+    std::lock_guard<std::mutex> lock(signer_mutex_);
+    return signer_.seal(message, nowUtime());
+  }();
+  if (!bytes) return Status::failure(std::string("seal ") + msg::toString(T::kType) + ": " + bytes.error());
+  Status s = transport_.publish(channel, *bytes);
+  if (s) bytes_sent_ += bytes->size();
+  return s;
+}
+
+Status RobotLink::Impl::sendHello() {
+  msg::Hello hello;
+  hello.robot_id = options_.robot_id;
+  hello.camera = options_.camera;
+  hello.software_version = options_.software_version;
+  hello.capabilities = {"keyframes", "pose_corrections", "occupancy_slice", "velocity_command"};
+  Status s = sealAndPublish(hello, hello_channel_);
+  std::lock_guard<std::mutex> lock(mutex_);
+  counts_.hellos_sent += s.ok() ? 1 : 0;
+  return s;
+}
+
+Status RobotLink::Impl::sendHeartbeat() {
+  msg::Heartbeat hb;
+  hb.robot_id = options_.robot_id;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    hb.last_keyframe_id = last_keyframe_id_;
+    hb.segment_id = segment_;
+    hb.tracking_state = static_cast<int>(tracking_state_);
+  }
+  hb.uptime_s = std::chrono::duration<double>(Clock::now() - created_).count();
+  Status s = sealAndPublish(hb, heartbeat_channel_);
+  std::lock_guard<std::mutex> lock(mutex_);
+  counts_.heartbeats_sent += s.ok() ? 1 : 0;
+  return s;
+}
+
+void RobotLink::Impl::runPeriodic() {
+  const auto hb_period = std::chrono::duration_cast<Clock::duration>(seconds(options_.heartbeat_period_s));
+  const auto hello_period = std::chrono::duration_cast<Clock::duration>(seconds(options_.hello_period_s));
+  Clock::time_point next_heartbeat = Clock::now(), next_hello = Clock::now() + hello_period;
+  std::unique_lock<std::mutex> lock(mutex_);
+  while (!stopping_) {
+    const auto now = Clock::now();
+    const bool heartbeat_due = now >= next_heartbeat, hello_due = !heard_from_server_ && now >= next_hello;
+    lock.unlock();
+    if (heartbeat_due) {
+      if (Status s = sendHeartbeat(); !s) log::debug("robot ", options_.robot_id, ": heartbeat: ", s.error());
+      next_heartbeat = std::max(next_heartbeat + hb_period, now);
+    }
+    if (hello_due) {
+      if (Status s = sendHello(); !s) log::debug("robot ", options_.robot_id, ": hello: ", s.error());
+      next_hello = now + hello_period;
+    }
+    lock.lock();
+    changed_.notify_all();  // waiters re-check: a keyframe may have been given up meanwhile
+    const auto wake = heard_from_server_ ? next_heartbeat : std::min(next_heartbeat, next_hello);
+    changed_.wait_until(lock, wake, [this] { return stopping_; });
+  }
+}
+
+Status RobotLink::Impl::sendKeyframe(const Keyframe& keyframe, const RgbdFrame& frame) {
+  const std::string what = "keyframe " + std::to_string(keyframe.id);
+  if (keyframe.id < 0) return Status::failure(what + ": negative id");
+  Result<EncodedImages> images = encodeImages(frame, options_.codec);
+  if (!images) return Status::failure(what + ": images: " + images.error());
+  Result<msg::Keyframe> message = keyframeToMessage(keyframe, options_.robot_id, std::move(*images));
+  if (!message) return Status::failure(what + ": " + message.error());
+  std::unique_lock<std::mutex> lock(mutex_);
+  if (!started_ || stopping_) return Status::failure(what + ": link not running");
+  if (sent_.count(keyframe.id)) return Status::failure(what + ": already sent");
+  const bool room = changed_.wait_for(lock, seconds(options_.send_timeout_s), [this] {
+    return stopping_ || reliable_.pending() < options_.reliable.max_pending;
+  });
+  if (stopping_) return Status::failure(what + ": link stopped");
+  if (!room)
+    return Status::failure(what + ": send window still full after " +
+                           std::to_string(options_.send_timeout_s) + " s");
+  SentKeyframe& entry = sent_[keyframe.id];
+  entry.segment = keyframe.segment;
+  entry.T_odom_cam = keyframe.T_odom_cam;
+  entry.message = std::make_unique<msg::Keyframe>(std::move(*message));
+  lock.unlock();  // submit() transmits on this thread (transmitKeyframe takes mutex_)
+  if (Status s = reliable_.submit(static_cast<uint64_t>(keyframe.id)); !s) {
+    lock.lock();
+    sent_.erase(keyframe.id);
+    return Status::failure(what + ": " + s.error());
+  }
+  lock.lock();
+  ++counts_.keyframes_sent;
+  return Status::success();
+}
+
+Status RobotLink::Impl::transmitKeyframe(uint64_t id) {
+  std::unique_ptr<msg::Keyframe> last;  // the final transmission takes the message over
+  msg::Keyframe copy;
+  const msg::Keyframe* message = nullptr;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    auto it = sent_.find(static_cast<int>(id));
+    if (it == sent_.end() || !it->second.message) return Status::success();  // answered meanwhile
+    SentKeyframe& entry = it->second;
+    if (++entry.transmissions >= options_.reliable.max_attempts) {
+      last = std::move(entry.message);  // the sender gives the id up after this one: free the images
+      message = last.get();
+    } else {
+      copy = *entry.message;
+      message = &copy;
+    }
+  }
+  return sealAndPublish(*message, keyframe_channel_);
+}
+
+bool RobotLink::Impl::allAnswered() const {
+  return std::all_of(sent_.begin(), sent_.end(),
+                     [](const auto& kv) { return kv.second.answer != Answer::kPending; });
+}
+
+bool RobotLink::Impl::waitAllAcked(double timeout_s) {
+  std::unique_lock<std::mutex> lock(mutex_);
+  changed_.wait_for(lock, seconds(timeout_s),
+                    [this] { return stopping_ || allAnswered() || reliable_.pending() == 0; });
+  return allAnswered();
+}
+
+bool RobotLink::Impl::waitForCorrection(int keyframe_id, double timeout_s) {
+  std::unique_lock<std::mutex> lock(mutex_);
+  return changed_.wait_for(lock, seconds(timeout_s), [&] {
+    return stopping_ || T_map_cam_.count(keyframe_id) > 0;
+  }) && T_map_cam_.count(keyframe_id) > 0;
+}
+
+void RobotLink::Impl::setTrackingState(int last_keyframe_id, int segment, TrackingState state) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  last_keyframe_id_ = last_keyframe_id;
+  segment_ = segment;
+  tracking_state_ = state;
+}
+
+SE3 RobotLink::Impl::mapFromOdom(int segment) const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  auto it = T_map_odom_.find(segment);
+  return it == T_map_odom_.end() ? SE3::Identity() : it->second;
+}
+
+std::optional<SE3> RobotLink::Impl::correctedKeyframe(int keyframe_id) const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  auto it = T_map_cam_.find(keyframe_id);
+  if (it == T_map_cam_.end()) return std::nullopt;
+  return it->second;
+}
+
+RobotLinkStats RobotLink::Impl::stats() const {
+  const transport::ReliableSenderStats r = reliable_.stats();
+  std::lock_guard<std::mutex> lock(mutex_);
+  RobotLinkStats s = counts_;
+  s.retransmissions = r.retransmissions;
+  s.keyframes_given_up = r.given_up;
+  s.keyframes_pending = static_cast<uint64_t>(std::count_if(
+      sent_.begin(), sent_.end(), [](const auto& kv) { return kv.second.answer == Answer::kPending; }));
+  s.messages_rejected += rejects_.total();
+  s.bytes_sent = bytes_sent_.load();
+  s.bytes_received = bytes_received_.load();
+  s.graph_revision = graph_revision_;
+  return s;
+}
+
+// ---- RobotLink: forwards to Impl ----
+
+RobotLink::RobotLink(transport::Transport& transport, RobotLinkOptions options)
+    : impl_(std::make_shared<Impl>(transport, std::move(options))) {}
+RobotLink::~RobotLink() { impl_->stop(); }
+Status RobotLink::start() { return impl_->start(); }
+void RobotLink::stop() { impl_->stop(); }
+Status RobotLink::sendKeyframe(const Keyframe& keyframe, const RgbdFrame& frame) {
+  return impl_->sendKeyframe(keyframe, frame);
+}
+void RobotLink::setTrackingState(int last_keyframe_id, int segment, TrackingState state) {
+  impl_->setTrackingState(last_keyframe_id, segment, state);
+}
+SE3 RobotLink::mapFromOdom(int segment) const { return impl_->mapFromOdom(segment); }
+std::optional<SE3> RobotLink::correctedKeyframe(int keyframe_id) const {
+  return impl_->correctedKeyframe(keyframe_id);
+}
+std::optional<msg::OccupancySlice> RobotLink::latestSlice() const { return impl_->latest(&Impl::slice_); }
+std::optional<msg::VelocityCommand> RobotLink::latestCommand() const {
+  return impl_->latest(&Impl::command_);
+}
+std::optional<msg::ServerStatus> RobotLink::latestServerStatus() const {
+  return impl_->latest(&Impl::status_);
+}
+bool RobotLink::waitAllAcked(double timeout_s) { return impl_->waitAllAcked(timeout_s); }
+bool RobotLink::waitForCorrection(int keyframe_id, double timeout_s) {
+  return impl_->waitForCorrection(keyframe_id, timeout_s);
+}
+RobotLinkStats RobotLink::stats() const { return impl_->stats(); }
+
+}  // namespace rgbdmap

@@ -1,0 +1,104 @@
+#pragma once
+// RobotLink's state and threads (private). robot_link.cpp: lifecycle, Hello/Heartbeat, keyframe sending;
+// robot_link_receive.cpp: the transport handlers (acks, corrections, slices, commands, status).
+#include <atomic>
+#include <chrono>
+#include <condition_variable>
+#include <map>
+#include <memory>
+#include <mutex>
+#include <optional>
+#include <string>
+#include <thread>
+
+#include "rgbdmap/client/robot_link.hpp"
+#include "rgbdmap/proto/envelope.hpp"
+
+namespace rgbdmap {
+
+class RobotLink::Impl : public std::enable_shared_from_this<RobotLink::Impl> {
+ public:
+  using Clock = std::chrono::steady_clock;
+
+  Impl(transport::Transport& transport, RobotLinkOptions options);
+  ~Impl();
+
+  Status start();
+  void stop();
+  Status sendKeyframe(const Keyframe& keyframe, const RgbdFrame& frame);
+  void setTrackingState(int last_keyframe_id, int segment, TrackingState state);
+  SE3 mapFromOdom(int segment) const;
+  std::optional<SE3> correctedKeyframe(int keyframe_id) const;
+  template <typename T>
+  std::optional<T> latest(const std::optional<T> Impl::*member) const {
+    std::lock_guard<std::mutex> lock(mutex_);
+    return this->*member;
+  }
+  bool waitAllAcked(double timeout_s);
+  bool waitForCorrection(int keyframe_id, double timeout_s);
+  RobotLinkStats stats() const;
+
+  std::optional<msg::OccupancySlice> slice_;
+  std::optional<msg::VelocityCommand> command_;
+  std::optional<msg::ServerStatus> status_;
+
+ private:
+  enum class Answer { kPending, kAccepted, kRefused };
+  struct SentKeyframe {
+    int segment = 0;
+    SE3 T_odom_cam = SE3::Identity();
+    std::unique_ptr<msg::Keyframe> message;  ///< encoded, unsealed; dropped once answered or last sent
+    int transmissions = 0;
+    Answer answer = Answer::kPending;
+  };
+
+  // Sending (robot_link.cpp).
+  Status transmitKeyframe(uint64_t id);  ///< ReliableSender's callback: seals afresh, publishes
+  template <typename T>
+  Status sealAndPublish(const T& message, const std::string& channel);
+  void runPeriodic();  ///< Hello until the server answered, Heartbeat, and a tick for waiters
+  Status sendHello();
+  Status sendHeartbeat();
+  bool allAnswered() const;  ///< caller holds mutex_
+
+  // Receiving (robot_link_receive.cpp).
+  Status subscribeAll();
+  template <typename T>
+  Status subscribe();
+  template <typename T>
+  void onMessage(const uint8_t* data, size_t size);
+  bool isForMe(const std::string& robot_id);
+  void handle(const msg::KeyframeAck& ack);
+  void handle(const msg::PoseCorrections& corrections);
+  void handle(const msg::OccupancySlice& slice);
+  void handle(const msg::VelocityCommand& command);
+  void handle(const msg::ServerStatus& status);
+  void updateSegmentAnchors(const msg::PoseCorrections& corrections);  ///< caller holds mutex_
+
+  transport::Transport& transport_;
+  const RobotLinkOptions options_;
+  std::string hello_channel_, heartbeat_channel_, keyframe_channel_;
+  msg::KeyStore keys_;
+  msg::ReplayGuard replay_guard_;
+  msg::RejectCounters rejects_;
+  std::mutex signer_mutex_;
+  msg::Signer signer_;
+  transport::ReliableSender reliable_;
+  const Clock::time_point created_ = Clock::now();
+
+  mutable std::mutex mutex_;  ///< everything below; taken before the ReliableSender's own lock, never after
+  std::condition_variable changed_;  ///< answers, corrections, stop, and the periodic tick
+  bool started_ = false, stopping_ = false, heard_from_server_ = false;
+  std::map<int, SentKeyframe> sent_;
+  std::map<int, SE3> T_map_cam_;   ///< corrected keyframes
+  std::map<int, SE3> T_map_odom_;  ///< per segment
+  int64_t graph_revision_ = -1, corrections_session_ = 0;
+  int last_keyframe_id_ = -1, segment_ = 0;
+  TrackingState tracking_state_ = TrackingState::kInitialized;
+  RobotLinkStats counts_;  ///< the counters kept here (the rest come from the sender and rejects_)
+  std::atomic<uint64_t> bytes_sent_{0}, bytes_received_{0};
+  std::mutex lifecycle_;  ///< serialises start() and stop()
+  std::thread periodic_;
+};
+
+}  // namespace rgbdmap

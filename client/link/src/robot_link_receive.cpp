@@ -1,0 +1,143 @@
+// RobotLink: the handlers of the server->robot channels. They run on the transport's receive thread, so
+// they only decode, update state under the mutex and acknowledge; they never wait.
+#include <algorithm>
+
+#include "rgbdmap/common/logging.hpp"
+#include "rgbdmap/proto/channels.hpp"
+#include "robot_link_impl.hpp"
+
+namespace rgbdmap {
+
+template <typename T>
+Status RobotLink::Impl::subscribe() {
+  Result<std::string> channel = msg::channelFor(T::kType, options_.robot_id);
+  if (!channel) return Status::failure(channel.error());
+  std::weak_ptr<Impl> weak = weak_from_this();
+  return transport_.subscribe(*channel, [weak](const std::string&, const uint8_t* data, size_t size) {
+    if (std::shared_ptr<Impl> self = weak.lock()) self->onMessage<T>(data, size);
+  });
+}
+
+Status RobotLink::Impl::subscribeAll() {
+  for (Status s :
+       {subscribe<msg::KeyframeAck>(), subscribe<msg::PoseCorrections>(), subscribe<msg::OccupancySlice>(),
+        subscribe<msg::VelocityCommand>(), subscribe<msg::ServerStatus>()})
+    if (!s) return Status::failure("RobotLink: subscribe: " + s.error());
+  return Status::success();
+}
+
+template <typename T>
+void RobotLink::Impl::onMessage(const uint8_t* data, size_t size) {
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (stopping_) return;
+  }
+  bytes_received_ += size;
+  Result<msg::OpenedEnvelope> opened = msg::openEnvelope(data, size, keys_, &replay_guard_, &rejects_);
+  if (!opened) return;                            // counted and logged (rate-limited) by rejects_
+  if (opened->header.sender != msg::kServerId) {  // open mode accepts any id: only the server talks to us
+    rejects_.add(msg::RejectReason::kUnknownSender,
+                 "robot " + options_.robot_id + " expects 'server', got '" + opened->header.sender + "'");
+    return;
+  }
+  Result<T> message = msg::decodeMessage<T>(*opened, &rejects_);
+  if (!message) return;
+  if constexpr (!std::is_same_v<T, msg::ServerStatus>) {
+    if (!isForMe(message->robot_id)) return;
+  }
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    heard_from_server_ = true;
+  }
+  handle(*message);
+}
+
+bool RobotLink::Impl::isForMe(const std::string& robot_id) {
+  if (robot_id == options_.robot_id) return true;
+  rejects_.add(msg::RejectReason::kInvalidContent,
+               "message for robot '" + robot_id + "' on robot " + options_.robot_id + "'s channel");
+  return false;
+}
+
+void RobotLink::Impl::handle(const msg::KeyframeAck& ack) {
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    auto it = sent_.find(ack.keyframe_id);
+    if (it == sent_.end()) {
+      ++counts_.unknown_acks;
+      return;
+    }
+    SentKeyframe& entry = it->second;
+    if (entry.answer != Answer::kPending) {
+      ++counts_.duplicate_acks;
+    } else {
+      entry.answer = ack.accepted ? Answer::kAccepted : Answer::kRefused;
+      entry.message.reset();
+      ++(ack.accepted ? counts_.keyframes_acked : counts_.keyframes_refused);
+      if (!ack.accepted)
+        log::warn("robot ", options_.robot_id, ": server refused keyframe ", ack.keyframe_id, ": ",
+                  ack.reason);
+    }
+  }
+  reliable_.acknowledge(static_cast<uint64_t>(ack.keyframe_id));  // no resend, whatever the answer
+  changed_.notify_all();
+}
+
+void RobotLink::Impl::handle(const msg::PoseCorrections& corrections) {
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    // A greater session is a restarted server: its revisions start again.
+    if (corrections.header.session < corrections_session_ ||
+        (corrections.header.session == corrections_session_ &&
+         corrections.graph_revision <= graph_revision_)) {
+      ++counts_.corrections_stale;
+      return;
+    }
+    corrections_session_ = corrections.header.session;
+    graph_revision_ = corrections.graph_revision;
+    for (const msg::CorrectedPose& c : corrections.keyframes)
+      if (sent_.count(c.keyframe_id)) T_map_cam_[c.keyframe_id] = c.T_map_cam;
+    updateSegmentAnchors(corrections);
+    ++counts_.corrections_received;
+  }
+  changed_.notify_all();
+}
+
+void RobotLink::Impl::updateSegmentAnchors(const msg::PoseCorrections& corrections) {
+  // Per segment, the newest corrected keyframe k: T_map_odom = T_map_cam(k) * T_odom_cam(k)^-1. T_map_cam_
+  // is ordered by id, so the last one seen per segment is the newest.
+  std::map<int, SE3> anchors;
+  for (const auto& [id, T_map_cam] : T_map_cam_) {
+    const SentKeyframe& kf = sent_.at(id);
+    anchors[kf.segment] = se3::normalized(T_map_cam * kf.T_odom_cam.inverse());
+  }
+  for (const auto& [segment, T] : anchors) T_map_odom_[segment] = T;
+  // The message's own T_map_odom is for the segment of the newest keyframe the server holds; it fills in only
+  // when none of that segment's keyframes is corrected yet. The robot takes the segment of its newest
+  // accepted keyframe for it (the server stored that one; a newer one may still be in flight).
+  for (auto it = sent_.rbegin(); it != sent_.rend(); ++it) {
+    if (it->second.answer != Answer::kAccepted) continue;
+    if (!anchors.count(it->second.segment)) T_map_odom_[it->second.segment] = corrections.T_map_odom;
+    break;
+  }
+}
+
+void RobotLink::Impl::handle(const msg::OccupancySlice& slice) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  slice_ = slice;
+  ++counts_.slices_received;
+}
+
+void RobotLink::Impl::handle(const msg::VelocityCommand& command) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  command_ = command;
+  ++counts_.commands_received;
+}
+
+void RobotLink::Impl::handle(const msg::ServerStatus& status) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  status_ = status;
+  ++counts_.status_received;
+}
+
+}  // namespace rgbdmap

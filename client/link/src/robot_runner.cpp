@@ -1,0 +1,182 @@
+// runRobot: odometry over a dataset, keyframes through the RobotLink, trajectories in the map frame.
+#include "rgbdmap/client/robot_runner.hpp"
+
+#include <algorithm>
+#include <exception>
+#include <map>
+#include <thread>
+
+#include "rgbdmap/common/logging.hpp"
+
+namespace rgbdmap {
+
+void StopRequest::request() {
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    requested_ = true;
+  }
+  cv_.notify_all();
+}
+
+bool StopRequest::requested() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return requested_;
+}
+
+bool StopRequest::waitUntil(std::chrono::steady_clock::time_point deadline) const {
+  std::unique_lock<std::mutex> lock(mutex_);
+  return cv_.wait_until(lock, deadline, [this] { return requested_; });
+}
+
+double RobotRunResult::medianMs(double StageTimes::*stage) const {
+  if (times.empty()) return 0.0;
+  std::vector<double> v;
+  v.reserve(times.size());
+  for (const StageTimes& t : times) v.push_back(t.*stage);
+  std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
+  return v[v.size() / 2];
+}
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+struct FrameRecord {
+  double timestamp = 0.0;
+  SE3 T_odom_cam = SE3::Identity();
+  int segment = 0;
+  int reference_keyframe = -1;
+};
+
+struct KeyframeRecord {
+  double timestamp = 0.0;
+  SE3 T_odom_cam = SE3::Identity();
+  int segment = 0;
+};
+
+struct RunState {
+  std::vector<FrameRecord> frames;
+  std::map<int, KeyframeRecord> keyframes;  ///< every keyframe the odometry made, by id
+  int last_sent_keyframe = -1;
+};
+
+bool stopRequested(const RobotRunOptions& options) { return options.stop && options.stop->requested(); }
+
+/// Waits until the frame's time relative to the first frame has passed on the wall clock; false if stopped.
+bool paceFrame(const RobotRunOptions& options, Clock::time_point wall0, double dt_s) {
+  const Clock::time_point deadline =
+      wall0 + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(std::max(0.0, dt_s)));
+  if (options.stop) return !options.stop->waitUntil(deadline);
+  std::this_thread::sleep_until(deadline);
+  return true;
+}
+
+void sendKeyframe(const TrackingResult& r, const RgbdFrame& frame, RobotLink& link, RunState* state,
+                  RobotRunResult* out) {
+  const Keyframe& kf = *r.new_keyframe;
+  state->keyframes[kf.id] = {kf.timestamp, kf.T_odom_cam, kf.segment};
+  if (Status s = link.sendKeyframe(kf, frame); !s) {
+    ++out->keyframes_not_sent;
+    log::warn("keyframe ", kf.id, " not sent: ", s.error());
+    return;
+  }
+  state->last_sent_keyframe = kf.id;
+}
+
+void trackFrames(const TumDataset& dataset, VisualOdometry& vo, RobotLink& link,
+                 const RobotRunOptions& options, size_t first, size_t end, RunState* state,
+                 RobotRunResult* out) {
+  const Clock::time_point wall0 = Clock::now();
+  const double t0 = dataset.entry(first).rgb_timestamp;
+  log::RateLimiter limiter(1.0);
+  int last_keyframe = -1;
+  for (size_t i = first; i < end; ++i) {
+    if (stopRequested(options) ||
+        (options.realtime && !paceFrame(options, wall0, dataset.entry(i).rgb_timestamp - t0))) {
+      out->interrupted = true;
+      return;
+    }
+    const Result<RgbdFrame> frame = dataset.load(i);
+    if (!frame) {
+      ++out->unreadable_frames;
+      uint64_t suppressed = 0;
+      if (limiter.allow(&suppressed))
+        log::warn("skipping frame ", i, ": ", frame.error(), " (", suppressed, " more)");
+      continue;
+    }
+    const TrackingResult r = vo.track(*frame);
+    if (r.new_keyframe) {
+      last_keyframe = r.new_keyframe->id;
+      sendKeyframe(r, *frame, link, state, out);
+    }
+    link.setTrackingState(last_keyframe, r.segment, r.state);
+    state->frames.push_back({r.timestamp, r.T_odom_cam, r.segment, r.reference_keyframe});
+    out->live.push_back({r.timestamp, link.mapFromOdom(r.segment) * r.T_odom_cam});
+    out->odometry.push_back({r.timestamp, r.T_odom_cam});
+    out->times.push_back(r.times);
+    out->segments = std::max(out->segments, r.segment + 1);
+    if (options.progress) options.progress(static_cast<int>(i - first + 1), static_cast<int>(end - first));
+  }
+}
+
+/// T_map_odom of the frame's segment, through its reference keyframe's final correction when there is one.
+SE3 finalMapFromOdom(const FrameRecord& f, const RunState& state, const RobotLink& link) {
+  const auto kf = state.keyframes.find(f.reference_keyframe);
+  if (kf != state.keyframes.end() && kf->second.segment == f.segment)
+    if (const std::optional<SE3> T_map_kf = link.correctedKeyframe(f.reference_keyframe))
+      return *T_map_kf * kf->second.T_odom_cam.inverse();
+  return link.mapFromOdom(f.segment);
+}
+
+void finish(const RunState& state, RobotLink& link, const RobotRunOptions& options, RobotRunResult* out) {
+  const bool any_sent = state.last_sent_keyframe >= 0;
+  const bool wait = any_sent && !out->interrupted && !stopRequested(options);
+  const Clock::time_point deadline =
+      Clock::now() + std::chrono::duration_cast<Clock::duration>(
+                         std::chrono::duration<double>(wait ? std::max(0.0, options.final_wait_s) : 0.0));
+  auto remaining = [&] { return std::chrono::duration<double>(deadline - Clock::now()).count(); };
+  out->all_acked = !any_sent || link.waitAllAcked(std::max(0.0, remaining()));
+  out->final_correction_received =
+      any_sent && link.waitForCorrection(state.last_sent_keyframe, std::max(0.0, remaining()));
+  for (const FrameRecord& f : state.frames)
+    out->final_map.push_back({f.timestamp, se3::normalized(finalMapFromOdom(f, state, link) * f.T_odom_cam)});
+  for (const auto& [id, kf] : state.keyframes) {
+    const std::optional<SE3> T_map_kf = link.correctedKeyframe(id);
+    out->keyframes_final.push_back(
+        {kf.timestamp, T_map_kf ? *T_map_kf : link.mapFromOdom(kf.segment) * kf.T_odom_cam});
+  }
+}
+
+}  // namespace
+
+RobotRunResult runRobot(const TumDataset& dataset, const CameraIntrinsics& camera,
+                        const OdometryConfig& odometry, RobotLink& link, const RobotRunOptions& options) {
+  RobotRunResult out;
+  const Clock::time_point start = Clock::now();
+  RunState state;
+  const size_t first = static_cast<size_t>(std::clamp<long long>(options.first_frame, 0, dataset.size()));
+  const size_t end =
+      options.end_frame < 0
+          ? dataset.size()
+          : static_cast<size_t>(std::clamp<long long>(options.end_frame, first, dataset.size()));
+  try {
+    VisualOdometry vo(camera, odometry);
+    if (first < end) trackFrames(dataset, vo, link, options, first, end, &state, &out);
+    out.losses = vo.trackingLosses();
+  } catch (const std::exception& e) {
+    log::error("robot run stopped at frame ", first + state.frames.size(), ": ", e.what());
+    out.interrupted = true;
+  }
+  out.frames = static_cast<int>(state.frames.size());
+  out.keyframes = static_cast<int>(state.keyframes.size());
+  try {
+    finish(state, link, options, &out);
+  } catch (const std::exception& e) {
+    log::error("robot run: final trajectories: ", e.what());
+  }
+  out.link = link.stats();
+  out.wall_s = std::chrono::duration<double>(Clock::now() - start).count();
+  return out;
+}
+
+}  // namespace rgbdmap

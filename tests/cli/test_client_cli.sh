@@ -1,0 +1,61 @@
+#!/usr/bin/env bash
+# Command-line contract of `rgbdmap-client` without a server (memq://, nothing acknowledges): outputs, the
+# JSON summary, Ctrl-C still writing outputs, and configuration errors (exit 2, all named). Usage:
+# test_client_cli.sh BIN_DIR
+set -u
+client="$1/rgbdmap-client"
+tmp=$(mktemp -d)
+trap 'rm -rf "$tmp"' EXIT
+fail=0
+check() {  # check "description" expected_exit command...
+  local what="$1" want="$2"; shift 2
+  "$@" >"$tmp/out.txt" 2>"$tmp/err.txt"
+  local got=$?
+  if [ "$got" -ne "$want" ]; then
+    echo "FAIL: $what: exit $got, expected $want"; sed 's/^/  | /' "$tmp/err.txt" | tail -5; fail=1
+  else
+    echo "ok: $what"
+  fi
+}
+contains() {  # contains "description" file pattern
+  if grep -q -- "$3" "$2"; then echo "ok: $1"; else echo "FAIL: $1: '$3' not in $2"; fail=1; fi
+}
+
+check "synth writes a sequence" 0 "$1/rgbdmap" synth --out "$tmp/seq" --scene sweep --frames 30 --seed 2
+printf 'robot:\n  id: alpha\nlink:\n  final_wait_s: 0.2\n' >"$tmp/client.yaml"
+check "help" 0 "$client" --help
+contains "help names DDS configuration" "$tmp/out.txt" "CYCLONEDDS_URI"
+check "runs --fast without a server" 0 "$client" --config "$tmp/client.yaml" --dataset "$tmp/seq" --fast \
+  --frames 2:30 --out "$tmp/out"
+[ "$(grep -vc '^#' "$tmp/out/trajectory_alpha.txt")" -eq 28 ] && echo "ok: one pose per frame" || { echo "FAIL: pose count"; fail=1; }
+for f in trajectory_alpha_live.txt keyframes_alpha.txt; do [ -s "$tmp/out/$f" ] && echo "ok: $f" || { echo "FAIL: $f"; fail=1; }; done
+contains "json counts frames" "$tmp/out/client_alpha.json" '"frames": 28'
+contains "json says nothing was acked" "$tmp/out/client_alpha.json" '"all_acked": false'
+contains "json has bytes sent" "$tmp/out/client_alpha.json" '"bytes_sent": [1-9]'
+check "--robot-id overrides the config" 0 "$client" --config "$tmp/client.yaml" --dataset "$tmp/seq" --fast \
+  --frames :5 --robot-id beta --out "$tmp/out"
+[ -s "$tmp/out/client_beta.json" ] && echo "ok: robot id in file names" || { echo "FAIL: client_beta.json"; fail=1; }
+
+# Ctrl-C during a paced run: clean stop, outputs still written.
+"$client" --config "$tmp/client.yaml" --dataset "$tmp/seq" --robot-id gamma --out "$tmp/sig" >/dev/null 2>&1 &
+pid=$!
+sleep 0.5
+kill -INT "$pid"
+wait "$pid"
+[ $? -eq 0 ] && echo "ok: SIGINT exits 0" || { echo "FAIL: SIGINT exit code"; fail=1; }
+contains "interrupted run still reports" "$tmp/sig/client_gamma.json" '"interrupted": true'
+
+printf 'robot:\n  id: "bad id"\n  key_file: nokey.hex\nlink:\n  jitter: 3\n  codec:\n    color: gif\n' >"$tmp/bad.yaml"
+check "config errors are usage errors" 2 "$client" --config "$tmp/bad.yaml" --dataset "$tmp/seq"
+contains "unknown key named" "$tmp/err.txt" "unknown key 'link.jitter'"
+contains "bad codec named" "$tmp/err.txt" "link.codec.color"
+contains "missing key file named" "$tmp/err.txt" "nokey.hex"
+contains "bad robot id named" "$tmp/err.txt" "invalid robot id"
+check "bad --frames" 2 "$client" --dataset "$tmp/seq" --frames 9:3
+check "missing --dataset" 2 "$client" --fast
+check "unknown transport is a run-time error" 1 "$client" --dataset "$tmp/seq" --transport "tcp://x" --fast
+check "dds:// without CYCLONEDDS_URI is refused" 1 env -u CYCLONEDDS_URI "$client" --dataset "$tmp/seq" \
+  --transport "dds://?domain=0" --fast
+contains "the refusal names CYCLONEDDS_URI" "$tmp/err.txt" "CYCLONEDDS_URI"
+if [ "$fail" -eq 0 ]; then echo "client cli: all checks passed"; fi
+exit "$fail"

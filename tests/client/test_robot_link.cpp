@@ -1,0 +1,368 @@
+// RobotLink over memq:// against a fake server: acks, retransmission, refusals, corrections, late messages,
+// rejected garbage and forgeries, signing, stop().
+#include <gtest/gtest.h>
+
+#include <chrono>
+#include <future>
+#include <thread>
+
+#include "fake_map_server.hpp"
+#include "link_test_util.hpp"
+
+namespace rgbdmap {
+namespace {
+
+using testing::FakeMapServer;
+using testing::FakeServerOptions;
+using testing::linkKey;
+using testing::linkOptions;
+using testing::smallFrame;
+using testing::smallKeyframe;
+using testing::testPose;
+
+FakeServerOptions serverOptions(const msg::Bytes& key) {
+  FakeServerOptions o;
+  o.verify_key = key;
+  o.sign_key = key;
+  return o;
+}
+
+/// Sealed bytes (a failure is a test failure, never a dereferenced empty result).
+template <typename T>
+msg::Bytes sealOrFail(msg::Signer& signer, const T& message) {
+  Result<msg::Bytes> bytes = signer.seal(message, 1);
+  EXPECT_TRUE(bytes) << bytes.error();
+  return bytes ? *bytes : msg::Bytes{};
+}
+
+void sendKeyframes(RobotLink& link, int count, int segment = 0, int first_id = 0) {
+  for (int i = first_id; i < first_id + count; ++i) {
+    const Status s = link.sendKeyframe(smallKeyframe(i, segment, testPose(i)), smallFrame(i));
+    ASSERT_TRUE(s) << s.error();
+  }
+}
+
+TEST(RobotLink, SignedKeyframesAreAckedHelloAndHeartbeatsArrive) {
+  auto transport = testing::makeMemq();
+  FakeMapServer server(*transport, serverOptions(linkKey(1)));
+  server.start();
+  RobotLink link(*transport, linkOptions("robot0", linkKey(1)));
+  ASSERT_TRUE(link.start());
+  sendKeyframes(link, 5);
+  link.setTrackingState(4, 0, TrackingState::kTracking);
+  ASSERT_TRUE(link.waitAllAcked(5.0));
+  ASSERT_TRUE(
+      server.waitFor([](auto& s) { return s.hellos >= 1 && s.last_heartbeat.last_keyframe_id == 4; }));
+  const RobotLinkStats st = link.stats();
+  EXPECT_EQ(st.keyframes_sent, 5u);
+  EXPECT_EQ(st.keyframes_acked, 5u);
+  EXPECT_EQ(st.keyframes_pending, 0u);
+  EXPECT_EQ(st.messages_rejected, 0u);
+  EXPECT_GT(st.bytes_sent, 5u * 1000u);
+  EXPECT_GT(st.bytes_received, 0u);
+  EXPECT_EQ(server.rejects().total(), 0u);
+  std::lock_guard<std::mutex> lock(server.state().mutex);
+  ASSERT_EQ(server.state().stored.size(), 5u);
+  EXPECT_EQ(server.state().stored.at(3).images.width, 64);
+  EXPECT_EQ(server.state().stored.at(3).keypoints.size(), 20u);
+  EXPECT_EQ(server.state().last_heartbeat.tracking_state, static_cast<int>(TrackingState::kTracking));
+}
+
+TEST(RobotLink, DroppedKeyframesAreRetransmittedAndStoredOnce) {
+  auto transport = testing::makeMemq();
+  FakeServerOptions so = serverOptions(linkKey(2));
+  so.ignore_first_transmissions = 4;  // the first transmission of all three keyframes, and one retransmission
+  FakeMapServer server(*transport, so);
+  server.start();
+  RobotLink link(*transport, linkOptions("robot0", linkKey(2)));
+  ASSERT_TRUE(link.start());
+  sendKeyframes(link, 3);
+  ASSERT_TRUE(link.waitAllAcked(10.0));
+  const RobotLinkStats st = link.stats();
+  EXPECT_EQ(st.keyframes_acked, 3u) << "each id counted once";
+  EXPECT_GE(st.retransmissions, 4u);
+  std::lock_guard<std::mutex> lock(server.state().mutex);
+  EXPECT_EQ(server.state().stored.size(), 3u);
+  EXPECT_GE(server.state().transmissions, 7);
+}
+
+TEST(RobotLink, DuplicateAcksAreCountedOnce) {
+  auto transport = testing::makeMemq();
+  FakeServerOptions so = serverOptions({});
+  so.acks_per_keyframe = 3;
+  FakeMapServer server(*transport, so);
+  server.start();
+  RobotLink link(*transport, linkOptions("robot0", {}));  // unsigned: open mode on both sides
+  ASSERT_TRUE(link.start());
+  sendKeyframes(link, 4);
+  ASSERT_TRUE(link.waitAllAcked(5.0));
+  ASSERT_TRUE(link.waitForCorrection(3, 5.0));
+  const RobotLinkStats st = link.stats();
+  EXPECT_EQ(st.keyframes_acked, 4u);
+  EXPECT_GE(st.duplicate_acks, 8u) << "3 acks per transmission; more if a retransmission overtook an ack";
+  EXPECT_EQ(st.messages_rejected, 0u);
+}
+
+TEST(RobotLink, RefusedKeyframeIsCountedAndNotResent) {
+  auto transport = testing::makeMemq();
+  FakeServerOptions so = serverOptions(linkKey(3));
+  so.refuse_ids = {1};
+  FakeMapServer server(*transport, so);
+  server.start();
+  RobotLink link(*transport, linkOptions("robot0", linkKey(3)));
+  ASSERT_TRUE(link.start());
+  sendKeyframes(link, 3);
+  ASSERT_TRUE(link.waitAllAcked(5.0)) << "a refusal is an answer";
+  int receptions = 0;  // 1, or more if a retransmission overtook the refusal on a loaded machine
+  server.waitFor([&](auto& s) { return (receptions = s.receptions[1]) > 0; });
+  // Several backoff periods (20-100 ms) later the refused keyframe must not have come again.
+  EXPECT_FALSE(server.waitFor([&](auto& s) { return s.receptions[1] > receptions; }, 0.5));
+  const RobotLinkStats st = link.stats();
+  EXPECT_EQ(st.keyframes_refused, 1u);
+  EXPECT_EQ(st.keyframes_acked, 2u);
+  EXPECT_EQ(st.keyframes_pending, 0u);
+  EXPECT_FALSE(link.correctedKeyframe(1).has_value());
+}
+
+TEST(RobotLink, CorrectionsMoveEachSegmentIntoTheMap) {
+  auto transport = testing::makeMemq();
+  FakeServerOptions so = serverOptions(linkKey(4));
+  so.T_map_odom = {{0, testPose(7)}, {1, testPose(-3)}};
+  FakeMapServer server(*transport, so);
+  server.start();
+  RobotLink link(*transport, linkOptions("robot0", linkKey(4)));
+  ASSERT_TRUE(link.start());
+  EXPECT_TRUE(link.mapFromOdom(0).isApprox(SE3::Identity())) << "identity before any correction";
+  sendKeyframes(link, 3, 0, 0);
+  sendKeyframes(link, 2, 1, 3);
+  ASSERT_TRUE(link.waitForCorrection(4, 5.0));
+  EXPECT_LT(testing::maxPoseDifference(link.mapFromOdom(0), testPose(7)), 1e-9);
+  EXPECT_LT(testing::maxPoseDifference(link.mapFromOdom(1), testPose(-3)), 1e-9);
+  EXPECT_TRUE(link.mapFromOdom(2).isApprox(SE3::Identity())) << "an uncorrected segment stays identity";
+  ASSERT_TRUE(link.correctedKeyframe(2).has_value());
+  EXPECT_LT(testing::maxPoseDifference(*link.correctedKeyframe(2), testPose(7) * testPose(2)), 1e-9);
+  const int64_t revision = link.stats().graph_revision;
+  EXPECT_EQ(revision, 5);
+
+  // An older revision is ignored; a newer one is applied.
+  msg::PoseCorrections stale;
+  stale.robot_id = "robot0";
+  stale.graph_revision = revision;
+  stale.keyframes = {{2, testPose(20)}};
+  ASSERT_TRUE(server.send(stale));
+  msg::PoseCorrections newer = stale;
+  newer.graph_revision = revision + 1;
+  newer.keyframes = {{1, testPose(11) * testPose(1)}};
+  ASSERT_TRUE(server.send(newer));
+  ASSERT_TRUE(server.waitFor([&](auto&) { return link.stats().graph_revision == revision + 1; }));
+  EXPECT_EQ(link.stats().corrections_stale, 1u);
+  EXPECT_LT(testing::maxPoseDifference(*link.correctedKeyframe(2), testPose(7) * testPose(2)), 1e-9);
+  // Segment 0's newest corrected keyframe is still 2 (corrected at revision 5), so its anchor stays.
+  EXPECT_LT(testing::maxPoseDifference(link.mapFromOdom(0), testPose(7)), 1e-9);
+  EXPECT_LT(testing::maxPoseDifference(*link.correctedKeyframe(1), testPose(11) * testPose(1)), 1e-9);
+}
+
+TEST(RobotLink, LatestSliceCommandAndStatusAreKept) {
+  auto transport = testing::makeMemq();
+  FakeMapServer server(*transport, serverOptions(linkKey(5)));
+  server.start();
+  RobotLink link(*transport, linkOptions("robot0", linkKey(5)));
+  ASSERT_TRUE(link.start());
+  EXPECT_FALSE(link.latestSlice() || link.latestCommand() || link.latestServerStatus());
+  for (int i = 1; i <= 2; ++i) {
+    msg::OccupancySlice slice;
+    slice.robot_id = "robot0";
+    slice.width = 2 * i;
+    slice.height = 3;
+    slice.cells.assign(6 * i, msg::OccupancySlice::kFree);
+    ASSERT_TRUE(server.send(slice));
+    msg::VelocityCommand cmd;
+    cmd.robot_id = "robot0";
+    cmd.linear_mps = Vec3(0.1 * i, 0, 0);
+    cmd.duration_s = 0.5;
+    ASSERT_TRUE(server.send(cmd));
+    msg::ServerStatus status;
+    status.graph_revision = i;
+    ASSERT_TRUE(server.send(status));
+  }
+  ASSERT_TRUE(server.waitFor([&](auto&) { return link.stats().status_received == 2; }));
+  ASSERT_TRUE(server.waitFor([&](auto&) { return link.stats().slices_received == 2; }));
+  ASSERT_TRUE(server.waitFor([&](auto&) { return link.stats().commands_received == 2; }));
+  EXPECT_EQ(link.latestSlice()->width, 4);
+  EXPECT_DOUBLE_EQ(link.latestCommand()->linear_mps.x(), 0.2);
+  EXPECT_EQ(link.latestServerStatus()->graph_revision, 2);
+}
+
+TEST(RobotLink, GarbageForgedReplayedAndMisaddressedMessagesAreRejected) {
+  auto transport = testing::makeMemq();
+  FakeServerOptions so = serverOptions(linkKey(6));
+  so.ack = false;
+  so.send_corrections = false;  // the only genuine server messages are the ones sent below
+  FakeMapServer server(*transport, so);
+  server.start();
+  RobotLink link(*transport, linkOptions("robot0", linkKey(6)));
+  ASSERT_TRUE(link.start());
+  sendKeyframes(link, 1);
+  const std::string ack_channel = *msg::channelFor(msg::MessageType::kKeyframeAck, "robot0");
+  const std::string corr_channel = *msg::channelFor(msg::MessageType::kPoseCorrections, "robot0");
+  int expected = 0;
+  std::mt19937 rng(6);
+  for (int i = 0; i < 20; ++i, ++expected) {  // random bytes of random length
+    msg::Bytes junk(1 + rng() % 300);
+    for (auto& b : junk) b = static_cast<uint8_t>(rng());
+    ASSERT_TRUE(transport->publish(i % 2 ? ack_channel : corr_channel, junk));
+  }
+  msg::Signer forger(msg::kServerId, linkKey(99));  // wrong key
+  msg::PoseCorrections forged;
+  forged.robot_id = "robot0";
+  forged.graph_revision = 100;
+  forged.keyframes = {{0, testPose(50)}};
+  ASSERT_TRUE(transport->publish(corr_channel, sealOrFail(forger, forged)));
+  ++expected;
+  msg::Signer genuine(msg::kServerId, linkKey(6), msg::newSessionId() + 1000000);
+  // A valid ServerStatus, but on the ack channel.
+  const msg::ServerStatus status;
+  ASSERT_TRUE(transport->publish(ack_channel, sealOrFail(genuine, status)));
+  ++expected;
+  const msg::Bytes other_robot = sealOrFail(genuine, testing::makeAck("robot1", 0));
+  ASSERT_TRUE(transport->publish(ack_channel, other_robot));  // misaddressed
+  ++expected;
+  ASSERT_TRUE(transport->publish(ack_channel, other_robot));  // and replayed
+  ++expected;
+  ASSERT_TRUE(server.waitFor([&](auto&) { return link.stats().messages_rejected >= uint64_t(expected); }));
+  EXPECT_EQ(link.stats().messages_rejected, uint64_t(expected));
+  EXPECT_EQ(link.stats().keyframes_acked, 0u);
+  EXPECT_EQ(link.stats().corrections_received, 0u);
+  EXPECT_TRUE(link.mapFromOdom(0).isApprox(SE3::Identity()));
+  // The genuine server is still heard afterwards.
+  ASSERT_TRUE(transport->publish(ack_channel, sealOrFail(genuine, testing::makeAck("robot0", 0))));
+  EXPECT_TRUE(link.waitAllAcked(5.0));
+}
+
+TEST(RobotLink, WrongKeysAreRejectedInBothDirections) {
+  auto transport = testing::makeMemq();
+  FakeServerOptions so = serverOptions(linkKey(7));
+  so.sign_key = linkKey(8);  // the server answers with another key than the robot's
+  FakeMapServer server(*transport, so);
+  server.start();
+  RobotLink link(*transport, linkOptions("robot0", linkKey(7)));
+  ASSERT_TRUE(link.start());
+  sendKeyframes(link, 2);
+  ASSERT_TRUE(server.waitFor([](auto& s) { return s.stored.size() == 2; }));
+  EXPECT_FALSE(link.waitAllAcked(0.3));
+  EXPECT_EQ(link.stats().keyframes_acked, 0u);
+  EXPECT_GE(link.stats().messages_rejected, 2u);
+  EXPECT_FALSE(link.correctedKeyframe(0).has_value());
+
+  // A robot signing with a key the server does not hold is refused by the server.
+  auto transport2 = testing::makeMemq();
+  FakeMapServer server2(*transport2, serverOptions(linkKey(9)));
+  server2.start();
+  RobotLink intruder(*transport2, linkOptions("robot0", linkKey(10)));
+  ASSERT_TRUE(intruder.start());
+  sendKeyframes(intruder, 1);
+  ASSERT_TRUE(
+      server2.waitFor([&](auto&) { return server2.rejects().get(msg::RejectReason::kBadSignature) >= 2; }));
+  std::lock_guard<std::mutex> lock(server2.state().mutex);
+  EXPECT_EQ(server2.state().stored.size(), 0u);
+  EXPECT_EQ(server2.state().hellos, 0);
+}
+
+TEST(RobotLink, StopIsPromptAndWakesBlockedCalls) {
+  auto transport = testing::makeMemq();
+  FakeServerOptions so = serverOptions({});
+  so.ack = false;  // nothing is ever acknowledged: the send window fills
+  FakeMapServer server(*transport, so);
+  server.start();
+  RobotLinkOptions lo = linkOptions("robot0", {});
+  lo.reliable.max_pending = 2;
+  lo.send_timeout_s = 60.0;
+  RobotLink link(*transport, lo);
+  ASSERT_TRUE(link.start());
+  sendKeyframes(link, 2);
+  auto blocked = std::async(
+      std::launch::async, [&] { return link.sendKeyframe(smallKeyframe(2, 0, testPose(2)), smallFrame(2)); });
+  auto waiting = std::async(std::launch::async, [&] { return link.waitAllAcked(60.0); });
+  EXPECT_EQ(blocked.wait_for(std::chrono::milliseconds(200)), std::future_status::timeout) << "window full";
+  const auto t0 = std::chrono::steady_clock::now();
+  link.stop();
+  link.stop();  // idempotent
+  ASSERT_EQ(blocked.wait_for(std::chrono::seconds(10)), std::future_status::ready);
+  ASSERT_EQ(waiting.wait_for(std::chrono::seconds(10)), std::future_status::ready);
+  EXPECT_LT(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(), 5.0)
+      << "stop() must not wait for the 60 s timeouts";
+  EXPECT_FALSE(blocked.get());
+  EXPECT_FALSE(waiting.get());
+  EXPECT_FALSE(link.sendKeyframe(smallKeyframe(3, 0, testPose(3)), smallFrame(3))) << "stopped";
+  EXPECT_FALSE(link.start()) << "no restart";
+}
+
+TEST(RobotLink, InvalidOptionsAndInputsAreErrors) {
+  auto transport = testing::makeMemq();
+  RobotLinkOptions bad = linkOptions("robot 0", msg::Bytes(5, 1));
+  bad.heartbeat_period_s = 0.0;
+  const std::string reasons = bad.validate();
+  EXPECT_NE(reasons.find("robot id"), std::string::npos) << reasons;
+  EXPECT_NE(reasons.find("key"), std::string::npos) << reasons;
+  EXPECT_NE(reasons.find("heartbeat_period_s"), std::string::npos) << reasons;
+  RobotLink link(*transport, bad);
+  EXPECT_FALSE(link.start());
+  EXPECT_FALSE(RobotLink(*transport, linkOptions(msg::kServerId, {})).start());
+
+  RobotLink good(*transport, linkOptions("robot0", {}));
+  ASSERT_TRUE(good.start());
+  RgbdFrame empty;
+  EXPECT_FALSE(good.sendKeyframe(smallKeyframe(0, 0, testPose(0)), empty)) << "no images";
+  EXPECT_FALSE(good.sendKeyframe(smallKeyframe(-1, 0, testPose(0)), smallFrame(0))) << "negative id";
+  ASSERT_TRUE(good.sendKeyframe(smallKeyframe(1, 0, testPose(1)), smallFrame(1)));
+  EXPECT_FALSE(good.sendKeyframe(smallKeyframe(1, 0, testPose(1)), smallFrame(1))) << "same id twice";
+  EXPECT_EQ(good.stats().keyframes_sent, 1u);
+}
+
+TEST(RobotLink, TwoRobotsShareOneTransport) {
+  auto transport = testing::makeMemq();
+  FakeServerOptions a = serverOptions(linkKey(11)), b = serverOptions(linkKey(12));
+  a.robot_id = "alpha";
+  b.robot_id = "beta";
+  a.T_map_odom = {{0, testPose(1)}};
+  b.T_map_odom = {{0, testPose(-2)}};
+  FakeMapServer server_a(*transport, a), server_b(*transport, b);
+  server_a.start();
+  server_b.start();
+  RobotLink alpha(*transport, linkOptions("alpha", linkKey(11)));
+  RobotLink beta(*transport, linkOptions("beta", linkKey(12)));
+  ASSERT_TRUE(alpha.start());
+  ASSERT_TRUE(beta.start());
+  sendKeyframes(alpha, 3);
+  sendKeyframes(beta, 2);
+  ASSERT_TRUE(alpha.waitForCorrection(2, 5.0));
+  ASSERT_TRUE(beta.waitForCorrection(1, 5.0));
+  EXPECT_TRUE(alpha.waitAllAcked(5.0) && beta.waitAllAcked(5.0));
+  EXPECT_LT(testing::maxPoseDifference(alpha.mapFromOdom(0), testPose(1)), 1e-9);
+  EXPECT_LT(testing::maxPoseDifference(beta.mapFromOdom(0), testPose(-2)), 1e-9);
+  EXPECT_EQ(alpha.stats().keyframes_acked, 3u);
+  EXPECT_EQ(beta.stats().keyframes_acked, 2u);
+  EXPECT_EQ(alpha.stats().messages_rejected + beta.stats().messages_rejected, 0u)
+      << "each hears only its own";
+}
+
+TEST(RobotLink, HandlersAreHarmlessAfterTheLinkIsGone) {
+  auto transport = testing::makeMemq();
+  FakeMapServer server(*transport, serverOptions({}));
+  server.start();
+  {
+    RobotLink link(*transport, linkOptions("robot0", {}));
+    ASSERT_TRUE(link.start());
+    sendKeyframes(link, 2);
+    ASSERT_TRUE(link.waitAllAcked(5.0));
+  }
+  // Its subscriptions remain in the transport; messages on them must do nothing (ASan watches).
+  for (int i = 0; i < 5; ++i) ASSERT_TRUE(server.send(testing::makeAck("robot0", i)));
+  RobotLink again(*transport, linkOptions("robot0", {}));  // a restarted robot on the same transport
+  ASSERT_TRUE(again.start());
+  sendKeyframes(again, 1, 0, 10);
+  EXPECT_TRUE(again.waitAllAcked(5.0));
+}
+
+}  // namespace
+}  // namespace rgbdmap

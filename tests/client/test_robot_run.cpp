@@ -1,0 +1,186 @@
+// runRobot on a short synthetic sequence against the fake server; the client configuration file and keys.
+#include <gtest/gtest.h>
+
+#include "common/temp_dir.hpp"
+#include "fake_map_server.hpp"
+#include "link_test_util.hpp"
+#include "rgbdmap/client/odometry_config_io.hpp"
+#include "rgbdmap/client/robot_client_config.hpp"
+#include "rgbdmap/client/robot_runner.hpp"
+#include "rgbdmap/common/synth.hpp"
+
+namespace rgbdmap {
+namespace {
+
+using testing::maxPoseDifference;
+using testing::testPose;
+
+class RobotRun : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    dir_ = new rgbdmap::testing::TempDir();
+    config_.scene = "sweep";
+    config_.frames = 20;
+    config_.camera = {262.5, 262.5, 159.5, 119.5, 320, 240, {0, 0, 0, 0, 0}, 5000.0};  // quarter size: fast
+    ASSERT_TRUE(writeSyntheticSequence(config_, dir_->dir()));
+  }
+  static void TearDownTestSuite() { delete dir_; }
+  TumDataset dataset() const {
+    DatasetOptions o;
+    o.depth_scale = config_.camera.depth_scale;
+    o.expected_width = config_.camera.width;
+    o.expected_height = config_.camera.height;
+    auto d = TumDataset::open(dir_->dir(), o);
+    EXPECT_TRUE(d) << d.error();
+    return std::move(d).value();
+  }
+  static rgbdmap::testing::TempDir* dir_;
+  static SynthConfig config_;
+};
+rgbdmap::testing::TempDir* RobotRun::dir_ = nullptr;
+SynthConfig RobotRun::config_;
+
+TEST_F(RobotRun, FinalMapIsTheServersTransformTimesOdometry) {
+  auto transport = testing::makeMemq();
+  testing::FakeServerOptions so;
+  so.verify_key = so.sign_key = testing::linkKey(1);
+  const SE3 T_map_odom = testPose(3);
+  so.T_map_odom = {{0, T_map_odom}};
+  testing::FakeMapServer server(*transport, so);
+  server.start();
+  RobotLinkOptions lo = testing::linkOptions("robot0", testing::linkKey(1));
+  lo.camera = config_.camera;
+  RobotLink link(*transport, lo);
+  ASSERT_TRUE(link.start());
+  RobotRunOptions ro;
+  ro.realtime = false;
+  ro.final_wait_s = 10.0;
+  int progress_calls = 0;
+  ro.progress = [&](int done, int total) { progress_calls += done <= total; };
+  const RobotRunResult r = runRobot(dataset(), config_.camera, OdometryConfig{}, link, ro);
+
+  ASSERT_EQ(r.frames, 20);
+  EXPECT_EQ(progress_calls, 20);
+  EXPECT_EQ(r.unreadable_frames, 0);
+  EXPECT_EQ(r.segments, 1);
+  ASSERT_GE(r.keyframes, 2);
+  EXPECT_EQ(r.keyframes_not_sent, 0);
+  EXPECT_TRUE(r.all_acked);
+  EXPECT_TRUE(r.final_correction_received);
+  EXPECT_FALSE(r.interrupted);
+  EXPECT_EQ(r.link.keyframes_acked, static_cast<uint64_t>(r.keyframes));
+  ASSERT_EQ(r.final_map.size(), 20u);
+  ASSERT_EQ(r.live.size(), 20u);
+  ASSERT_EQ(r.odometry.size(), 20u);
+  for (size_t i = 0; i < static_cast<size_t>(r.frames); ++i) {
+    const SE3 expected = T_map_odom * r.odometry[i].T_world_cam;
+    EXPECT_LT(maxPoseDifference(r.final_map[i].T_world_cam, expected), 1e-9) << "frame " << i;
+    EXPECT_EQ(r.final_map[i].timestamp, r.odometry[i].timestamp);
+    // Live poses use whatever correction had arrived: none yet, or this one.
+    EXPECT_LT(std::min(maxPoseDifference(r.live[i].T_world_cam, expected),
+                       maxPoseDifference(r.live[i].T_world_cam, r.odometry[i].T_world_cam)),
+              1e-9)
+        << "frame " << i;
+  }
+  std::lock_guard<std::mutex> lock(server.state().mutex);
+  ASSERT_EQ(server.state().stored.size(), r.keyframes_final.size());
+  size_t k = 0;
+  for (const auto& [id, kf] : server.state().stored) {
+    EXPECT_LT(maxPoseDifference(r.keyframes_final[k++].T_world_cam, T_map_odom * kf.T_odom_cam), 1e-9) << id;
+    EXPECT_EQ(kf.robot_id, "robot0");
+  }
+  // The odometry itself is good on this easy sweep: the link does not disturb it.
+  const TumDataset data = dataset();
+  ASSERT_TRUE(data.groundTruth().has_value());
+  const Trajectory& gt = *data.groundTruth();
+  const SE3 T_gt0 = gt.front().T_world_cam;
+  const SE3 moved = T_gt0.inverse() * gt[19].T_world_cam;
+  EXPECT_LT((r.odometry[19].T_world_cam.translation() - moved.translation()).norm(), 0.03);
+}
+
+TEST_F(RobotRun, RealtimePacingFrameRangeAndStop) {
+  auto transport = testing::makeMemq();
+  RobotLinkOptions lo = testing::linkOptions("robot1", {});
+  lo.camera = config_.camera;
+  RobotLink link(*transport, lo);  // no server: nothing is acknowledged
+  ASSERT_TRUE(link.start());
+  RobotRunOptions ro;
+  ro.first_frame = 5;
+  ro.end_frame = 11;
+  ro.final_wait_s = 0.0;
+  const RobotRunResult r = runRobot(dataset(), config_.camera, OdometryConfig{}, link, ro);
+  EXPECT_EQ(r.frames, 6);
+  EXPECT_NEAR(r.odometry.front().timestamp, config_.colorTimestamp(5), 1e-5);
+  EXPECT_GE(r.wall_s, 5.0 / config_.fps) << "frames are paced by their timestamps";
+  EXPECT_FALSE(r.all_acked);
+  EXPECT_FALSE(r.final_correction_received);
+  for (size_t i = 0; i < r.final_map.size(); ++i)  // uncorrected: the map frame is the odometry frame
+    EXPECT_LT(maxPoseDifference(r.final_map[i].T_world_cam, r.odometry[i].T_world_cam), 1e-12);
+
+  StopRequest stop;
+  stop.request();
+  ro.stop = &stop;
+  const RobotRunResult stopped = runRobot(dataset(), config_.camera, OdometryConfig{}, link, ro);
+  EXPECT_TRUE(stopped.interrupted);
+  EXPECT_EQ(stopped.frames, 0);
+  ro.first_frame = 30;  // past the end: nothing to do, no crash
+  ro.stop = nullptr;
+  EXPECT_EQ(runRobot(dataset(), config_.camera, OdometryConfig{}, link, ro).frames, 0);
+}
+
+const std::string kClientExample = std::string(RGBDMAP_SOURCE_DIR) + "/deploy/config/client.yaml";
+
+void readEverything(ConfigReader& reader, RobotClientConfig* client, CameraIntrinsics* camera,
+                    OdometryConfig* odometry) {
+  readRobotClientConfig(reader, client);
+  readCameraConfig(reader, "camera.", camera);
+  readOdometryConfig(reader, odometry);
+  double max_time_diff = 0.02;
+  reader.read("dataset.max_time_diff", &max_time_diff, 0.0, 10.0);
+}
+
+TEST(ClientConfig, ExampleLoadsWithoutErrorsAndStatesTheDefaults) {
+  auto from_file = ConfigReader::fromFile(kClientExample);
+  ASSERT_TRUE(from_file) << from_file.error();
+  ConfigReader defaults;
+  RobotClientConfig c1, c2;
+  CameraIntrinsics k1, k2;
+  OdometryConfig o1, o2;
+  readEverything(*from_file, &c1, &k1, &o1);
+  readEverything(defaults, &c2, &k2, &o2);
+  for (const auto& e : from_file->errors()) ADD_FAILURE() << e;
+  EXPECT_EQ(from_file->effectiveValues(), defaults.effectiveValues());
+}
+
+TEST(ClientConfig, BadValuesAreAllReported) {
+  auto reader = ConfigReader::fromString(
+      "robot: {id: r1}\nlink:\n  heartbeat_period_s: 0\n  codec: {color: png, jpeg_quality: 101}\n"
+      "  reliable: {initial_backoff_ms: 500, max_backoff_ms: 100}\n  bogus: 1\n",
+      "c.yaml");
+  ASSERT_TRUE(reader);
+  RobotClientConfig c;
+  readRobotClientConfig(*reader, &c);
+  const auto errors = reader->errors();
+  EXPECT_EQ(errors.size(), 5u) << "heartbeat, colour, quality, backoff order, unknown key";
+  EXPECT_EQ(c.robot_id, "r1");
+  EXPECT_EQ(c.link.codec.color, ColorCodec::kJpeg) << "defaults kept on error";
+}
+
+TEST(ClientConfig, KeyFiles) {
+  rgbdmap::testing::TempDir tmp;
+  tmp.write("good.key", "# robot0\n" + std::string(32, 'a') + "\n  " + std::string(32, '0') + "\n");
+  tmp.write("short.key", "abcd\n");
+  tmp.write("nonhex.key", std::string(63, 'a') + "z\n");
+  const auto key = readKeyFile("good.key", tmp.dir());
+  ASSERT_TRUE(key) << key.error();
+  EXPECT_EQ(key->size(), 32u);
+  EXPECT_EQ((*key)[0], 0xaa);
+  EXPECT_EQ((*key)[31], 0x00);
+  EXPECT_FALSE(readKeyFile("short.key", tmp.dir()));
+  EXPECT_FALSE(readKeyFile("nonhex.key", tmp.dir()));
+  EXPECT_FALSE(readKeyFile("missing.key", tmp.dir()));
+  EXPECT_TRUE(readKeyFile(tmp.path("good.key")));
+}
+
+}  // namespace
+}  // namespace rgbdmap
