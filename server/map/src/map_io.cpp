@@ -107,8 +107,12 @@ std::string streamText(const std::vector<uint8_t>& bytes) { return std::string(b
 }  // namespace
 
 Result<std::vector<uint8_t>> serializeTree(const octomap::OcTree& tree) {
+  // The header OctoMap's writeBinaryConst() writes, without its progress output on stderr.
   std::ostringstream out(std::ios::binary);
-  if (!tree.writeBinaryConst(out)) return Result<std::vector<uint8_t>>::failure("writing the octree failed");
+  out.precision(17);
+  out << kBinaryHeader << "\n# written by rgbdmap\nid " << tree.getTreeType() << "\nsize " << tree.size()
+      << "\nres " << tree.getResolution() << "\ndata\n";
+  if (!tree.writeBinaryData(out)) return Result<std::vector<uint8_t>>::failure("writing the octree failed");
   const std::string s = out.str();
   if (s.size() > static_cast<size_t>(msg::kMaxMapBytes))
     return Result<std::vector<uint8_t>>::failure("octree is " + std::to_string(s.size()) + " bytes, over the " +
@@ -145,8 +149,12 @@ Result<std::unique_ptr<octomap::OcTree>> deserializeTree(const std::vector<uint8
 
 Status writeMapFiles(const octomap::OcTree& tree, const std::string& bt_path, const std::string& ot_path) {
   if (!bt_path.empty()) {
+    const Result<std::vector<uint8_t>> bytes = serializeTree(tree);
+    if (!bytes) return Status::failure(bt_path + ": " + bytes.error());
     std::ofstream out(bt_path, std::ios::binary);
-    if (!out || !tree.writeBinaryConst(out) || !out.flush()) return Status::failure("cannot write " + bt_path);
+    if (!out || !out.write(reinterpret_cast<const char*>(bytes->data()), static_cast<std::streamsize>(bytes->size())) ||
+        !out.flush())
+      return Status::failure("cannot write " + bt_path);
   }
   if (!ot_path.empty()) {
     std::ofstream out(ot_path, std::ios::binary);
