@@ -40,8 +40,8 @@ int viewMap(int argc, char** argv) {
   std::printf("nodes %zu\nleaf_nodes %zu\noccupied_leaves %zu\nfree_leaves %zu\n", s.nodes, s.leaf_nodes,
               s.occupied_leaves, s.free_leaves);
   std::printf("memory_bytes %zu\nbinary_bytes %zu\n", s.memory_bytes, s.binary_bytes);
-  std::printf("bounds_min_m %.3f %.3f %.3f\nbounds_max_m %.3f %.3f %.3f\n", s.min[0], s.min[1], s.min[2], s.max[0],
-              s.max[1], s.max[2]);
+  std::printf("bounds_min_m %.3f %.3f %.3f\nbounds_max_m %.3f %.3f %.3f\n", s.min[0], s.min[1], s.min[2],
+              s.max[0], s.max[1], s.max[2]);
   std::printf("occupied_volume_m3 %.4f\nfree_volume_m3 %.4f\n", s.occupied_volume_m3, s.free_volume_m3);
   return 0;
 }

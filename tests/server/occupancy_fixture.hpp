@@ -45,8 +45,11 @@ inline SynthKeyframes renderSynthKeyframes(const std::string& scene_name, int co
 inline const SynthKeyframes& makeSynthKeyframes(const std::string& scene_name, int count) {
   static std::map<std::pair<std::string, int>, SynthKeyframes> cache;
   auto it = cache.find({scene_name, count});
-  if (it == cache.end()) it = cache.emplace(std::make_pair(scene_name, count),
-                                            renderSynthKeyframes(scene_name, count, OccupancyMapConfig{})).first;
+  if (it == cache.end())
+    it = cache
+             .emplace(std::make_pair(scene_name, count),
+                      renderSynthKeyframes(scene_name, count, OccupancyMapConfig{}))
+             .first;
   return it->second;
 }
 
@@ -74,8 +77,8 @@ inline LeafCounts countLeaves(const OccupancyMap& map, int map_id) {
 inline double octreeHitDistance(const octomap::OcTree& tree, const Vec3& origin, const Vec3& direction) {
   octomap::point3d end;
   const octomap::point3d o(float(origin.x()), float(origin.y()), float(origin.z()));
-  if (!tree.castRay(o, octomap::point3d(float(direction.x()), float(direction.y()), float(direction.z())), end,
-                    true, 10.0))
+  if (!tree.castRay(o, octomap::point3d(float(direction.x()), float(direction.y()), float(direction.z())),
+                    end, true, 10.0))
     return -1.0;
   return (end - o).norm();
 }

@@ -78,7 +78,8 @@ TEST(OccupancySlice, WallAheadIsOccupiedSpaceBeforeFreeBehindUnknown) {
         ++free_n;
         free_ok += v == msg::OccupancySlice::kFree;
       }
-      if (ahead > near - res - 1e-9 && ahead < far + 2 * res && v == msg::OccupancySlice::kOccupied) wall = true;
+      if (ahead > near - res - 1e-9 && ahead < far + 2 * res && v == msg::OccupancySlice::kOccupied)
+        wall = true;
       if (ahead > far + 0.3) {
         ++unknown_n;
         unknown_ok += v == msg::OccupancySlice::kUnknown;
@@ -138,7 +139,8 @@ TEST(OctreeBytes, GarbageAndTruncatedBytesFailCleanly) {
     EXPECT_FALSE(deserializeTree(junk).ok());
     std::string headed(good.begin(), good.begin() + 80);
     headed.append(junk.begin(), junk.end());
-    (void)deserializeTree(std::vector<uint8_t>(headed.begin(), headed.end()));  // may parse by chance; must not crash
+    (void)deserializeTree(
+        std::vector<uint8_t>(headed.begin(), headed.end()));  // may parse by chance; must not crash
   }
   // Every inner node marks all children inner: would recurse forever without the depth check.
   std::string deep = "# Octomap OcTree binary file\nid OcTree\nsize 100\nres 0.05\ndata\n";

@@ -67,7 +67,8 @@ TEST(OccupancyMap, SyntheticRoomMatchesGeometry) {
     }
     const auto& room = kf.scene->room();
     for (int i = 0; i < 2000; ++i) {
-      const Vec3 p(room.min().x() - 0.15 - u01(rng), room.min().y() + u01(rng) * room.sizes().y(), u01(rng) * 2.5);
+      const Vec3 p(room.min().x() - 0.15 - u01(rng), room.min().y() + u01(rng) * room.sizes().y(),
+                   u01(rng) * 2.5);
       ++outside;
       if (!tree.search(p.x(), p.y(), p.z())) ++outside_unknown;
     }
@@ -194,7 +195,8 @@ TEST(OccupancyMap, MergingTwoMapIdsRebuildsOneTree) {
       if (!t.isNodeOccupied(*it)) continue;
       ++occupied;
       const octomap::point3d c = it.getCoordinate();
-      near_surface += kf.scene->distanceToSurface(T_world_m1 * Vec3(c.x(), c.y(), c.z())) <= 2 * config.resolution_m;
+      near_surface +=
+          kf.scene->distanceToSurface(T_world_m1 * Vec3(c.x(), c.y(), c.z())) <= 2 * config.resolution_m;
     }
   });
   ASSERT_GT(occupied, 1000u);
@@ -244,8 +246,9 @@ TEST(OccupancyMap, RejectsBadInput) {
   EXPECT_FALSE(makeKeyframeCloud(1, cv::Mat(480, 640, CV_32FC1), 5000, cv::Mat(), camera, config).ok());
   EXPECT_FALSE(makeKeyframeCloud(1, cv::Mat(240, 320, CV_16UC1), 5000, cv::Mat(), camera, config).ok());
   EXPECT_FALSE(makeKeyframeCloud(1, cv::Mat::zeros(480, 640, CV_16UC1), 0.0, cv::Mat(), camera, config).ok());
-  EXPECT_FALSE(
-      makeKeyframeCloud(1, cv::Mat::zeros(480, 640, CV_16UC1), 5000, cv::Mat(480, 640, CV_8UC1), camera, config).ok());
+  EXPECT_FALSE(makeKeyframeCloud(1, cv::Mat::zeros(480, 640, CV_16UC1), 5000, cv::Mat(480, 640, CV_8UC1),
+                                 camera, config)
+                   .ok());
 }
 
 TEST(OccupancyMap, KeyframeCloudKeepsRangeAndReducesPoints) {
@@ -254,9 +257,9 @@ TEST(OccupancyMap, KeyframeCloudKeepsRangeAndReducesPoints) {
   k.distortion = {0, 0, 0, 0, 0};
   const PinholeCamera camera(k);
   cv::Mat depth(480, 640, CV_16UC1, cv::Scalar(2.0 * 5000));  // a plane 2 m away
-  depth(cv::Rect(0, 0, 640, 100)).setTo(0);                      // missing
-  depth(cv::Rect(0, 100, 640, 20)).setTo(0.1 * 5000);            // closer than min range
-  depth(cv::Rect(0, 120, 640, 20)).setTo(9.0 * 5000);            // beyond max range
+  depth(cv::Rect(0, 0, 640, 100)).setTo(0);                   // missing
+  depth(cv::Rect(0, 100, 640, 20)).setTo(0.1 * 5000);         // closer than min range
+  depth(cv::Rect(0, 120, 640, 20)).setTo(9.0 * 5000);         // beyond max range
   const cv::Mat bgr(480, 640, CV_8UC3, cv::Scalar(10, 20, 30));
   auto cloud = makeKeyframeCloud(3, depth, 5000, bgr, camera, config);
   ASSERT_TRUE(cloud.ok()) << cloud.error();

@@ -80,7 +80,8 @@ std::vector<KeyframeCloud> makeClouds(const OccupancyMapConfig& config) {
   const KeyframeCloudMaker maker{PinholeCamera(k.camera), config};
   std::vector<KeyframeCloud> clouds;
   for (size_t i = 0; i < k.frames.size(); ++i)
-    clouds.push_back(*maker.make(static_cast<int64_t>(i), k.frames[i].depth, k.frames[i].depth_scale, k.frames[i].color));
+    clouds.push_back(
+        *maker.make(static_cast<int64_t>(i), k.frames[i].depth, k.frames[i].depth_scale, k.frames[i].color));
   return clouds;
 }
 
@@ -121,7 +122,7 @@ void BM_InsertKeyframes(benchmark::State& state) {
     state.ResumeTiming();
   }
   state.counters["ms_per_kf"] = benchmark::Counter(double(clouds.size()) * state.iterations() / 1000.0,
-                                                  benchmark::Counter::kIsRate | benchmark::Counter::kInvert);
+                                                   benchmark::Counter::kIsRate | benchmark::Counter::kInvert);
   state.counters["points_per_kf"] = double(points) / clouds.size();
   state.counters["leaves"] = double(stats.leaf_nodes);
   state.counters["tree_MB"] = stats.tree_memory_bytes / 1e6;
@@ -142,12 +143,12 @@ void BM_InsertOctomapDiscretized(benchmark::State& state) {
     octomap::OcTree tree(config.resolution_m);
     for (size_t i = 0; i < clouds.size(); ++i) {
       const Vec3 o = k.T_map_cam[i].translation();
-      tree.insertPointCloud(scans[i], octomap::point3d(float(o.x()), float(o.y()), float(o.z())), config.max_range_m,
-                            false, true);
+      tree.insertPointCloud(scans[i], octomap::point3d(float(o.x()), float(o.y()), float(o.z())),
+                            config.max_range_m, false, true);
     }
   }
   state.counters["ms_per_kf"] = benchmark::Counter(double(clouds.size()) * state.iterations() / 1000.0,
-                                                  benchmark::Counter::kIsRate | benchmark::Counter::kInvert);
+                                                   benchmark::Counter::kIsRate | benchmark::Counter::kInvert);
 }
 
 /// Full rebuild of the whole map after every keyframe moved (background worker, wall time to swap).

@@ -23,11 +23,13 @@ int64_t voxelKey(const Eigen::Vector3f& p, float inv_voxel) {
   return (cell(p.x()) << 42) | (cell(p.y()) << 21) | cell(p.z());
 }
 
-std::string checkImages(const cv::Mat& depth16, double depth_scale, const cv::Mat& bgr, int width, int height) {
+std::string checkImages(const cv::Mat& depth16, double depth_scale, const cv::Mat& bgr, int width,
+                        int height) {
   std::ostringstream why;
   if (depth16.type() != CV_16UC1) why << "depth must be CV_16UC1; ";
   if (depth16.cols != width || depth16.rows != height)
-    why << "depth is " << depth16.cols << "x" << depth16.rows << ", camera " << width << "x" << height << "; ";
+    why << "depth is " << depth16.cols << "x" << depth16.rows << ", camera " << width << "x" << height
+        << "; ";
   if (!bgr.empty() && (bgr.type() != CV_8UC3 || bgr.size() != depth16.size()))
     why << "colour must be empty or CV_8UC3 of the depth's size; ";
   if (!(std::isfinite(depth_scale) && depth_scale > 0)) why << "depth_scale must be finite and > 0; ";
@@ -57,13 +59,14 @@ KeyframeCloudMaker::KeyframeCloudMaker(const PinholeCamera& camera, const Occupa
   for (int v = 0; v < height_; v += stride_)
     for (int u = 0; u < width_; u += stride_) {
       const Eigen::Vector2d px = camera.intrinsics().hasDistortion() ? camera.undistort(Eigen::Vector2d(u, v))
-                                                         : Eigen::Vector2d(u, v);
-      rays_.emplace_back(static_cast<float>((px.x() - k.cx) / k.fx), static_cast<float>((px.y() - k.cy) / k.fy));
+                                                                     : Eigen::Vector2d(u, v);
+      rays_.emplace_back(static_cast<float>((px.x() - k.cx) / k.fx),
+                         static_cast<float>((px.y() - k.cy) / k.fy));
     }
 }
 
-Result<KeyframeCloud> KeyframeCloudMaker::make(int64_t keyframe_id, const cv::Mat& depth16, double depth_scale,
-                                               const cv::Mat& bgr) const {
+Result<KeyframeCloud> KeyframeCloudMaker::make(int64_t keyframe_id, const cv::Mat& depth16,
+                                               double depth_scale, const cv::Mat& bgr) const {
   if (const std::string why = checkImages(depth16, depth_scale, bgr, width_, height_); !why.empty())
     return Result<KeyframeCloud>::failure("keyframe " + std::to_string(keyframe_id) + ": " + why);
   const bool colors = config_.keep_colors && !bgr.empty();
@@ -134,8 +137,10 @@ std::string OccupancyMapConfig::validate() const {
   check(prob_miss > 0.0 && prob_miss < 0.5, "prob_miss must be in (0, 0.5)");
   check(clamp_min > 0.0 && clamp_min < 0.5, "clamp_min must be in (0, 0.5)");
   check(clamp_max > 0.5 && clamp_max < 1.0, "clamp_max must be in (0.5, 1)");
-  check(std::isfinite(rebuild_translation_m) && rebuild_translation_m >= 0.0, "rebuild_translation_m must be >= 0");
-  check(std::isfinite(rebuild_rotation_rad) && rebuild_rotation_rad >= 0.0, "rebuild_rotation_rad must be >= 0");
+  check(std::isfinite(rebuild_translation_m) && rebuild_translation_m >= 0.0,
+        "rebuild_translation_m must be >= 0");
+  check(std::isfinite(rebuild_rotation_rad) && rebuild_rotation_rad >= 0.0,
+        "rebuild_rotation_rad must be >= 0");
   check(pixel_stride >= 0 && pixel_stride <= 64, "pixel_stride must be in [0, 64] (0 = automatic)");
   check(std::isfinite(cloud_voxel_fraction) && cloud_voxel_fraction >= 0.0 && cloud_voxel_fraction <= 1.0,
         "cloud_voxel_fraction must be in [0, 1]");

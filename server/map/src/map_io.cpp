@@ -35,7 +35,8 @@ Result<Header> parseHeader(const std::vector<uint8_t>& bytes) {
   for (int line_no = 0; line_no < 64; ++line_no) {
     size_t end = pos;
     while (end < bytes.size() && end - pos < 256 && bytes[end] != '\n') ++end;
-    if (end >= bytes.size() || bytes[end] != '\n') return Result<Header>::failure("truncated or malformed header");
+    if (end >= bytes.size() || bytes[end] != '\n')
+      return Result<Header>::failure("truncated or malformed header");
     const std::string line(bytes.begin() + static_cast<long>(pos), bytes.begin() + static_cast<long>(end));
     pos = end + 1;
     if (first) {
@@ -51,7 +52,8 @@ Result<Header> parseHeader(const std::vector<uint8_t>& bytes) {
     std::string token;
     in >> token;
     if (token == "data") {
-      if (h.id.empty() || !have_size || !have_res) return Result<Header>::failure("header lacks id, size or res");
+      if (h.id.empty() || !have_size || !have_res)
+        return Result<Header>::failure("header lacks id, size or res");
       h.data_offset = pos;
       return h;
     }
@@ -115,8 +117,9 @@ Result<std::vector<uint8_t>> serializeTree(const octomap::OcTree& tree) {
   if (!tree.writeBinaryData(out)) return Result<std::vector<uint8_t>>::failure("writing the octree failed");
   const std::string s = out.str();
   if (s.size() > static_cast<size_t>(msg::kMaxMapBytes))
-    return Result<std::vector<uint8_t>>::failure("octree is " + std::to_string(s.size()) + " bytes, over the " +
-                                                 std::to_string(msg::kMaxMapBytes) + "-byte limit");
+    return Result<std::vector<uint8_t>>::failure("octree is " + std::to_string(s.size()) +
+                                                 " bytes, over the " + std::to_string(msg::kMaxMapBytes) +
+                                                 "-byte limit");
   return std::vector<uint8_t>(s.begin(), s.end());
 }
 
@@ -132,9 +135,11 @@ Result<std::unique_ptr<octomap::OcTree>> deserializeTree(const std::vector<uint8
     const bool ok = h->binary ? walkBinary(bytes, &pos, 0, &nodes) : walkFull(bytes, &pos, 0, &nodes);
     if (!ok) return R::failure("octree data truncated or corrupt");
   }
-  if (pos != bytes.size()) return R::failure("octree data has " + std::to_string(bytes.size() - pos) + " trailing bytes");
+  if (pos != bytes.size())
+    return R::failure("octree data has " + std::to_string(bytes.size() - pos) + " trailing bytes");
   if (nodes != h->size)
-    return R::failure("octree node count " + std::to_string(nodes) + " != header size " + std::to_string(h->size));
+    return R::failure("octree node count " + std::to_string(nodes) + " != header size " +
+                      std::to_string(h->size));
   auto tree = std::make_unique<octomap::OcTree>(h->res);
   if (h->size == 0) return R(std::move(tree));
   std::istringstream in(streamText(bytes), std::ios::binary);
@@ -152,7 +157,9 @@ Status writeMapFiles(const octomap::OcTree& tree, const std::string& bt_path, co
     const Result<std::vector<uint8_t>> bytes = serializeTree(tree);
     if (!bytes) return Status::failure(bt_path + ": " + bytes.error());
     std::ofstream out(bt_path, std::ios::binary);
-    if (!out || !out.write(reinterpret_cast<const char*>(bytes->data()), static_cast<std::streamsize>(bytes->size())) ||
+    if (!out ||
+        !out.write(reinterpret_cast<const char*>(bytes->data()),
+                   static_cast<std::streamsize>(bytes->size())) ||
         !out.flush())
       return Status::failure("cannot write " + bt_path);
   }
@@ -173,7 +180,8 @@ Result<std::unique_ptr<octomap::OcTree>> readMapFile(const std::string& path) {
     return R::failure(path + ": unreadable or too large");
   in.seekg(0);
   std::vector<uint8_t> bytes(static_cast<size_t>(size));
-  if (size > 0 && !in.read(reinterpret_cast<char*>(bytes.data()), size)) return R::failure(path + ": read error");
+  if (size > 0 && !in.read(reinterpret_cast<char*>(bytes.data()), size))
+    return R::failure(path + ": read error");
   R tree = deserializeTree(bytes);
   if (!tree) return R::failure(path + ": " + tree.error());
   return tree;

@@ -76,7 +76,8 @@ void OccupancyMap::integrateInserted(int64_t keyframe_id, const std::shared_ptr<
     cloud = e.cloud;
     T_map_cam = e.T_map_cam;
   }
-  const detail::ScanUpdate update = detail::computeScanUpdate(*slot->tree, *cloud, T_map_cam, config_.max_range_m);
+  const detail::ScanUpdate update =
+      detail::computeScanUpdate(*slot->tree, *cloud, T_map_cam, config_.max_range_m);
   uint64_t revision = 0;
   {
     std::lock_guard<std::mutex> lock(mutex_);

@@ -19,7 +19,7 @@ struct OccupancyMap::Slot {
   /// order: write_mutex -> OccupancyMap::mutex_ -> tree_mutex; readers take only mutex_ (briefly), then
   /// tree_mutex shared.
   std::mutex write_mutex;
-  mutable std::shared_mutex tree_mutex;  ///< readers shared; applying an update or a swap exclusive
+  mutable std::shared_mutex tree_mutex;   ///< readers shared; applying an update or a swap exclusive
   std::unique_ptr<octomap::OcTree> tree;  ///< nullptr until the first rebuild of a map created by a merge
   uint64_t revision = 0;
   /// Changed leaves (new, or occupied <-> free) since journal_base with the revision that changed them;

@@ -47,7 +47,8 @@ void OccupancyMap::rebuild(int map_id) {
     std::vector<Job> jobs;
     std::lock_guard<std::mutex> lock(mutex_);
     for (const auto& [id, e] : entries_)
-      if (e.map_id == map_id && !e.inserting && !skip.count(id)) jobs.push_back({e.order, id, e.cloud, e.T_map_cam});
+      if (e.map_id == map_id && !e.inserting && !skip.count(id))
+        jobs.push_back({e.order, id, e.cloud, e.T_map_cam});
     std::sort(jobs.begin(), jobs.end(), [](const Job& a, const Job& b) { return a.order < b.order; });
     return jobs;
   };
@@ -56,8 +57,8 @@ void OccupancyMap::rebuild(int map_id) {
   const auto integrate = [&](const std::vector<Job>& jobs) {
     for (const Job& job : jobs) {
       if (stop_) return false;
-      detail::applyScanUpdate(tree.get(), detail::computeScanUpdate(*tree, *job.cloud, job.T_map_cam,
-                                                                    config_.max_range_m));
+      detail::applyScanUpdate(
+          tree.get(), detail::computeScanUpdate(*tree, *job.cloud, job.T_map_cam, config_.max_range_m));
       integrated[job.keyframe_id] = job.T_map_cam;
     }
     return true;

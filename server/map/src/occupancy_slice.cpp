@@ -15,7 +15,7 @@ enum : uint8_t { kUnknown = 0, kFree = 1, kOccupied = 2 };
 /// Frame of the grid: x forward (horizontal), y left, z up; origin at cell (0,0)'s corner at camera height.
 SE3 gridPose(const SE3& T_map_cam, const Vec3& up, double size_m) {
   const Mat3& R = T_map_cam.linear();
-  Vec3 x = R.col(2) - R.col(2).dot(up) * up;  // camera forward on the horizontal plane
+  Vec3 x = R.col(2) - R.col(2).dot(up) * up;                      // camera forward on the horizontal plane
   if (x.norm() < 1e-6) x = -R.col(1) - (-R.col(1)).dot(up) * up;  // looking straight up/down: image up
   x.normalize();
   const Vec3 y = up.cross(x);
@@ -39,7 +39,8 @@ struct KeyBox {
 
 void fillFromTree(const octomap::OcTree& tree, float occupied_log_odds, KeyBox* box) {
   const octomap::OcTreeKey kmin(box->lo[0], box->lo[1], box->lo[2]);
-  const octomap::OcTreeKey kmax(box->lo[0] + box->n[0] - 1, box->lo[1] + box->n[1] - 1, box->lo[2] + box->n[2] - 1);
+  const octomap::OcTreeKey kmax(box->lo[0] + box->n[0] - 1, box->lo[1] + box->n[1] - 1,
+                                box->lo[2] + box->n[2] - 1);
   const int depth = static_cast<int>(tree.getTreeDepth());
   for (auto it = tree.begin_leafs_bbx(kmin, kmax), end = tree.end_leafs_bbx(); it != end; ++it) {
     const octomap::OcTreeKey k = it.getIndexKey();
@@ -132,9 +133,9 @@ Result<msg::OccupancySlice> extractSlice(const octomap::OcTree& tree, const SE3&
         const int z = static_cast<int>(std::floor(p.z() * inv_res + key_offset));
         if (box.inside(x, y, z)) best = std::max(best, box.state[box.index(x, y, z)]);
       }
-      slice.cells[static_cast<size_t>(row) * cells + col] =
-          best == kOccupied ? msg::OccupancySlice::kOccupied
-                            : best == kFree ? msg::OccupancySlice::kFree : msg::OccupancySlice::kUnknown;
+      slice.cells[static_cast<size_t>(row) * cells + col] = best == kOccupied ? msg::OccupancySlice::kOccupied
+                                                            : best == kFree   ? msg::OccupancySlice::kFree
+                                                                              : msg::OccupancySlice::kUnknown;
     }
   return slice;
 }

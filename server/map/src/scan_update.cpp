@@ -50,11 +50,12 @@ void collect(const KeyGrid& grid, ScanUpdate* out) {
 
 }  // namespace
 
-ScanUpdate computeScanUpdate(const octomap::OcTree& geometry, const KeyframeCloud& cloud, const SE3& T_map_cam,
-                             double max_range_m) {
+ScanUpdate computeScanUpdate(const octomap::OcTree& geometry, const KeyframeCloud& cloud,
+                             const SE3& T_map_cam, double max_range_m) {
   ScanUpdate out;
   const Eigen::Vector3d o = T_map_cam.translation();
-  const octomap::point3d origin(static_cast<float>(o.x()), static_cast<float>(o.y()), static_cast<float>(o.z()));
+  const octomap::point3d origin(static_cast<float>(o.x()), static_cast<float>(o.y()),
+                                static_cast<float>(o.z()));
   octomap::OcTreeKey origin_key;
   if (!geometry.coordToKeyChecked(origin, origin_key)) return out;
 

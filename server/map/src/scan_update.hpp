@@ -19,8 +19,8 @@ struct ScanUpdate {
 
 /// Endpoints farther than max_range_m from the camera are truncated there: their ray clears free space up to
 /// max_range_m and no cell becomes occupied. Points outside the tree's key range are skipped.
-ScanUpdate computeScanUpdate(const octomap::OcTree& geometry, const KeyframeCloud& cloud, const SE3& T_map_cam,
-                             double max_range_m);
+ScanUpdate computeScanUpdate(const octomap::OcTree& geometry, const KeyframeCloud& cloud,
+                             const SE3& T_map_cam, double max_range_m);
 /// Applies the update (occupied after free); with change detection on, the tree records changed leaves.
 void applyScanUpdate(octomap::OcTree* tree, const ScanUpdate& update);
 

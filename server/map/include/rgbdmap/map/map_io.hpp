@@ -42,9 +42,9 @@ Status applyMapUpdate(const msg::MapUpdate& update, std::unique_ptr<octomap::OcT
 struct TreeSummary {
   double resolution_m = 0.0;
   size_t nodes = 0, leaf_nodes = 0, occupied_leaves = 0, free_leaves = 0;
-  size_t memory_bytes = 0;      ///< OcTree::memoryUsage()
-  size_t binary_bytes = 0;      ///< serialised (.bt) size
-  double min[3] = {0, 0, 0}, max[3] = {0, 0, 0};  ///< metric bounds of the known cells
+  size_t memory_bytes = 0;                                ///< OcTree::memoryUsage()
+  size_t binary_bytes = 0;                                ///< serialised (.bt) size
+  double min[3] = {0, 0, 0}, max[3] = {0, 0, 0};          ///< metric bounds of the known cells
   double occupied_volume_m3 = 0.0, free_volume_m3 = 0.0;  ///< summed leaf volumes
 };
 TreeSummary summarizeTree(const octomap::OcTree& tree);

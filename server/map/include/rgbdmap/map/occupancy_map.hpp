@@ -38,7 +38,8 @@ struct OccupancyMapConfig {
   double max_range_m = 4.0;
   double min_range_m = 0.3;  ///< closer depth is dropped (no ray): below the sensor's working range
   double prob_hit = 0.7, prob_miss = 0.4, clamp_min = 0.12, clamp_max = 0.97;  ///< OctoMap sensor model
-  double rebuild_translation_m = 0.03;  ///< a keyframe moved more than this (or rotation below) triggers a rebuild
+  double rebuild_translation_m =
+      0.03;  ///< a keyframe moved more than this (or rotation below) triggers a rebuild
   double rebuild_rotation_rad = 0.02;
   /// Pixel sampling step in both image directions (1 = every pixel). 0 = automatic: the largest step whose
   /// footprint at max_range_m stays within one cloud voxel (stride * max_range / fx <= cloud voxel), i.e.
@@ -101,9 +102,9 @@ struct OccupancyMapStats {
 /// A partial or full octree for a map stream (see OccupancyMap::streamSince and map_io.hpp).
 struct MapStreamChunk {
   int map_id = 0;
-  uint64_t revision = 0;     ///< the tree revision these bytes show; pass it to the next streamSince()
-  bool full = true;          ///< false: only the leaves changed since the given revision
-  size_t changed_leaves = 0; ///< partial: leaves carried
+  uint64_t revision = 0;       ///< the tree revision these bytes show; pass it to the next streamSince()
+  bool full = true;            ///< false: only the leaves changed since the given revision
+  size_t changed_leaves = 0;   ///< partial: leaves carried
   std::vector<uint8_t> bytes;  ///< serializeTree() format
 };
 
@@ -143,8 +144,8 @@ class OccupancyMap {
     std::shared_ptr<const KeyframeCloud> cloud;
     int map_id = 0;
     SE3 T_map_cam = SE3::Identity();
-    uint64_t order = 0;      ///< insertion order (rebuilds integrate in it)
-    bool inserting = true;   ///< registered, its insert() has not integrated it yet
+    uint64_t order = 0;     ///< insertion order (rebuilds integrate in it)
+    bool inserting = true;  ///< registered, its insert() has not integrated it yet
   };
   void integrateInserted(int64_t keyframe_id, const std::shared_ptr<Slot>& slot);
   bool isDirtyLocked(int map_id) const;

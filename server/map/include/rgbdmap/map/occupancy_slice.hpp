@@ -12,8 +12,8 @@ class OcTree;
 namespace rgbdmap {
 
 struct SliceConfig {
-  double size_m = 8.0;        ///< side of the square grid
-  double resolution_m = 0.05; ///< cell side; size_m / resolution_m cells per side (<= msg::kMaxGridSide)
+  double size_m = 8.0;         ///< side of the square grid
+  double resolution_m = 0.05;  ///< cell side; size_m / resolution_m cells per side (<= msg::kMaxGridSide)
   /// Heights relative to the camera, along `up_in_map` (map frame = first camera's frame: y points down, so
   /// the default up is (0,-1,0)); the grid is centred on the robot, x = camera forward projected on the
   /// horizontal plane, y = left; T_map_grid = pose of cell (0,0)'s corner, cell (col,row) centre at
