@@ -208,6 +208,7 @@ OccupancyMapStats OccupancyMap::stats() const {
     for (const auto& [id, e] : entries_) s.clouds_memory_bytes += e.cloud->memoryBytes();
     s.rebuilds = rebuilds_;
     s.last_rebuild_ms = last_rebuild_ms_;
+    s.last_rebuild_cpu_ms = last_rebuild_cpu_ms_;
     s.pending_rebuilds = dirty_.size() + (busy_ ? 1 : 0);
   }
   for (const auto& slot : slots) {

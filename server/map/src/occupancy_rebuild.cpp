@@ -2,6 +2,7 @@
 // without any lock, caught up with keyframes inserted meanwhile, then swapped in under the exclusive lock.
 #include <algorithm>
 #include <chrono>
+#include <ctime>
 #include <shared_mutex>
 #include <tuple>
 
@@ -10,6 +11,12 @@
 
 namespace rgbdmap {
 namespace {
+
+double threadCpuMs() {
+  timespec t{};
+  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &t);
+  return 1e3 * static_cast<double>(t.tv_sec) + 1e-6 * static_cast<double>(t.tv_nsec);
+}
 
 struct Job {
   uint64_t order;
@@ -42,6 +49,7 @@ void OccupancyMap::worker() {
 
 void OccupancyMap::rebuild(int map_id) {
   const auto t0 = std::chrono::steady_clock::now();
+  const double cpu0 = threadCpuMs();
   // Entries of map_id that are integrated somewhere (an insert in progress integrates itself afterwards).
   const auto collect = [&](const std::set<int64_t>& skip) {
     std::vector<Job> jobs;
@@ -100,6 +108,7 @@ void OccupancyMap::rebuild(int map_id) {
   slot->integrated = std::move(integrated);
   ++rebuilds_;
   last_rebuild_ms_ = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+  last_rebuild_cpu_ms_ = threadCpuMs() - cpu0;
   if (isDirtyLocked(map_id))
     dirty_.insert(map_id);  // moved again meanwhile: one more rebuild (coalesced)
   else

@@ -96,6 +96,7 @@ struct OccupancyMapStats {
   size_t clouds_memory_bytes = 0;  ///< kept keyframe clouds
   uint64_t rebuilds = 0;           ///< trees rebuilt and swapped in
   double last_rebuild_ms = 0.0;    ///< wall time of the last rebuild (build + catch-up)
+  double last_rebuild_cpu_ms = 0.0;  ///< the worker thread's CPU time for it (wall time minus waiting)
   size_t pending_rebuilds = 0;     ///< map ids waiting for (or in) a rebuild
 };
 
@@ -166,6 +167,7 @@ class OccupancyMap {
   uint64_t next_revision_ = 1;
   uint64_t rebuilds_ = 0;
   double last_rebuild_ms_ = 0.0;
+  double last_rebuild_cpu_ms_ = 0.0;
   std::thread worker_;
 };
 
