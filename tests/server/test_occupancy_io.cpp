@@ -96,6 +96,28 @@ TEST(OccupancySlice, WallAheadIsOccupiedSpaceBeforeFreeBehindUnknown) {
   EXPECT_EQ(rows_with_wall, rows);
 }
 
+TEST(OccupancySlice, TiltedUpAgreesWithAxisAlignedUp) {
+  // An up vector off the key axes takes the general per-sample path; a tiny tilt must give the same grid.
+  const SweepMap& m = sweepMap();
+  SliceConfig aligned;
+  aligned.up_in_map = Vec3::UnitZ();
+  SliceConfig tilted = aligned;
+  tilted.up_in_map = Vec3(1e-4, -1e-4, 1.0);
+  size_t same = 0, known = 0, total = 0;
+  m.map->read(0, [&](const octomap::OcTree& tree) {
+    const auto a = extractSlice(tree, m.kf.T_world_cam[3], aligned);
+    const auto b = extractSlice(tree, m.kf.T_world_cam[3], tilted);
+    ASSERT_TRUE(a.ok() && b.ok());
+    total = a->cells.size();
+    for (size_t i = 0; i < total; ++i) {
+      same += a->cells[i] == b->cells[i];
+      known += a->cells[i] != msg::OccupancySlice::kUnknown;
+    }
+  });
+  EXPECT_GT(known, 2000u);
+  EXPECT_GE(double(same) / total, 0.98) << same << "/" << total;
+}
+
 TEST(OccupancySlice, RejectsBadConfigAndPose) {
   octomap::OcTree tree(0.05);
   SliceConfig config;

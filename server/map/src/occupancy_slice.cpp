@@ -122,20 +122,48 @@ Result<msg::OccupancySlice> extractSlice(const octomap::OcTree& tree, const SE3&
   const Vec3 dx = slice.T_map_grid.linear().col(0) * config.resolution_m;
   const Vec3 dy = slice.T_map_grid.linear().col(1) * config.resolution_m;
   const Vec3 origin = slice.T_map_grid * Vec3(0.5 * config.resolution_m, 0.5 * config.resolution_m, 0.0);
+  const auto keyOf = [&](double v) { return static_cast<int>(std::floor(v * inv_res + key_offset)); };
+  const auto encode = [](uint8_t best) {
+    return best == kOccupied ? msg::OccupancySlice::kOccupied
+           : best == kFree   ? msg::OccupancySlice::kFree
+                             : msg::OccupancySlice::kUnknown;
+  };
+  int axis = -1;  // up along a key axis (the usual case): every column shares the same level keys
+  for (int a = 0; a < 3; ++a)
+    if (std::abs(up[a]) > 1.0 - 1e-9) axis = a;
+  if (axis >= 0) {
+    const int u = (axis + 1) % 3, v = (axis + 2) % 3;
+    const size_t stride[3] = {static_cast<size_t>(box.n[1]) * box.n[2], static_cast<size_t>(box.n[2]), 1};
+    std::vector<uint8_t> column(static_cast<size_t>(box.n[u]) * box.n[v], kUnknown);  // max over the band
+    for (int l = 0; l < levels; ++l) {
+      const int k = keyOf(origin[axis] + (config.z_min_m + (l + 0.5) * dz) * up[axis]) - box.lo[axis];
+      if (k < 0 || k >= box.n[axis]) continue;
+      for (int i = 0; i < box.n[u]; ++i)
+        for (int j = 0; j < box.n[v]; ++j) {
+          uint8_t& m = column[static_cast<size_t>(i) * box.n[v] + j];
+          m = std::max(m, box.state[k * stride[axis] + i * stride[u] + j * stride[v]]);
+        }
+    }
+    for (int row = 0; row < cells; ++row)
+      for (int col = 0; col < cells; ++col) {
+        const Vec3 c = origin + col * dx + row * dy;
+        const int i = keyOf(c[u]) - box.lo[u], j = keyOf(c[v]) - box.lo[v];
+        const bool in = i >= 0 && j >= 0 && i < box.n[u] && j < box.n[v];
+        slice.cells[static_cast<size_t>(row) * cells + col] =
+            encode(in ? column[static_cast<size_t>(i) * box.n[v] + j] : uint8_t{kUnknown});
+      }
+    return slice;
+  }
   for (int row = 0; row < cells; ++row)
     for (int col = 0; col < cells; ++col) {
       const Vec3 c = origin + col * dx + row * dy;
       uint8_t best = kUnknown;
       for (int l = 0; l < levels && best != kOccupied; ++l) {
         const Vec3 p = c + (config.z_min_m + (l + 0.5) * dz) * up;
-        const int x = static_cast<int>(std::floor(p.x() * inv_res + key_offset));
-        const int y = static_cast<int>(std::floor(p.y() * inv_res + key_offset));
-        const int z = static_cast<int>(std::floor(p.z() * inv_res + key_offset));
+        const int x = keyOf(p.x()), y = keyOf(p.y()), z = keyOf(p.z());
         if (box.inside(x, y, z)) best = std::max(best, box.state[box.index(x, y, z)]);
       }
-      slice.cells[static_cast<size_t>(row) * cells + col] = best == kOccupied ? msg::OccupancySlice::kOccupied
-                                                            : best == kFree   ? msg::OccupancySlice::kFree
-                                                                              : msg::OccupancySlice::kUnknown;
+      slice.cells[static_cast<size_t>(row) * cells + col] = encode(best);
     }
   return slice;
 }
