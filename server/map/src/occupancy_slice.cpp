@@ -59,6 +59,29 @@ void fillFromTree(const octomap::OcTree& tree, float occupied_log_odds, KeyBox* 
   }
 }
 
+/// Up along key axis `axis`: the most occupied state over the band's keys [box lo, hi] along it, per
+/// (u, v) column of the box, straight from the leaves (no 3-D copy).
+std::vector<uint8_t> fillColumns(const octomap::OcTree& tree, float occupied_log_odds, const KeyBox& box,
+                                 int axis) {
+  const int u = (axis + 1) % 3, v = (axis + 2) % 3;
+  std::vector<uint8_t> column(static_cast<size_t>(box.n[u]) * box.n[v], kUnknown);
+  const octomap::OcTreeKey kmin(box.lo[0], box.lo[1], box.lo[2]);
+  const octomap::OcTreeKey kmax(box.lo[0] + box.n[0] - 1, box.lo[1] + box.n[1] - 1, box.lo[2] + box.n[2] - 1);
+  const int depth = static_cast<int>(tree.getTreeDepth());
+  for (auto it = tree.begin_leafs_bbx(kmin, kmax), end = tree.end_leafs_bbx(); it != end; ++it) {
+    const octomap::OcTreeKey k = it.getIndexKey();
+    const int span = 1 << (depth - static_cast<int>(it.getDepth()));
+    const uint8_t value = it->getLogOdds() > occupied_log_odds ? kOccupied : kFree;
+    const int i0 = std::max<int>(k[u], box.lo[u]), i1 = std::min<int>(k[u] + span, box.lo[u] + box.n[u]);
+    const int j0 = std::max<int>(k[v], box.lo[v]), j1 = std::min<int>(k[v] + span, box.lo[v] + box.n[v]);
+    for (int i = i0; i < i1; ++i) {
+      uint8_t* row = &column[static_cast<size_t>(i - box.lo[u]) * box.n[v]];
+      for (int j = j0; j < j1; ++j) row[j - box.lo[v]] = std::max(row[j - box.lo[v]], value);
+    }
+  }
+  return column;
+}
+
 }  // namespace
 
 std::string SliceConfig::validate() const {
@@ -114,11 +137,6 @@ Result<msg::OccupancySlice> extractSlice(const octomap::OcTree& tree, const SE3&
     box.lo[a] = static_cast<int>(std::max(0.0, lo[a]));
     box.n[a] = static_cast<int>(std::min(key_max, hi[a])) - box.lo[a] + 1;
   }
-  if (static_cast<double>(box.n[0]) * box.n[1] * box.n[2] > 256e6)
-    return R::failure("slice: band too large for the tree's resolution");
-  box.state.assign(static_cast<size_t>(box.n[0]) * box.n[1] * box.n[2], kUnknown);
-  fillFromTree(tree, octomap::logodds(config.occupied_threshold), &box);
-
   const Vec3 dx = slice.T_map_grid.linear().col(0) * config.resolution_m;
   const Vec3 dy = slice.T_map_grid.linear().col(1) * config.resolution_m;
   const Vec3 origin = slice.T_map_grid * Vec3(0.5 * config.resolution_m, 0.5 * config.resolution_m, 0.0);
@@ -128,22 +146,22 @@ Result<msg::OccupancySlice> extractSlice(const octomap::OcTree& tree, const SE3&
            : best == kFree   ? msg::OccupancySlice::kFree
                              : msg::OccupancySlice::kUnknown;
   };
+  const float occupied_log_odds = octomap::logodds(config.occupied_threshold);
   int axis = -1;  // up along a key axis (the usual case): every column shares the same level keys
   for (int a = 0; a < 3; ++a)
     if (std::abs(up[a]) > 1.0 - 1e-9) axis = a;
   if (axis >= 0) {
+    // The band's keys along the axis: those of the sample heights (contiguous, as dz <= resolution).
+    int k0 = keyOf(origin[axis] + (config.z_min_m + 0.5 * dz) * up[axis]);
+    int k1 = keyOf(origin[axis] + (config.z_min_m + (levels - 0.5) * dz) * up[axis]);
+    if (k0 > k1) std::swap(k0, k1);
+    k0 = std::max(k0, box.lo[axis]);
+    k1 = std::min(k1, box.lo[axis] + box.n[axis] - 1);
+    if (k0 > k1) return slice;
+    box.lo[axis] = k0;
+    box.n[axis] = k1 - k0 + 1;
     const int u = (axis + 1) % 3, v = (axis + 2) % 3;
-    const size_t stride[3] = {static_cast<size_t>(box.n[1]) * box.n[2], static_cast<size_t>(box.n[2]), 1};
-    std::vector<uint8_t> column(static_cast<size_t>(box.n[u]) * box.n[v], kUnknown);  // max over the band
-    for (int l = 0; l < levels; ++l) {
-      const int k = keyOf(origin[axis] + (config.z_min_m + (l + 0.5) * dz) * up[axis]) - box.lo[axis];
-      if (k < 0 || k >= box.n[axis]) continue;
-      for (int i = 0; i < box.n[u]; ++i)
-        for (int j = 0; j < box.n[v]; ++j) {
-          uint8_t& m = column[static_cast<size_t>(i) * box.n[v] + j];
-          m = std::max(m, box.state[k * stride[axis] + i * stride[u] + j * stride[v]]);
-        }
-    }
+    const std::vector<uint8_t> column = fillColumns(tree, occupied_log_odds, box, axis);
     for (int row = 0; row < cells; ++row)
       for (int col = 0; col < cells; ++col) {
         const Vec3 c = origin + col * dx + row * dy;
@@ -154,6 +172,10 @@ Result<msg::OccupancySlice> extractSlice(const octomap::OcTree& tree, const SE3&
       }
     return slice;
   }
+  if (static_cast<double>(box.n[0]) * box.n[1] * box.n[2] > 256e6)
+    return R::failure("slice: band too large for the tree's resolution");
+  box.state.assign(static_cast<size_t>(box.n[0]) * box.n[1] * box.n[2], kUnknown);
+  fillFromTree(tree, occupied_log_odds, &box);
   for (int row = 0; row < cells; ++row)
     for (int col = 0; col < cells; ++col) {
       const Vec3 c = origin + col * dx + row * dy;
