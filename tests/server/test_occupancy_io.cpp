@@ -211,7 +211,7 @@ TEST(OctreeFiles, BtAndOtAreReadByOctoMapItself) {
 
 TEST(MapStream, PartialUpdatesReproduceTheSendersTree) {
   const OccupancyMapConfig config;
-  const auto& kf = makeSynthKeyframes("loop", 16);
+  const auto& kf = makeSynthKeyframes("loop", 12);
   OccupancyMap map(config);
   for (size_t i = 0; i < 8; ++i) ASSERT_TRUE(map.insert(kf.clouds[i], 0, kf.T_world_cam[i]).ok());
   std::unique_ptr<octomap::OcTree> receiver;

@@ -30,7 +30,7 @@ void insertAll(OccupancyMap* map, const testing::SynthKeyframes& kf, int map_id,
 
 TEST(OccupancyMap, SyntheticRoomMatchesGeometry) {
   const OccupancyMapConfig config = testConfig();
-  const auto& kf = makeSynthKeyframes("loop", 16);
+  const auto& kf = makeSynthKeyframes("loop", 12);
   OccupancyMap map(config);
   insertAll(&map, kf, 0);
   const double res = config.resolution_m;
@@ -77,7 +77,7 @@ TEST(OccupancyMap, SyntheticRoomMatchesGeometry) {
   EXPECT_GE(double(outside_unknown) / outside, 0.95) << outside_unknown << " of " << outside;
   const OccupancyMapStats s = map.stats();
   EXPECT_EQ(s.maps, 1);
-  EXPECT_EQ(s.keyframes, 16u);
+  EXPECT_EQ(s.keyframes, 12u);
   EXPECT_EQ(s.occupied_leaves, occupied);
   EXPECT_GT(s.tree_memory_bytes, 0u);
   EXPECT_GT(s.clouds_memory_bytes, 0u);
@@ -161,30 +161,30 @@ TEST(OccupancyMap, ReadersNeverSeeAHalfBuiltTree) {
 
 TEST(OccupancyMap, KeyframesInsertedDuringARebuildAreKept) {
   const OccupancyMapConfig config = testConfig();
-  const auto& kf = makeSynthKeyframes("loop", 16);
+  const auto& kf = makeSynthKeyframes("loop", 12);
   const SE3 shift(Eigen::Translation3d(0.0, 0.2, 0.0));
   OccupancyMap reference(config);
   insertAll(&reference, kf, 0, 0, ~size_t{0}, shift);
   OccupancyMap map(config);
-  insertAll(&map, kf, 0, 0, 8);
+  insertAll(&map, kf, 0, 0, 6);
   std::map<int64_t, std::pair<int, SE3>> poses;
-  for (size_t i = 0; i < 8; ++i) poses[int64_t(i)] = {0, shift * kf.T_world_cam[i]};
+  for (size_t i = 0; i < 6; ++i) poses[int64_t(i)] = {0, shift * kf.T_world_cam[i]};
   EXPECT_TRUE(map.updatePoses(poses));
-  insertAll(&map, kf, 0, 8, ~size_t{0}, shift);  // while the rebuild runs
+  insertAll(&map, kf, 0, 6, ~size_t{0}, shift);  // while the rebuild runs
   ASSERT_TRUE(map.waitIdle(30.0));
   EXPECT_EQ(countLeaves(map, 0), countLeaves(reference, 0));
-  EXPECT_EQ(map.stats().keyframes, 16u);
+  EXPECT_EQ(map.stats().keyframes, 12u);
   EXPECT_GE(map.stats().rebuilds, 1u);
 }
 
 TEST(OccupancyMap, MergingTwoMapIdsRebuildsOneTree) {
   const OccupancyMapConfig config = testConfig();
-  const auto& kf = makeSynthKeyframes("loop", 16);
+  const auto& kf = makeSynthKeyframes("loop", 12);
   // Robot 1 mapped the second half in its own frame (rotated and offset from the world).
   const SE3 T_m1_world = Eigen::Translation3d(1.0, -0.5, 0.2) * Eigen::AngleAxisd(0.7, Vec3::UnitZ());
   OccupancyMap map(config);
-  insertAll(&map, kf, 0, 0, 8);
-  insertAll(&map, kf, 1, 8, 16, T_m1_world);
+  insertAll(&map, kf, 0, 0, 6);
+  insertAll(&map, kf, 1, 6, 12, T_m1_world);
   EXPECT_EQ(map.mapIds(), (std::vector<int>{0, 1}));
   // Map 1 holds robot 1's keyframes in its own frame: its occupied cells, taken back to the world, lie on
   // the room's surfaces.
@@ -203,7 +203,7 @@ TEST(OccupancyMap, MergingTwoMapIdsRebuildsOneTree) {
   EXPECT_GE(double(near_surface) / occupied, 0.95);
 
   std::map<int64_t, std::pair<int, SE3>> merge;
-  for (size_t i = 8; i < 16; ++i) merge[int64_t(i)] = {0, kf.T_world_cam[i]};
+  for (size_t i = 6; i < 12; ++i) merge[int64_t(i)] = {0, kf.T_world_cam[i]};
   EXPECT_TRUE(map.updatePoses(merge));
   ASSERT_TRUE(map.waitIdle(30.0));
   EXPECT_EQ(map.mapIds(), (std::vector<int>{0}));
