@@ -92,12 +92,12 @@ struct OccupancyMapStats {
   int maps = 0;
   size_t keyframes = 0;
   size_t leaf_nodes = 0, occupied_leaves = 0, free_leaves = 0;
-  size_t tree_memory_bytes = 0;    ///< octomap::OcTree::memoryUsage() summed over the trees
-  size_t clouds_memory_bytes = 0;  ///< kept keyframe clouds
-  uint64_t rebuilds = 0;           ///< trees rebuilt and swapped in
-  double last_rebuild_ms = 0.0;    ///< wall time of the last rebuild (build + catch-up)
+  size_t tree_memory_bytes = 0;      ///< octomap::OcTree::memoryUsage() summed over the trees
+  size_t clouds_memory_bytes = 0;    ///< kept keyframe clouds
+  uint64_t rebuilds = 0;             ///< trees rebuilt and swapped in
+  double last_rebuild_ms = 0.0;      ///< wall time of the last rebuild (build + catch-up)
   double last_rebuild_cpu_ms = 0.0;  ///< the worker thread's CPU time for it (wall time minus waiting)
-  size_t pending_rebuilds = 0;     ///< map ids waiting for (or in) a rebuild
+  size_t pending_rebuilds = 0;       ///< map ids waiting for (or in) a rebuild
 };
 
 /// A partial or full octree for a map stream (see OccupancyMap::streamSince and map_io.hpp).
