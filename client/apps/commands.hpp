@@ -5,4 +5,5 @@ int synth(int argc, char** argv);
 int odometry(int argc, char** argv);
 int eval(int argc, char** argv);
 int run(int argc, char** argv);
+int viewMap(int argc, char** argv);
 }  // namespace rgbdmap::cmd

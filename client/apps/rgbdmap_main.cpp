@@ -1,4 +1,4 @@
-// rgbdmap: one binary, several subcommands (synth, odometry, eval, run).
+// rgbdmap: one binary, several subcommands (synth, odometry, eval, run, view-map).
 #include <cstdio>
 #include <cstring>
 #include <exception>
@@ -14,6 +14,7 @@ const char* kUsage =
     "  synth     write a synthetic RGB-D sequence in TUM layout with exact ground truth\n"
     "  odometry  run the client's visual odometry on a TUM-layout dataset\n"
     "  eval      ATE and RPE of an estimated trajectory against ground truth\n"
+    "  view-map  statistics of an octree map file (.bt or .ot)\n"
     "run `rgbdmap <command> --help` for its options.\n";
 }
 
@@ -28,6 +29,7 @@ int main(int argc, char** argv) {
     if (!std::strcmp(name, "odometry")) return rgbdmap::cmd::odometry(argc - 2, argv + 2);
     if (!std::strcmp(name, "eval")) return rgbdmap::cmd::eval(argc - 2, argv + 2);
     if (!std::strcmp(name, "run")) return rgbdmap::cmd::run(argc - 2, argv + 2);
+    if (!std::strcmp(name, "view-map")) return rgbdmap::cmd::viewMap(argc - 2, argv + 2);
   } catch (const std::exception& e) {
     std::fprintf(stderr, "rgbdmap %s: unexpected error: %s\n", name, e.what());
     return 1;

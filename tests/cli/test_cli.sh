@@ -45,6 +45,15 @@ check "bad intrinsics override" 2 "$bin" odometry --dataset "$tmp/seq" --out "$t
 echo "garbage" >"$tmp/seq/rgb.txt"
 check "malformed rgb.txt is a data error" 1 "$bin" odometry --dataset "$tmp/seq" --out "$tmp/x.txt"
 contains "malformed line named" "$tmp/err.txt" "rgb.txt:1"
+# view-map: a hand-made .bt (root with 8 occupied leaf children), a corrupt one, a missing argument.
+printf '# Octomap OcTree binary file\nid OcTree\nsize 9\nres 0.1\ndata\n\xaa\xaa' >"$tmp/tiny.bt"
+check "view-map reads a .bt" 0 "$bin" view-map "$tmp/tiny.bt"
+contains "view-map counts leaves" "$tmp/out.txt" "occupied_leaves 8"
+contains "view-map prints the resolution" "$tmp/out.txt" "resolution_m 0.1"
+printf '# Octomap OcTree binary file\nid OcTree\nsize 9\nres 0.1\ndata\n\xff' >"$tmp/cut.bt"
+check "view-map rejects a truncated .bt" 1 "$bin" view-map "$tmp/cut.bt"
+contains "view-map names the problem" "$tmp/err.txt" "truncated or corrupt"
+check "view-map needs a file" 2 "$bin" view-map
 check "unknown command" 2 "$bin" frobnicate
 if [ "$fail" -eq 0 ]; then echo "cli: all checks passed"; fi
 exit "$fail"

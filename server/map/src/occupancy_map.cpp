@@ -1,0 +1,230 @@
+// OccupancyMap: inserts on the caller's thread, dirty-map bookkeeping, reads and statistics. The rebuild
+// worker is in occupancy_rebuild.cpp, streaming in map_stream.cpp.
+#include <cmath>
+#include <shared_mutex>
+
+#include "occupancy_map_slot.hpp"
+#include "scan_update.hpp"
+
+namespace rgbdmap {
+namespace {
+
+bool finitePoints(const KeyframeCloud& cloud) {
+  for (const Eigen::Vector3f& p : cloud.points_cam)
+    if (!p.allFinite()) return false;
+  return cloud.colors_rgb.empty() || cloud.colors_rgb.size() == cloud.points_cam.size();
+}
+
+}  // namespace
+
+OccupancyMap::OccupancyMap(OccupancyMapConfig config) : config_(std::move(config)) {
+  worker_ = std::thread([this] { worker(); });
+}
+
+OccupancyMap::~OccupancyMap() {
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    stopping_ = true;
+  }
+  stop_ = true;
+  wake_.notify_all();
+  idle_.notify_all();
+  if (worker_.joinable()) worker_.join();
+}
+
+Status OccupancyMap::insert(KeyframeCloud cloud, int map_id, const SE3& T_map_cam) {
+  const int64_t id = cloud.keyframe_id;
+  if (!se3::isValid(T_map_cam, 1e-4))
+    return Status::failure("keyframe " + std::to_string(id) + ": pose is not finite or not a rotation");
+  if (!finitePoints(cloud))
+    return Status::failure("keyframe " + std::to_string(id) + ": non-finite points or colours not parallel");
+  std::shared_ptr<Slot> slot;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (entries_.count(id)) return Status::failure("keyframe " + std::to_string(id) + " already inserted");
+    Entry& e = entries_[id];
+    e.cloud = std::make_shared<const KeyframeCloud>(std::move(cloud));
+    e.map_id = map_id;
+    e.T_map_cam = T_map_cam;
+    e.order = next_order_++;
+    std::shared_ptr<Slot>& s = slots_[map_id];
+    if (!s) {
+      s = std::make_shared<Slot>(map_id);
+      s->tree = detail::makeTree(config_);
+    }
+    slot = s;
+  }
+  integrateInserted(id, slot);
+  return Status::success();
+}
+
+void OccupancyMap::integrateInserted(int64_t keyframe_id, const std::shared_ptr<Slot>& slot) {
+  std::lock_guard<std::mutex> write(slot->write_mutex);
+  std::shared_ptr<const KeyframeCloud> cloud;
+  SE3 T_map_cam;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    Entry& e = entries_.at(keyframe_id);
+    auto current = slots_.find(e.map_id);
+    // A rebuild's catch-up may have integrated it already, or updatePoses moved it to another map.
+    if (slot->integrated.count(keyframe_id) || current == slots_.end() || current->second != slot ||
+        !slot->tree) {
+      e.inserting = false;
+      if (isDirtyLocked(e.map_id)) markDirtyLocked(e.map_id);
+      return;
+    }
+    cloud = e.cloud;
+    T_map_cam = e.T_map_cam;
+  }
+  const detail::ScanUpdate update =
+      detail::computeScanUpdate(*slot->tree, *cloud, T_map_cam, config_.max_range_m);
+  uint64_t revision = 0;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    revision = next_revision_++;
+  }
+  {
+    std::unique_lock<std::shared_mutex> tree_lock(slot->tree_mutex);
+    detail::applyScanUpdate(slot->tree.get(), update);
+    for (auto it = slot->tree->changedKeysBegin(); it != slot->tree->changedKeysEnd(); ++it)
+      slot->journal[it->first] = revision;
+    slot->tree->resetChangeDetection();
+    if (slot->journal.size() > config_.stream_journal_max_keys) {
+      slot->journal.clear();
+      slot->journal_base = revision;
+    }
+    slot->revision = revision;
+  }
+  std::lock_guard<std::mutex> lock(mutex_);
+  Entry& e = entries_.at(keyframe_id);
+  e.inserting = false;
+  slot->integrated[keyframe_id] = T_map_cam;
+  // updatePoses may have moved it while it was being integrated.
+  if (e.map_id != slot->map_id || !(e.T_map_cam.matrix() == T_map_cam.matrix())) {
+    if (isDirtyLocked(slot->map_id)) markDirtyLocked(slot->map_id);
+    if (isDirtyLocked(e.map_id)) markDirtyLocked(e.map_id);
+  }
+}
+
+bool OccupancyMap::isDirtyLocked(int map_id) const {
+  const auto slot_it = slots_.find(map_id);
+  const std::map<int64_t, SE3>* integrated = slot_it != slots_.end() ? &slot_it->second->integrated : nullptr;
+  for (const auto& [id, e] : entries_) {
+    if (e.map_id != map_id || e.inserting) continue;
+    if (!integrated) return true;
+    const auto it = integrated->find(id);
+    if (it == integrated->end()) return true;
+    const SE3 delta = it->second.inverse() * e.T_map_cam;
+    if (delta.translation().norm() > config_.rebuild_translation_m ||
+        se3::rotationAngle(delta) > config_.rebuild_rotation_rad)
+      return true;
+  }
+  if (integrated)
+    for (const auto& [id, T] : *integrated) {
+      const auto it = entries_.find(id);
+      if (it == entries_.end() || it->second.map_id != map_id) return true;
+    }
+  return false;
+}
+
+void OccupancyMap::markDirtyLocked(int map_id) {
+  if (dirty_.insert(map_id).second) wake_.notify_one();
+}
+
+bool OccupancyMap::updatePoses(const std::map<int64_t, std::pair<int, SE3>>& map_id_and_T_map_cam) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  std::set<int> touched;
+  for (const auto& [id, update] : map_id_and_T_map_cam) {
+    auto it = entries_.find(id);
+    if (it == entries_.end() || !se3::isValid(update.second, 1e-4)) continue;
+    touched.insert(it->second.map_id);
+    touched.insert(update.first);
+    it->second.map_id = update.first;
+    it->second.T_map_cam = update.second;
+  }
+  bool scheduled = false;
+  for (int map_id : touched)
+    if (isDirtyLocked(map_id)) {
+      markDirtyLocked(map_id);
+      scheduled = true;
+    }
+  return scheduled;
+}
+
+bool OccupancyMap::waitIdle(double timeout_s) const {
+  std::unique_lock<std::mutex> lock(mutex_);
+  return idle_.wait_for(lock, std::chrono::duration<double>(timeout_s),
+                        [this] { return stopping_ || (dirty_.empty() && !busy_); }) &&
+         dirty_.empty() && !busy_;
+}
+
+bool OccupancyMap::read(int map_id, const std::function<void(const octomap::OcTree&)>& fn) const {
+  std::shared_ptr<Slot> slot;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    const auto it = slots_.find(map_id);
+    if (it == slots_.end()) return false;
+    slot = it->second;
+  }
+  std::shared_lock<std::shared_mutex> tree_lock(slot->tree_mutex);
+  if (!slot->tree) return false;
+  fn(*slot->tree);
+  return true;
+}
+
+std::vector<int> OccupancyMap::mapIds() const {
+  std::vector<std::shared_ptr<Slot>> slots;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    for (const auto& [id, slot] : slots_) slots.push_back(slot);
+  }
+  std::vector<int> ids;
+  for (const auto& slot : slots) {
+    std::shared_lock<std::shared_mutex> tree_lock(slot->tree_mutex);
+    if (slot->tree) ids.push_back(slot->map_id);
+  }
+  return ids;
+}
+
+uint64_t OccupancyMap::revision(int map_id) const {
+  std::shared_ptr<Slot> slot;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    const auto it = slots_.find(map_id);
+    if (it == slots_.end()) return 0;
+    slot = it->second;
+  }
+  std::shared_lock<std::shared_mutex> tree_lock(slot->tree_mutex);
+  return slot->tree ? slot->revision : 0;
+}
+
+OccupancyMapStats OccupancyMap::stats() const {
+  OccupancyMapStats s;
+  std::vector<std::shared_ptr<Slot>> slots;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    for (const auto& [id, slot] : slots_) slots.push_back(slot);
+    s.keyframes = entries_.size();
+    for (const auto& [id, e] : entries_) s.clouds_memory_bytes += e.cloud->memoryBytes();
+    s.rebuilds = rebuilds_;
+    s.last_rebuild_ms = last_rebuild_ms_;
+    s.last_rebuild_cpu_ms = last_rebuild_cpu_ms_;
+    s.pending_rebuilds = dirty_.size() + (busy_ ? 1 : 0);
+  }
+  for (const auto& slot : slots) {
+    std::shared_lock<std::shared_mutex> tree_lock(slot->tree_mutex);
+    if (!slot->tree) continue;
+    ++s.maps;
+    s.tree_memory_bytes += slot->tree->memoryUsage();
+    for (auto it = slot->tree->begin_leafs(), end = slot->tree->end_leafs(); it != end; ++it) {
+      ++s.leaf_nodes;
+      if (slot->tree->isNodeOccupied(*it))
+        ++s.occupied_leaves;
+      else
+        ++s.free_leaves;
+    }
+  }
+  return s;
+}
+
+}  // namespace rgbdmap

@@ -1,0 +1,33 @@
+#pragma once
+// One map id's tree with what is needed to swap it safely and to stream its changes.
+#include <map>
+#include <memory>
+#include <mutex>
+#include <shared_mutex>
+#include <unordered_map>
+
+#include <octomap/OcTree.h>
+
+#include "rgbdmap/map/occupancy_map.hpp"
+
+namespace rgbdmap {
+
+struct OccupancyMap::Slot {
+  explicit Slot(int id) : map_id(id) {}
+  const int map_id;
+  /// Serialises the writers of this tree (an insert's integration, a rebuild's catch-up and swap). Lock
+  /// order: write_mutex -> OccupancyMap::mutex_ -> tree_mutex; readers take only mutex_ (briefly), then
+  /// tree_mutex shared.
+  std::mutex write_mutex;
+  mutable std::shared_mutex tree_mutex;   ///< readers shared; applying an update or a swap exclusive
+  std::unique_ptr<octomap::OcTree> tree;  ///< nullptr until the first rebuild of a map created by a merge
+  uint64_t revision = 0;
+  /// Changed leaves (new, or occupied <-> free) since journal_base with the revision that changed them;
+  /// cleared on a swap or when it outgrows the config's cap.
+  std::unordered_map<octomap::OcTreeKey, uint64_t, octomap::OcTreeKey::KeyHash> journal;
+  uint64_t journal_base = 0;
+  /// Keyframe id -> pose it is integrated at in `tree` (guarded by OccupancyMap::mutex_).
+  std::map<int64_t, SE3> integrated;
+};
+
+}  // namespace rgbdmap
