@@ -11,6 +11,7 @@
 #include <set>
 #include <unordered_map>
 
+#include "map_worker.hpp"
 #include "robot_registry.hpp"
 #include "rgbdmap/client/keyframe_message.hpp"
 #include "rgbdmap/common/logging.hpp"
@@ -94,6 +95,13 @@ std::string MapServerConfig::validate() const {
   if (!(default_odometry_sigma_deg > 0.0 && default_odometry_sigma_deg < 90.0))
     problems.push_back("default_odometry_sigma_deg not in (0, 90)");
   if (const std::string l = loop.validate(); !l.empty()) problems.push_back(l);
+  if (occupancy_enabled) {
+    if (const std::string o = occupancy.validate(); !o.empty()) problems.push_back("occupancy: " + o);
+    if (const std::string sl = slice.validate(); !sl.empty()) problems.push_back("slice: " + sl);
+  }
+  if (!(slice_period_s >= 0.0 && slice_period_s <= 3600.0)) problems.push_back("slice_period_s not in [0, 3600]");
+  if (!(map_stream_period_s >= 0.0 && map_stream_period_s <= 3600.0))
+    problems.push_back("map_stream_period_s not in [0, 3600]");
   std::string out;
   for (const std::string& p : problems) out += (out.empty() ? "" : "; ") + p;
   return out;
@@ -209,6 +217,7 @@ struct MapServer::Impl {
   std::mutex publish_mutex;
   std::map<std::string, std::unique_ptr<msg::Signer>> signers;
 
+  std::unique_ptr<MapWorker> map_worker;  ///< null when occupancy is off
   std::thread worker;
   std::thread status_thread;
   std::condition_variable status_cv;
@@ -532,6 +541,11 @@ struct MapServer::Impl {
 
     LoopStats loop_stats;
     const std::vector<LoopEdge> edges = integrate(stored, *features, true, &loop_stats);
+    if (map_worker) {
+      const Node& n = nodes.back();
+      map_worker->addKeyframe({n.kf.node_id, n.kf.robot_id, n.kf.map_id, n.kf.T_map_kf, *camera, images->depth,
+                               images->color, true});
+    }
     counters.loop_candidates += loop_stats.candidates;
     verify_ms.push_back(loop_stats.verify_ms);
     for (int r = 0; r < kLoopRejectionCount; ++r) counters.loops_rejected_by_reason[r] += loop_stats.rejected_by_reason[r];
@@ -605,7 +619,14 @@ struct MapServer::Impl {
       if (c.keyframes.size() > static_cast<size_t>(msg::kMaxCorrections))
         c.keyframes.erase(c.keyframes.begin(), c.keyframes.end() - msg::kMaxCorrections);
     }
+    std::vector<MapNodePose> map_poses;
+    if (map_worker) {
+      map_poses.reserve(nodes.size());
+      for (const Node& n : nodes)
+        if (n.valid) map_poses.push_back({n.kf.node_id, n.kf.map_id, n.kf.T_map_kf});
+    }
     lock.unlock();
+    if (map_worker) map_worker->updatePoses(std::move(map_poses));
     for (const auto& [robot, c] : out) {
       log::debug("server: corrections to ", robot, ": ", c.keyframes.size(), " keyframes");
       publishTo(robot, c);
@@ -648,6 +669,22 @@ struct MapServer::Impl {
   }
 
   // ---- start / restore ---------------------------------------------------------------------------------
+  /// Starts the map worker and hands it the restored keyframes (their images are read from the store on
+  /// the map worker, in the background).
+  void startMapWorker() {
+    MapWorkerPublishers publishers;
+    publishers.slice = [this](const std::string& robot, const msg::OccupancySlice& slice) { publishTo(robot, slice); };
+    publishers.map = [this](const std::string& robot, const msg::MapUpdate& update) { publishTo(robot, update); };
+    map_worker = std::make_unique<MapWorker>(config, *store, std::move(publishers));
+    std::lock_guard<std::mutex> lock(state_mutex);
+    for (const Node& n : nodes) {
+      const auto camera = n.valid ? registry.camera(n.kf.robot_id) : std::nullopt;
+      if (!camera) continue;
+      map_worker->addKeyframe({n.kf.node_id, n.kf.robot_id, n.kf.map_id, n.kf.T_map_kf, *camera, {}, {}, false});
+    }
+    map_worker->start();
+  }
+
   Status restore() {
     const auto loaded = registry.load(store->directory());
     if (!loaded) return Status::failure(loaded.error());
@@ -722,6 +759,7 @@ Status MapServer::start() {
     m.counters.recovery = m.store->recovery();
     if (const Status s = m.restore(); !s) return s;
   }
+  if (m.config.occupancy_enabled) m.startMapWorker();
   m.optimizer = std::make_unique<PoseGraphOptimizer>(
       m.config.graph, [&m](const std::shared_ptr<const OptimizedPoses>& result) {
         Impl::Event e;
@@ -779,19 +817,26 @@ void MapServer::stop() {
   m.status_cv.notify_all();
   if (m.worker.joinable()) m.worker.join();
   if (m.status_thread.joinable()) m.status_thread.join();
+  if (m.map_worker) m.map_worker->stop();
 }
 
 bool MapServer::waitIdle(double timeout_s) {
   Impl& m = *impl_;
-  std::unique_lock<std::mutex> lock(m.queue_mutex);
-  return m.idle_cv.wait_for(lock, std::chrono::duration<double>(timeout_s), [&] {
-    return m.stopping || (m.queue.empty() && !m.busy && m.applied_revision >= m.submitted_revision);
-  }) && !m.stopping;
+  const auto deadline = Clock::now() + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(timeout_s));
+  {
+    std::unique_lock<std::mutex> lock(m.queue_mutex);
+    const bool idle = m.idle_cv.wait_until(lock, deadline, [&] {
+      return m.stopping || (m.queue.empty() && !m.busy && m.applied_revision >= m.submitted_revision);
+    });
+    if (!idle || m.stopping) return false;
+  }
+  if (!m.map_worker) return true;
+  return m.map_worker->waitIdle(std::max(0.0, std::chrono::duration<double>(deadline - Clock::now()).count()));
 }
 
 MapServerStats MapServer::stats() const {
   const Impl& m = *impl_;
-  std::lock_guard<std::mutex> lock(m.state_mutex);
+  std::unique_lock<std::mutex> lock(m.state_mutex);
   MapServerStats s = m.counters;
   s.messages_rejected = m.rejects.total();
   s.keyframes_dropped_queue_full = m.dropped_queue_full.load();
@@ -818,6 +863,9 @@ MapServerStats MapServer::stats() const {
     for (const Impl::Node& n : m.nodes)
       if (n.kf.map_id == r.map_id && n.kf.robot_id != r.robot_id) r.merged = true;
   }
+  lock.unlock();
+  // Outside the server's state lock: counting the octree's leaves must not hold up the ingest worker.
+  if (m.map_worker) m.map_worker->fillStats(&s);
   return s;
 }
 
@@ -839,6 +887,11 @@ std::vector<std::vector<std::string>> MapServer::mergedMaps() const {
   std::vector<std::vector<std::string>> out;
   for (auto& [id, robots] : by_map) out.push_back(std::move(robots));
   return out;
+}
+
+Status MapServer::writeMapOutputs(const std::string& out_dir) const {
+  if (!impl_->map_worker) return Status::failure("the occupancy map is off (occupancy_enabled: false) or not started");
+  return impl_->map_worker->writeOutputs(out_dir, keyframes());
 }
 
 std::vector<double> MapServer::ingestTimesMs() const {

@@ -78,6 +78,29 @@ void readServerConfig(ConfigReader& r, ServerAppConfig* c) {
   r.read("graph.outlier_chi2", &g.outlier_chi2, 0.1, 1e6);
   r.read("graph.max_outlier_rounds", &g.max_outlier_rounds, 0, 100);
   r.read("graph.num_threads", &g.num_threads, 1, 256);
+
+  r.read("map.enabled", &s.occupancy_enabled);
+  OccupancyMapConfig& o = s.occupancy;
+  r.read("map.resolution_m", &o.resolution_m, 0.005, 1.0);
+  r.read("map.max_range_m", &o.max_range_m, 0.1, 50.0);
+  r.read("map.min_range_m", &o.min_range_m, 0.0, 10.0);
+  r.read("map.prob_hit", &o.prob_hit, 0.5, 1.0);
+  r.read("map.prob_miss", &o.prob_miss, 0.0, 0.5);
+  r.read("map.clamp_min", &o.clamp_min, 0.0, 1.0);
+  r.read("map.clamp_max", &o.clamp_max, 0.0, 1.0);
+  r.read("map.rebuild_translation_m", &o.rebuild_translation_m, 0.0, 10.0);
+  r.read("map.rebuild_rotation_rad", &o.rebuild_rotation_rad, 0.0, 3.15);
+  r.read("map.pixel_stride", &o.pixel_stride, 0, 64);
+  r.read("map.cloud_voxel_fraction", &o.cloud_voxel_fraction, 0.0, 1.0);
+  r.read("map.keep_colors", &o.keep_colors);
+  r.read("map.stream_period_s", &s.map_stream_period_s, 0.0, 3600.0);
+  SliceConfig& sl = s.slice;
+  r.read("slice.period_s", &s.slice_period_s, 0.0, 3600.0);
+  r.read("slice.size_m", &sl.size_m, 0.1, 100.0);
+  r.read("slice.resolution_m", &sl.resolution_m, 0.005, 1.0);
+  r.read("slice.z_min_m", &sl.z_min_m, -10.0, 10.0);
+  r.read("slice.z_max_m", &sl.z_max_m, -10.0, 10.0);
+  r.read("slice.occupied_threshold", &sl.occupied_threshold, 0.0, 1.0);
 }
 
 }  // namespace rgbdmap

@@ -198,6 +198,14 @@ uint64_t OccupancyMap::revision(int map_id) const {
   return slot->tree ? slot->revision : 0;
 }
 
+std::vector<OccupancyMap::KeptCloud> OccupancyMap::keptClouds() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  std::vector<KeptCloud> out;
+  out.reserve(entries_.size());
+  for (const auto& [id, e] : entries_) out.push_back({e.cloud, e.map_id, e.T_map_cam});
+  return out;
+}
+
 OccupancyMapStats OccupancyMap::stats() const {
   OccupancyMapStats s;
   std::vector<std::shared_ptr<Slot>> slots;

@@ -30,6 +30,8 @@
 #include "rgbdmap/common/result.hpp"
 #include "rgbdmap/common/se3.hpp"
 #include "rgbdmap/loop/loop_detector.hpp"
+#include "rgbdmap/map/occupancy_map.hpp"
+#include "rgbdmap/map/occupancy_slice.hpp"
 #include "rgbdmap/proto/envelope.hpp"
 #include "rgbdmap/proto/messages.hpp"
 #include "rgbdmap/server/map_store.hpp"
@@ -57,6 +59,12 @@ struct MapServerConfig {
   double edge_sigma_floor_deg = 0.5;
   LoopDetectorConfig loop;
   PoseGraphConfig graph;
+  /// Occupancy map (issue #5), built on its own worker thread, never on the ingest worker.
+  bool occupancy_enabled = true;
+  OccupancyMapConfig occupancy;
+  SliceConfig slice;
+  double slice_period_s = 0.5;       ///< at most one OccupancySlice per robot per this period (after keyframes)
+  double map_stream_period_s = 2.0;  ///< MapUpdate to every robot (its own map); 0 turns the stream off
 
   std::string validate() const;  ///< "" when valid, else every problem ("; "-separated)
 };
@@ -100,6 +108,16 @@ struct MapServerStats {
   double loops_ms_median = 0.0;   ///< loop detection, graph insertion, loop edges stored
   double verify_ms_median = 0.0;  ///< of which geometric verification of the candidates
   int restored_keyframes = 0, restored_loops = 0;  ///< from the map directory at start
+  /// Occupancy map (zero when occupancy_enabled is false).
+  size_t map_keyframes = 0;           ///< keyframes inserted into the octree (restored ones included)
+  size_t map_tree_memory_bytes = 0;   ///< OcTree::memoryUsage() over all maps
+  size_t map_clouds_memory_bytes = 0; ///< kept keyframe clouds (for rebuilds and map.ply)
+  size_t map_leaves = 0, map_occupied_leaves = 0;
+  uint64_t map_rebuilds = 0;
+  double map_last_rebuild_ms = 0.0;
+  double map_insert_ms_median = 0.0;  ///< cloud + octree insertion per keyframe, on the map worker
+  uint64_t slices_sent = 0;
+  uint64_t map_updates_sent = 0, map_bytes_sent = 0;  ///< MapUpdate messages and their compressed bytes
   MapStoreRecovery recovery;
   std::vector<ServerRobotStats> robots;
 };
@@ -131,7 +149,8 @@ class MapServer {
   void stop();
 
   /// Blocks until the ingest queue is empty, every submitted optimisation has been applied and its
-  /// corrections published; false on timeout.
+  /// corrections published, the map worker has inserted every handed keyframe and no octree rebuild is
+  /// pending; false on timeout.
   bool waitIdle(double timeout_s);
   MapServerStats stats() const;
   /// Keyframes with their current (optimised) poses, in ingestion order.
@@ -140,6 +159,14 @@ class MapServer {
   std::vector<std::vector<std::string>> mergedMaps() const;
   /// Ingest times (ms per keyframe) so far, in order.
   std::vector<double> ingestTimesMs() const;
+
+  /// Writes the map's files into out_dir (created if missing): map.bt + map.ot (the tree of the map with the
+  /// most keyframes, i.e. the merged one) and map_<id>.bt for every other map, map.ply (coloured VoxelCloud
+  /// at 0.02 m from the kept keyframe clouds at their optimised poses), slice_<robot>.pgm/.yaml (each
+  /// robot's last slice) and map.png (top view of the main map with its robots' optimised keyframe
+  /// trajectories). Const: reads the current trees and clouds. Fails when occupancy is off or empty, or on
+  /// an I/O error (the files written so far stay).
+  Status writeMapOutputs(const std::string& out_dir) const;
 
  private:
   struct Impl;

@@ -131,6 +131,13 @@ class OccupancyMap {
   std::vector<int> mapIds() const;
   uint64_t revision(int map_id) const;  ///< increases on every insert and swap (0: no such map)
   OccupancyMapStats stats() const;
+  /// A kept keyframe cloud with the map id and pose it has now (the latest updatePoses), for exports.
+  struct KeptCloud {
+    std::shared_ptr<const KeyframeCloud> cloud;
+    int map_id = 0;
+    SE3 T_map_cam = SE3::Identity();
+  };
+  std::vector<KeptCloud> keptClouds() const;  ///< in keyframe id order; shares the clouds (no copies)
   const OccupancyMapConfig& config() const { return config_; }
 
   /// Stream bytes of map_id for a consumer that holds revision `since` (0 = nothing): the changed leaves

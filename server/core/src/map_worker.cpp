@@ -1,0 +1,256 @@
+#include "map_worker.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <pthread.h>
+
+#include "rgbdmap/common/logging.hpp"
+#include "rgbdmap/map/map_io.hpp"
+#include "rgbdmap/map/occupancy_slice.hpp"
+#include "rgbdmap/proto/codec.hpp"
+
+namespace rgbdmap {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+double nowS() { return std::chrono::duration<double>(Clock::now().time_since_epoch()).count(); }
+
+bool sameCamera(const CameraIntrinsics& a, const CameraIntrinsics& b) {
+  return a.fx == b.fx && a.fy == b.fy && a.cx == b.cx && a.cy == b.cy && a.width == b.width &&
+         a.height == b.height && a.distortion == b.distortion && a.depth_scale == b.depth_scale;
+}
+
+double median(std::vector<double> v) {
+  if (v.empty()) return 0.0;
+  const auto mid = v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2);
+  std::nth_element(v.begin(), mid, v.end());
+  return *mid;
+}
+
+}  // namespace
+
+MapWorker::MapWorker(const MapServerConfig& config, const MapStore& store, MapWorkerPublishers publishers)
+    : config_(config), store_(store), publishers_(std::move(publishers)), occupancy_(config.occupancy) {}
+
+MapWorker::~MapWorker() { stop(); }
+
+void MapWorker::start() {
+  if (!thread_.joinable()) thread_ = std::thread([this] { run(); });
+}
+
+void MapWorker::stop() {
+  {
+    std::lock_guard<std::mutex> lock(queue_mutex_);
+    stopping_ = true;
+  }
+  queue_cv_.notify_all();
+  idle_cv_.notify_all();
+  if (thread_.joinable()) thread_.join();
+}
+
+void MapWorker::addKeyframe(MapKeyframeJob job) {
+  {
+    std::lock_guard<std::mutex> lock(queue_mutex_);
+    if (stopping_) return;
+    Job j;
+    j.keyframe = std::move(job);
+    queue_.push_back(std::move(j));
+  }
+  queue_cv_.notify_one();
+}
+
+void MapWorker::updatePoses(std::vector<MapNodePose> poses) {
+  {
+    std::lock_guard<std::mutex> lock(queue_mutex_);
+    if (stopping_) return;
+    Job j;
+    j.is_keyframe = false;
+    j.poses = std::move(poses);
+    queue_.push_back(std::move(j));
+  }
+  queue_cv_.notify_one();
+}
+
+bool MapWorker::waitIdle(double timeout_s) const {
+  const auto deadline = Clock::now() + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(timeout_s));
+  {
+    std::unique_lock<std::mutex> lock(queue_mutex_);
+    if (!idle_cv_.wait_until(lock, deadline, [&] { return stopping_ || (queue_.empty() && !busy_); }) || stopping_)
+      return false;
+  }
+  return occupancy_.waitIdle(std::max(0.0, std::chrono::duration<double>(deadline - Clock::now()).count()));
+}
+
+void MapWorker::run() {
+  pthread_setname_np(pthread_self(), "rgbdmap-map");
+  const bool streaming = config_.map_stream_period_s > 0.0;
+  const auto period = std::chrono::duration_cast<Clock::duration>(
+      std::chrono::duration<double>(streaming ? config_.map_stream_period_s : 3600.0));
+  auto next_stream = Clock::now() + period;
+  for (;;) {
+    Job job;
+    bool have_job = false;
+    {
+      std::unique_lock<std::mutex> lock(queue_mutex_);
+      idle_cv_.notify_all();
+      queue_cv_.wait_until(lock, next_stream, [&] { return stopping_ || !queue_.empty(); });
+      if (stopping_) return;
+      if (!queue_.empty()) {
+        job = std::move(queue_.front());
+        queue_.pop_front();
+        busy_ = true;
+        have_job = true;
+      }
+    }
+    if (have_job) {
+      if (job.is_keyframe)
+        insertKeyframe(job.keyframe);
+      else
+        applyPoses(job.poses);
+    }
+    if (streaming && Clock::now() >= next_stream) {
+      publishStreams();
+      next_stream = Clock::now() + period;
+    }
+    std::lock_guard<std::mutex> lock(queue_mutex_);
+    busy_ = false;
+  }
+}
+
+const KeyframeCloudMaker& MapWorker::makerFor(const std::string& robot_id, const CameraIntrinsics& camera) {
+  auto& slot = makers_[robot_id];
+  if (!slot.second || !sameCamera(slot.first, camera)) {
+    slot.first = camera;
+    slot.second = std::make_unique<KeyframeCloudMaker>(PinholeCamera(camera), config_.occupancy);
+  }
+  return *slot.second;
+}
+
+void MapWorker::insertKeyframe(MapKeyframeJob& job) {
+  const auto t0 = Clock::now();
+  if (job.depth.empty()) {  // restored: read the images back from the store
+    const auto stored = store_.readKeyframe(job.node_id);
+    if (!stored) {
+      log::error("map: keyframe ", job.node_id, " not re-inserted: ", stored.error());
+      return;
+    }
+    const auto images = msg::decodeKeyframeImages(stored->keyframe);
+    if (!images) {
+      log::error("map: keyframe ", job.node_id, " not re-inserted: images: ", images.error());
+      return;
+    }
+    job.depth = images->depth;
+    job.color = images->color;
+  }
+  auto cloud = makerFor(job.robot_id, job.camera).make(job.node_id, job.depth, job.camera.depth_scale, job.color);
+  if (!cloud) {
+    log::error("map: keyframe ", job.node_id, " of ", job.robot_id, ": ", cloud.error());
+    return;
+  }
+  if (const Status s = occupancy_.insert(std::move(*cloud), job.map_id, job.T_map_kf); !s) {
+    log::error("map: keyframe ", job.node_id, " of ", job.robot_id, ": ", s.error());
+    return;
+  }
+  const double ms = std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
+  {
+    std::lock_guard<std::mutex> lock(state_mutex_);
+    nodes_[job.node_id] = {job.robot_id, job.map_id, job.T_map_kf};
+    auto& newest = newest_[job.robot_id];
+    newest = std::max(newest, job.node_id);
+    if (job.live) insert_ms_.push_back(ms);
+    ++inserted_;
+  }
+  if (!job.live) return;
+  const double now = nowS();
+  const auto last = last_slice_s_.find(job.robot_id);
+  if (last != last_slice_s_.end() && now - last->second < config_.slice_period_s) return;
+  last_slice_s_[job.robot_id] = now;
+  publishSlice(job.robot_id);
+}
+
+void MapWorker::applyPoses(const std::vector<MapNodePose>& poses) {
+  std::map<int64_t, std::pair<int, SE3>> update;
+  {
+    std::lock_guard<std::mutex> lock(state_mutex_);
+    for (const MapNodePose& p : poses) {
+      const auto it = nodes_.find(p.node_id);
+      if (it == nodes_.end()) continue;
+      it->second.map_id = p.map_id;
+      it->second.T_map_kf = p.T_map_kf;
+      update.emplace(p.node_id, std::make_pair(p.map_id, p.T_map_kf));
+    }
+  }
+  if (occupancy_.updatePoses(update)) log::debug("map: rebuild scheduled after an optimisation");
+}
+
+void MapWorker::publishSlice(const std::string& robot_id) {
+  NodeState newest;
+  {
+    std::lock_guard<std::mutex> lock(state_mutex_);
+    const auto it = newest_.find(robot_id);
+    if (it == newest_.end()) return;
+    newest = nodes_.at(it->second);
+  }
+  Result<msg::OccupancySlice> slice = Result<msg::OccupancySlice>::failure("no tree for map " +
+                                                                          std::to_string(newest.map_id));
+  occupancy_.read(newest.map_id, [&](const octomap::OcTree& tree) {
+    slice = extractSlice(tree, newest.T_map_kf, config_.slice);
+  });
+  if (!slice) {
+    log::warn("map: slice for ", robot_id, ": ", slice.error());
+    return;
+  }
+  slice->robot_id = robot_id;
+  if (publishers_.slice) publishers_.slice(robot_id, *slice);
+  std::lock_guard<std::mutex> lock(state_mutex_);
+  last_slices_[robot_id] = std::move(*slice);
+  ++slices_sent_;
+}
+
+void MapWorker::publishStreams() {
+  std::map<std::string, int> map_of;
+  {
+    std::lock_guard<std::mutex> lock(state_mutex_);
+    for (const auto& [robot, node] : newest_) map_of[robot] = nodes_.at(node).map_id;
+  }
+  for (const auto& [robot, map_id] : map_of) {
+    StreamState& state = streams_[robot];
+    const uint64_t since = state.map_id == map_id ? state.revision : 0;
+    if (since != 0 && occupancy_.revision(map_id) == since) continue;  // nothing new
+    const auto chunk = occupancy_.streamSince(map_id, since);
+    if (!chunk) {
+      log::warn("map: stream for ", robot, ": ", chunk.error());
+      continue;
+    }
+    msg::MapUpdate update;
+    if (const Status s = fillMapUpdate(*chunk, config_.occupancy.resolution_m, &update); !s) {
+      log::warn("map: stream for ", robot, ": ", s.error());
+      continue;
+    }
+    if (publishers_.map) publishers_.map(robot, update);
+    state.map_id = map_id;
+    state.revision = chunk->revision;
+    std::lock_guard<std::mutex> lock(state_mutex_);
+    ++map_updates_sent_;
+    map_bytes_sent_ += update.data.size();
+  }
+}
+
+void MapWorker::fillStats(MapServerStats* s) const {
+  const OccupancyMapStats o = occupancy_.stats();
+  s->map_tree_memory_bytes = o.tree_memory_bytes;
+  s->map_clouds_memory_bytes = o.clouds_memory_bytes;
+  s->map_leaves = o.leaf_nodes;
+  s->map_occupied_leaves = o.occupied_leaves;
+  s->map_rebuilds = o.rebuilds;
+  s->map_last_rebuild_ms = o.last_rebuild_ms;
+  std::lock_guard<std::mutex> lock(state_mutex_);
+  s->map_keyframes = inserted_;
+  s->map_insert_ms_median = median(insert_ms_);
+  s->slices_sent = slices_sent_;
+  s->map_updates_sent = map_updates_sent_;
+  s->map_bytes_sent = map_bytes_sent_;
+}
+
+}  // namespace rgbdmap
