@@ -2,16 +2,20 @@
 // Shared by the server tests: odometry keyframes of synthetic sequences (computed once per process), and a
 // scripted robot that speaks the real protocol (signed Hello and Keyframes, acks and corrections back).
 #include <condition_variable>
+#include <functional>
 #include <map>
 #include <memory>
 #include <mutex>
 #include <set>
+
+#include <octomap/OcTree.h>
 
 #include "proto/proto_test_util.hpp"
 #include "rgbdmap/client/keyframe_message.hpp"
 #include "rgbdmap/client/odometry.hpp"
 #include "rgbdmap/common/evaluation.hpp"
 #include "rgbdmap/common/synth.hpp"
+#include "rgbdmap/map/map_io.hpp"
 #include "rgbdmap/proto/channels.hpp"
 #include "rgbdmap/proto/envelope.hpp"
 #include "rgbdmap/server/map_server.hpp"
@@ -58,7 +62,8 @@ inline const OdometrySegment& loopSegment(int frames, int first, int end) {
 /// Ground truth at the keyframes' stamps vs. poses given per keyframe id.
 inline Result<AteResult> keyframeAte(const Trajectory& gt, const Trajectory& est) { return computeAte(gt, est); }
 
-/// A robot driven by the test: signs and publishes, records what the server sends back.
+/// A robot driven by the test: signs and publishes, records what the server sends back (acks, corrections,
+/// occupancy slices, and the map stream applied to its own copy of the tree).
 class ScriptedRobot {
  public:
   ScriptedRobot(transport::Transport& transport, std::string id, msg::Bytes key, int64_t session)
@@ -73,7 +78,8 @@ class ScriptedRobot {
       auto s = weak.lock();
       if (s) s->onMessage(data, size);
     };
-    for (const auto type : {msg::MessageType::kKeyframeAck, msg::MessageType::kPoseCorrections})
+    for (const auto type : {msg::MessageType::kKeyframeAck, msg::MessageType::kPoseCorrections,
+                            msg::MessageType::kOccupancySlice, msg::MessageType::kMapUpdate})
       EXPECT_TRUE(transport_.subscribe(*msg::channelFor(type, id_), handler));
   }
 
@@ -127,6 +133,28 @@ class ScriptedRobot {
     std::lock_guard<std::mutex> lock(state_->mutex);
     return state_->corrections;
   }
+  int slicesReceived() const {
+    std::lock_guard<std::mutex> lock(state_->mutex);
+    return state_->slices;
+  }
+  std::optional<msg::OccupancySlice> lastSlice() const {
+    std::lock_guard<std::mutex> lock(state_->mutex);
+    return state_->slice;
+  }
+  struct MapStreamSeen {
+    int updates = 0, full = 0, partial = 0, failed = 0;
+    size_t bytes = 0;
+  };
+  MapStreamSeen mapStream() const {
+    std::lock_guard<std::mutex> lock(state_->mutex);
+    return state_->stream;
+  }
+  /// Waits until pred(tree) holds for the robot's copy of the streamed map (checked on every update).
+  bool waitMap(const std::function<bool(const octomap::OcTree&)>& pred, double timeout_s) const {
+    std::unique_lock<std::mutex> lock(state_->mutex);
+    return state_->cv.wait_for(lock, std::chrono::duration<double>(timeout_s),
+                               [&] { return state_->map && pred(*state_->map); });
+  }
 
  private:
   struct State {
@@ -137,6 +165,10 @@ class ScriptedRobot {
     std::map<int, bool> acks;
     int ack_messages = 0;
     std::optional<msg::PoseCorrections> corrections;
+    int slices = 0;
+    std::optional<msg::OccupancySlice> slice;
+    MapStreamSeen stream;
+    std::unique_ptr<octomap::OcTree> map;
     void onMessage(const uint8_t* data, size_t size) {
       auto opened = msg::openEnvelope(data, size, keys, &guard);
       if (!opened) return;
@@ -148,6 +180,18 @@ class ScriptedRobot {
         }
       } else if (opened->type == msg::MessageType::kPoseCorrections) {
         if (auto c = msg::decodeMessage<msg::PoseCorrections>(*opened)) corrections = *c;
+      } else if (opened->type == msg::MessageType::kOccupancySlice) {
+        if (auto sl = msg::decodeMessage<msg::OccupancySlice>(*opened)) {
+          slice = std::move(*sl);
+          ++slices;
+        }
+      } else if (opened->type == msg::MessageType::kMapUpdate) {
+        if (auto u = msg::decodeMessage<msg::MapUpdate>(*opened)) {
+          ++stream.updates;
+          ++(u->full ? stream.full : stream.partial);
+          stream.bytes += u->data.size();
+          if (!applyMapUpdate(*u, &map)) ++stream.failed;
+        }
       }
       cv.notify_all();
     }

@@ -115,7 +115,7 @@ struct MapServerStats {
   size_t map_leaves = 0, map_occupied_leaves = 0;
   uint64_t map_rebuilds = 0;
   double map_last_rebuild_ms = 0.0;
-  double map_insert_ms_median = 0.0;  ///< cloud + octree insertion per keyframe, on the map worker
+  double map_insert_ms_median = 0.0;  ///< cloud + octree insertion per live keyframe (map worker CPU time)
   uint64_t slices_sent = 0;
   uint64_t map_updates_sent = 0, map_bytes_sent = 0;  ///< MapUpdate messages and their compressed bytes
   MapStoreRecovery recovery;

@@ -1,0 +1,258 @@
+// The occupancy octree inside the mapping server (issue #5): a synthetic run over memq:// builds the room,
+// robots receive slices and the map stream, an optimisation rebuilds the map, the written files read back,
+// and a restart re-inserts the stored keyframes.
+#include <cmath>
+#include <filesystem>
+
+#include <gtest/gtest.h>
+
+#include "rgbdmap/export/point_cloud_export.hpp"
+#include "rgbdmap/export/slice_export.hpp"
+#include "server/server_test_util.hpp"
+
+namespace rgbdmap {
+namespace {
+
+using testing::loopSegment;
+using testing::OdometrySegment;
+using testing::ScriptedRobot;
+
+constexpr int kFrames = 300;
+
+std::string freshDir(const std::string& name) {
+  const std::string dir = ::testing::TempDir() + "rgbdmap_occserver_" + name + "_" + std::to_string(::getpid());
+  std::filesystem::remove_all(dir);
+  return dir;
+}
+
+MapServerConfig testConfig(const std::string& dir) {
+  MapServerConfig config;
+  config.map_dir = dir;
+  config.robots = {"robot0"};
+  config.store_sync = false;
+  config.status_period_s = 0.0;
+  config.map_stream_period_s = 0.2;  // several stream messages within the test
+  config.slice_period_s = 0.0;       // a slice after every keyframe
+  // The synthetic loop's odometry drifts ~1 cm, so its loop closure moves keyframes by less than the default
+  // 3 cm rebuild threshold; a 5 mm threshold makes the optimisation's correction rebuild the map.
+  config.occupancy.rebuild_translation_m = 0.005;
+  config.occupancy.rebuild_rotation_rad = 0.005;
+  return config;
+}
+
+struct Harness {
+  std::unique_ptr<transport::Transport> transport = std::move(transport::makeTransport("memq://").value());
+  std::unique_ptr<MapServer> server;
+  explicit Harness(const MapServerConfig& config) {
+    start(config);
+    EXPECT_TRUE(transport->start());
+  }
+  void start(const MapServerConfig& config) {
+    msg::KeyStore keys;
+    EXPECT_TRUE(keys.add("robot0", rgbdmap::testing::testKey(1)));
+    server = std::make_unique<MapServer>(config, *transport, std::move(keys));
+    const Status s = server->start();
+    EXPECT_TRUE(s) << s.error();
+  }
+  ~Harness() {
+    transport->stop();
+    if (server) server->stop();
+  }
+};
+
+void drive(Harness& h, ScriptedRobot& robot, const OdometrySegment& seg, size_t from, size_t to) {
+  robot.hello(seg.camera);
+  std::set<int> ids;
+  for (size_t i = from; i < std::min(to, seg.keyframes.size()); ++i) {
+    robot.send(*seg.keyframes[i], seg.images[i]);
+    ids.insert(seg.keyframes[i]->id);
+  }
+  EXPECT_TRUE(robot.waitAcked(ids, 120.0)) << "not every keyframe was acknowledged";
+  EXPECT_TRUE(h.server->waitIdle(120.0));
+}
+
+/// The synthetic world pose of the map frame: the map frame is the first keyframe's odometry frame, which
+/// the server keeps fixed, so world <- map = gt(first keyframe) * (T_map_kf of node 0)^-1.
+SE3 worldFromMap(const OdometrySegment& seg, const MapServer& server) {
+  const std::vector<ServerKeyframe> kfs = server.keyframes();
+  EXPECT_FALSE(kfs.empty());
+  const StampedPose* best = &seg.gt.front();
+  for (const StampedPose& p : seg.gt)
+    if (std::abs(p.timestamp - kfs.front().timestamp) < std::abs(best->timestamp - kfs.front().timestamp)) best = &p;
+  return best->T_world_cam * kfs.front().T_map_kf.inverse();
+}
+
+/// Share of the occupied leaves whose centre lies within 2 leaf sizes of a true surface of the room.
+double nearSurfaceFraction(const octomap::OcTree& tree, const SyntheticScene& scene, const SE3& T_world_map,
+                           size_t* occupied_out) {
+  size_t occupied = 0, near = 0;
+  for (auto it = tree.begin_leafs(), end = tree.end_leafs(); it != end; ++it) {
+    if (!tree.isNodeOccupied(*it)) continue;
+    ++occupied;
+    const octomap::point3d c = it.getCoordinate();
+    if (scene.distanceToSurface(T_world_map * Vec3(c.x(), c.y(), c.z())) <= 2.0 * tree.getResolution()) ++near;
+  }
+  if (occupied_out) *occupied_out = occupied;
+  return occupied ? double(near) / double(occupied) : 0.0;
+}
+
+const SyntheticScene& loopScene() {
+  static const SyntheticScene scene = [] {
+    SynthConfig cfg;
+    cfg.scene = "loop";
+    cfg.frames = kFrames;
+    return std::move(SyntheticScene::build(cfg).value());
+  }();
+  return scene;
+}
+
+size_t countOccupied(const octomap::OcTree& tree) {
+  size_t n = 0;
+  for (auto it = tree.begin_leafs(), end = tree.end_leafs(); it != end; ++it) n += tree.isNodeOccupied(*it);
+  return n;
+}
+
+/// Occupied volume in leaf-size cubes (independent of how the tree is pruned).
+double occupiedCells(const octomap::OcTree& tree) {
+  double n = 0;
+  const double res = tree.getResolution();
+  for (auto it = tree.begin_leafs(), end = tree.end_leafs(); it != end; ++it)
+    if (tree.isNodeOccupied(*it)) n += std::pow(it.getSize() / res, 3);
+  return n;
+}
+
+TEST(MapServerOccupancy, SyntheticLoopBuildsTheRoomSendsSlicesAndStreamsAndWritesFiles) {
+  const OdometrySegment& seg = loopSegment(kFrames, 0, kFrames);
+  ASSERT_GT(seg.keyframes.size(), 20u);
+  Harness h(testConfig(freshDir("loop")));
+  ScriptedRobot robot(*h.transport, "robot0", rgbdmap::testing::testKey(1), 100);
+  drive(h, robot, seg, 0, seg.keyframes.size());
+  const MapServerStats s = h.server->stats();
+  EXPECT_EQ(s.map_keyframes, seg.keyframes.size());
+  EXPECT_GE(s.optimizations, 1);
+  EXPECT_GE(s.map_rebuilds, 1u) << "the loop closure's optimisation must rebuild the map";
+  EXPECT_GT(s.map_occupied_leaves, 1000u);
+  EXPECT_GT(s.map_tree_memory_bytes, 0u);
+  EXPECT_EQ(s.slices_sent, seg.keyframes.size()) << "slice_period_s 0: one slice per keyframe";
+  std::printf("[ measured ] synthetic loop, %zu keyframes: ingest median %.1f ms, octree insert median %.1f ms "
+              "(map worker), %zu leaves (%zu occupied), tree %.2f MB, clouds %.2f MB, %llu rebuilds (last %.0f ms), "
+              "%llu slices, %llu map updates (%.1f KB)\n",
+              seg.keyframes.size(), s.ingest_ms_median, s.map_insert_ms_median, s.map_leaves, s.map_occupied_leaves,
+              s.map_tree_memory_bytes / 1e6, s.map_clouds_memory_bytes / 1e6,
+              static_cast<unsigned long long>(s.map_rebuilds), s.map_last_rebuild_ms,
+              static_cast<unsigned long long>(s.slices_sent), static_cast<unsigned long long>(s.map_updates_sent),
+              s.map_bytes_sent / 1e3);
+
+  // The robot's slices: the last one is around its last keyframe and sees walls and free floor space.
+  EXPECT_EQ(robot.slicesReceived(), static_cast<int>(seg.keyframes.size()));
+  const auto slice = robot.lastSlice();
+  ASSERT_TRUE(slice);
+  EXPECT_EQ(slice->robot_id, "robot0");
+  const auto count = [&](int8_t v) { return std::count(slice->cells.begin(), slice->cells.end(), v); };
+  EXPECT_GT(count(msg::OccupancySlice::kOccupied), 50);
+  EXPECT_GT(count(msg::OccupancySlice::kFree), 500);
+
+  // The written files read back; the octree's occupied cells lie on the room's surfaces.
+  const std::string out = freshDir("loop_out");
+  const Status written = h.server->writeMapOutputs(out);
+  ASSERT_TRUE(written) << written.error();
+  auto bt = readMapFile(out + "/map.bt");
+  ASSERT_TRUE(bt) << bt.error();
+  auto ot = readMapFile(out + "/map.ot");
+  ASSERT_TRUE(ot) << ot.error();
+  size_t occupied = 0;
+  const SE3 T_world_map = worldFromMap(seg, *h.server);
+  const double near = nearSurfaceFraction(**bt, loopScene(), T_world_map, &occupied);
+  std::printf("[ measured ] map.bt: %zu occupied leaves, %.1f%% within 2 leaves of a true surface\n", occupied,
+              100.0 * near);
+  EXPECT_EQ(occupied, s.map_occupied_leaves);
+  EXPECT_EQ(countOccupied(**ot), occupied);
+  EXPECT_GE(near, 0.9);
+  auto ply = readPly(out + "/map.ply");
+  ASSERT_TRUE(ply) << ply.error();
+  ASSERT_GT(ply->size(), 10000u);
+  size_t ply_near = 0;
+  for (const ColoredPoint& p : *ply)
+    ply_near += loopScene().distanceToSurface(T_world_map * p.p.cast<double>()) <= 0.03;
+  EXPECT_GE(double(ply_near) / double(ply->size()), 0.9) << ply_near << " of " << ply->size();
+  auto read_slice = readSlice(out + "/slice_robot0.yaml");
+  ASSERT_TRUE(read_slice) << read_slice.error();
+  EXPECT_EQ(read_slice->cells, slice->cells) << "the file holds the robot's last slice";
+  EXPECT_GT(std::filesystem::file_size(out + "/map.png"), 1000u);
+
+  // The map stream converges to the server's tree (full first and after rebuilds, partial in between).
+  const double cells = occupiedCells(**bt);
+  double robot_cells = 0;
+  EXPECT_TRUE(robot.waitMap([&](const octomap::OcTree& t) { return (robot_cells = occupiedCells(t)) == cells; }, 10.0))
+      << "the streamed map never matched map.bt: occupied cells " << robot_cells << " vs " << cells;
+  const auto seen = robot.mapStream();
+  EXPECT_GE(seen.full, 1);
+  EXPECT_EQ(seen.failed, 0);
+  EXPECT_GT(seen.bytes, 0u);
+}
+
+TEST(MapServerOccupancy, RestartReinsertsTheStoredKeyframes) {
+  const OdometrySegment& seg = loopSegment(kFrames, 0, kFrames);
+  const std::string dir = freshDir("restart");
+  const size_t half = seg.keyframes.size() / 2;
+  Harness h(testConfig(dir));
+  size_t occupied_before = 0;
+  {
+    ScriptedRobot robot(*h.transport, "robot0", rgbdmap::testing::testKey(1), 100);
+    drive(h, robot, seg, 0, half);
+    occupied_before = h.server->stats().map_occupied_leaves;
+  }
+  h.server->stop();
+  h.server.reset();
+  h.start(testConfig(dir));
+  ASSERT_TRUE(h.server->waitIdle(60.0));
+  const MapServerStats s = h.server->stats();
+  EXPECT_EQ(s.map_keyframes, half) << "every stored keyframe re-inserted from the store";
+  std::printf("[ measured ] restart: %zu keyframes re-inserted, occupied leaves %zu before, %zu after\n",
+              s.map_keyframes, occupied_before, s.map_occupied_leaves);
+  EXPECT_NEAR(double(s.map_occupied_leaves), double(occupied_before), 0.05 * double(occupied_before));
+  EXPECT_EQ(s.slices_sent, 0u) << "restored keyframes send no slices";
+  // The robot goes on; its new keyframes join the restored map and get slices.
+  ScriptedRobot robot(*h.transport, "robot0", rgbdmap::testing::testKey(1), 100);
+  drive(h, robot, seg, half, seg.keyframes.size());
+  EXPECT_EQ(h.server->stats().map_keyframes, seg.keyframes.size());
+  EXPECT_GE(robot.slicesReceived(), 1);
+  const std::string out = freshDir("restart_out");
+  ASSERT_TRUE(h.server->writeMapOutputs(out));
+  auto bt = readMapFile(out + "/map.bt");
+  ASSERT_TRUE(bt) << bt.error();
+  EXPECT_GE(nearSurfaceFraction(**bt, loopScene(), worldFromMap(seg, *h.server), nullptr), 0.9);
+}
+
+TEST(MapServerOccupancy, OffMeansNoOctreeNoSlicesAndAClearErrorForFiles) {
+  const OdometrySegment& seg = loopSegment(kFrames, 0, 60);
+  MapServerConfig config = testConfig(freshDir("off"));
+  config.occupancy_enabled = false;
+  Harness h(config);
+  ScriptedRobot robot(*h.transport, "robot0", rgbdmap::testing::testKey(1), 100);
+  drive(h, robot, seg, 0, 3);
+  const MapServerStats s = h.server->stats();
+  EXPECT_EQ(s.keyframes, 3);
+  EXPECT_EQ(s.map_keyframes, 0u);
+  EXPECT_EQ(robot.slicesReceived(), 0);
+  const Status written = h.server->writeMapOutputs(freshDir("off_out"));
+  ASSERT_FALSE(written);
+  EXPECT_NE(written.error().find("occupancy"), std::string::npos) << written.error();
+}
+
+TEST(MapServerOccupancy, InvalidOccupancyConfigurationIsRefusedAtStart) {
+  MapServerConfig config = testConfig(freshDir("badconfig"));
+  config.occupancy.resolution_m = -1.0;
+  config.slice.z_min_m = std::nan("");
+  config.map_stream_period_s = -2.0;
+  auto transport = std::move(transport::makeTransport("memq://").value());
+  MapServer server(config, *transport, msg::KeyStore::openMode());
+  const Status s = server.start();
+  ASSERT_FALSE(s);
+  EXPECT_NE(s.error().find("occupancy"), std::string::npos) << s.error();
+  EXPECT_NE(s.error().find("slice"), std::string::npos) << s.error();
+  EXPECT_NE(s.error().find("map_stream_period_s"), std::string::npos) << s.error();
+}
+
+}  // namespace
+}  // namespace rgbdmap
