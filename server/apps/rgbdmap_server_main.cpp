@@ -27,7 +27,7 @@ const char* kUsage =
     "  --status-every S    print a status line every S seconds (default 5; 0: never)\n"
     "  --log-level L       debug|info|warn|error\n"
     "On SIGINT/SIGTERM it stops and writes keyframes_<robot>.txt (optimised, map frame) into the map "
-    "directory.\n";
+    "directory, and (map.enabled) the map files: map.bt, map.ot, map.ply, map.png, slice_<robot>.pgm/.yaml.\n";
 
 std::atomic<bool> g_stop{false};
 void onSignal(int) { g_stop = true; }
@@ -124,8 +124,20 @@ int main(int argc, char** argv) {
     if (const Status s = writeTumTrajectory(path, traj, "rgbdmap-server, optimised keyframes, map frame"); !s)
       log::error(s.error());
   }
+  bool map_files = false;
+  if (config.server.occupancy_enabled && !server.keyframes().empty()) {
+    if (const Status st = server.writeMapOutputs(config.server.map_dir); !st)
+      log::error("map files: ", st.error());
+    else
+      map_files = true;
+  }
   const MapServerStats s = server.stats();
-  std::fprintf(stderr, "[server] final: keyframes %d loops %d maps %d; wrote keyframes_<robot>.txt to %s\n",
-               s.keyframes, s.loops_accepted, s.maps, config.server.map_dir.c_str());
+  std::fprintf(stderr, "[server] final: keyframes %d loops %d maps %d; octree %zu leaves (%zu occupied), %.1f MB, "
+               "%llu rebuilds, %llu slices sent; wrote keyframes_<robot>.txt%s to %s\n",
+               s.keyframes, s.loops_accepted, s.maps, s.map_leaves, s.map_occupied_leaves,
+               s.map_tree_memory_bytes / 1e6, static_cast<unsigned long long>(s.map_rebuilds),
+               static_cast<unsigned long long>(s.slices_sent),
+               map_files ? ", map.bt, map.ot, map.ply, map.png, slice_<robot>.pgm/.yaml" : "",
+               config.server.map_dir.c_str());
   return 0;
 }

@@ -1,7 +1,8 @@
 // Server ingest benchmark: keyframes of a real (fr1_rpy, when ../shared/data is there) or synthetic sequence
 // go one at a time through a MapServer over memq:// with durable storage on; prints the server's per-keyframe
-// ingest time (decode + store + candidates + verification + graph) and its stages. Odometry and image
-// encoding happen before the clock starts. Run on one core: taskset -c 1 build/bin/bench_map_server
+// ingest time (decode + store + candidates + verification + graph) and its stages, then the occupancy map's
+// numbers (octree insertion and slice extraction on the map worker, tree size, rebuilds, map files). Odometry
+// and image encoding happen before the clock starts. Run on one core: taskset -c 1 build/bin/bench_map_server
 #include <chrono>
 #include <condition_variable>
 #include <cstdio>
@@ -96,7 +97,7 @@ int main() {
     std::unique_lock<std::mutex> lock(mutex);
     cv.wait_for(lock, std::chrono::seconds(30), [&] { return acked.count(kf.keyframe_id) > 0; });
     lock.unlock();
-    server.waitIdle(30.0);  // one keyframe at a time: no queueing in the numbers
+    server.waitIdle(30.0);  // one keyframe at a time (its octree insertion too): no queueing in the numbers
   }
   const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   server.waitIdle(60.0);
@@ -111,10 +112,36 @@ int main() {
               s.decode_ms_median, s.store_ms_median, s.loops_ms_median, s.verify_ms_median);
   std::printf("  loops accepted %d (disabled %d), candidates %d, optimisations %d (last %.1f ms)\n",
               s.loops_accepted, s.loops_disabled, s.loop_candidates, s.optimizations, s.last_optimize_ms);
-  std::printf("  wall %.2f s for the sequence (%.1f keyframes/s including acknowledgements)\n", wall,
+  std::printf("  wall %.2f s for the sequence (%.1f keyframes/s including acknowledgements and octree)\n", wall,
               s.keyframes / wall);
+  const std::string out = config.map_dir + "_out";
+  const auto t_out = std::chrono::steady_clock::now();
+  const Status written = server.writeMapOutputs(out);
+  const double out_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t_out).count();
+  const auto size_kb = [&](const char* name) {
+    std::error_code ec;
+    const auto bytes = std::filesystem::file_size(out + "/" + name, ec);
+    return ec ? -1.0 : static_cast<double>(bytes) / 1e3;
+  };
+  std::printf("occupancy map (%.2f m, on the map worker thread, not in the ingest time above):\n",
+              config.occupancy.resolution_m);
+  std::printf("  octree insertion      median %6.1f ms CPU per keyframe (cloud reduction + insertion), %zu keyframes\n",
+              s.map_insert_ms_median, s.map_keyframes);
+  std::printf("  slice extraction      median %6.2f ms CPU (%.0f m x %.0f m at %.2f m), %llu slices sent\n",
+              s.slice_ms_median, config.slice.size_m, config.slice.size_m, config.slice.resolution_m,
+              static_cast<unsigned long long>(s.slices_sent));
+  std::printf("  tree                  %zu leaves (%zu occupied), %.2f MB in memory; kept clouds %.2f MB\n",
+              s.map_leaves, s.map_occupied_leaves, s.map_tree_memory_bytes / 1e6, s.map_clouds_memory_bytes / 1e6);
+  std::printf("  rebuilds              %llu (last %.0f ms)\n", static_cast<unsigned long long>(s.map_rebuilds),
+              s.map_last_rebuild_ms);
+  std::printf("  map stream            %llu updates, %.1f KB (zstd)\n",
+              static_cast<unsigned long long>(s.map_updates_sent), s.map_bytes_sent / 1e3);
+  std::printf("  map files             %s in %.0f ms: map.bt %.1f KB, map.ot %.1f KB, map.ply %.1f KB, map.png %.1f KB\n",
+              written ? "written" : written.error().c_str(), out_ms, size_kb("map.bt"), size_kb("map.ot"),
+              size_kb("map.ply"), size_kb("map.png"));
   transport->stop();
   server.stop();
   std::filesystem::remove_all(config.map_dir);
+  std::filesystem::remove_all(out);
   return 0;
 }

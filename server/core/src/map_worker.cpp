@@ -200,6 +200,7 @@ void MapWorker::publishSlice(const std::string& robot_id) {
     if (it == newest_.end()) return;
     newest = nodes_.at(it->second);
   }
+  const double cpu0 = threadCpuMs();
   Result<msg::OccupancySlice> slice = Result<msg::OccupancySlice>::failure("no tree for map " +
                                                                           std::to_string(newest.map_id));
   occupancy_.read(newest.map_id, [&](const octomap::OcTree& tree) {
@@ -209,9 +210,11 @@ void MapWorker::publishSlice(const std::string& robot_id) {
     log::warn("map: slice for ", robot_id, ": ", slice.error());
     return;
   }
+  const double cpu_ms = threadCpuMs() - cpu0;
   slice->robot_id = robot_id;
   if (publishers_.slice) publishers_.slice(robot_id, *slice);
   std::lock_guard<std::mutex> lock(state_mutex_);
+  slice_ms_.push_back(cpu_ms);
   last_slices_[robot_id] = std::move(*slice);
   ++slices_sent_;
 }
@@ -256,6 +259,7 @@ void MapWorker::fillStats(MapServerStats* s) const {
   std::lock_guard<std::mutex> lock(state_mutex_);
   s->map_keyframes = inserted_;
   s->map_insert_ms_median = median(insert_ms_);
+  s->slice_ms_median = median(slice_ms_);
   s->slices_sent = slices_sent_;
   s->map_updates_sent = map_updates_sent_;
   s->map_bytes_sent = map_bytes_sent_;

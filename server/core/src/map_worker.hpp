@@ -115,6 +115,7 @@ class MapWorker {
   std::map<std::string, int64_t> newest_;  ///< robot -> its newest inserted node
   std::map<std::string, msg::OccupancySlice> last_slices_;
   std::vector<double> insert_ms_;
+  std::vector<double> slice_ms_;
   size_t inserted_ = 0;
   uint64_t slices_sent_ = 0, map_updates_sent_ = 0, map_bytes_sent_ = 0;
 };

@@ -116,6 +116,7 @@ struct MapServerStats {
   uint64_t map_rebuilds = 0;
   double map_last_rebuild_ms = 0.0;
   double map_insert_ms_median = 0.0;  ///< cloud + octree insertion per live keyframe (map worker CPU time)
+  double slice_ms_median = 0.0;  ///< slice extraction (map worker CPU time)
   uint64_t slices_sent = 0;
   uint64_t map_updates_sent = 0, map_bytes_sent = 0;  ///< MapUpdate messages and their compressed bytes
   MapStoreRecovery recovery;
