@@ -2,7 +2,8 @@
 // go one at a time through a MapServer over memq:// with durable storage on; prints the server's per-keyframe
 // ingest time (decode + store + candidates + verification + graph) and its stages, then the occupancy map's
 // numbers (octree insertion and slice extraction on the map worker, tree size, rebuilds, map files). Odometry
-// and image encoding happen before the clock starts. Run on one core: taskset -c 1 build/bin/bench_map_server
+// and image encoding happen before the clock starts. `--no-occupancy` turns the octree off (A/B comparison).
+// Run on one core: taskset -c 1 build/bin/bench_map_server
 #include <chrono>
 #include <condition_variable>
 #include <cstdio>
@@ -57,7 +58,8 @@ Sequence prepare() {
 
 }  // namespace
 
-int main() {
+int main(int argc, char** argv) {
+  const bool occupancy = !(argc > 1 && std::string(argv[1]) == "--no-occupancy");  // A/B on a shared machine
   cv::setNumThreads(1);
   log::setLevel(log::Level::kWarn);
   const Sequence seq = prepare();
@@ -68,6 +70,7 @@ int main() {
   config.robots = {"robot0"};
   config.store_sync = true;
   config.graph.num_threads = 1;
+  config.occupancy_enabled = occupancy;
   MapServer server(config, *transport, msg::KeyStore::openMode());
   if (!server.start() || !transport->start()) return 1;
 
@@ -102,8 +105,8 @@ int main() {
   const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   server.waitIdle(60.0);
   const MapServerStats s = server.stats();
-  std::printf("bench_map_server: %s, %d keyframes, store fdatasync on, one keyframe in flight\n", seq.name.c_str(),
-              s.keyframes);
+  std::printf("bench_map_server: %s, %d keyframes, store fdatasync on, one keyframe in flight, octree %s\n",
+              seq.name.c_str(), s.keyframes, occupancy ? "on" : "off (--no-occupancy)");
   std::printf("  ingest per keyframe   median %6.1f ms  p90 %6.1f ms  max %6.1f ms   (target: median <= 30 ms)\n",
               s.ingest_ms_median, s.ingest_ms_p90, s.ingest_ms_max);
   std::printf("  ingest CPU time       median %6.1f ms  p90 %6.1f ms   (the worker thread's own CPU time)\n",
@@ -115,6 +118,12 @@ int main() {
   std::printf("  wall %.2f s for the sequence (%.1f keyframes/s including acknowledgements and octree)\n", wall,
               s.keyframes / wall);
   const std::string out = config.map_dir + "_out";
+  if (!occupancy) {
+    transport->stop();
+    server.stop();
+    std::filesystem::remove_all(config.map_dir);
+    return 0;
+  }
   const auto t_out = std::chrono::steady_clock::now();
   const Status written = server.writeMapOutputs(out);
   const double out_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t_out).count();
