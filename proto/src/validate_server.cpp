@@ -73,7 +73,11 @@ Status validate(const MapUpdate& m) {
 }
 
 Status validate(const VelocityCommand& m) {
-  if (Status s = validateToRobot(m.header, m.robot_id); !s) return s;
+  // From the server, or from the robot itself (its on-board avoidance commanding its motor controller).
+  if (Status s = validate(m.header); !s) return s;
+  if (!isRobotId(m.robot_id)) return fail("invalid robot id");
+  if (m.header.sender != kServerId && m.header.sender != m.robot_id)
+    return fail("sender is neither the server nor the commanded robot");
   if (!finiteVec(m.linear_mps, kMaxSpeed) || !finiteVec(m.angular_radps, kMaxSpeed))
     return fail("velocity out of range");
   if (!(m.duration_s >= 0.0 && m.duration_s <= kMaxCommandDuration)) return fail("duration out of range");

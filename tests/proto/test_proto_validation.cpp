@@ -143,6 +143,11 @@ TEST(MessageValidation, ServerMessages) {
   EXPECT_EQ(encodePayload(v).error(), "velocity out of range");
   v.linear_mps.x() = kNaN;
   EXPECT_EQ(encodePayload(v).error(), "velocity out of range");
+  v.linear_mps.x() = 0.2;
+  v.header.sender = v.robot_id;
+  EXPECT_TRUE(encodePayload(v)) << "a robot may command itself (its on-board avoidance)";
+  v.header.sender = v.robot_id + "x";
+  EXPECT_EQ(encodePayload(v).error(), "sender is neither the server nor the commanded robot");
 
   PoseCorrections c = testing::sampleCorrections();
   c.header = serverHeader();

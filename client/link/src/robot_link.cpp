@@ -8,6 +8,9 @@
 #include "rgbdmap/client/keyframe_message.hpp"
 #include "rgbdmap/common/logging.hpp"
 #include "rgbdmap/proto/channels.hpp"
+#include <functional>
+#include <string_view>
+
 #include "robot_link_impl.hpp"
 
 namespace rgbdmap {
@@ -101,6 +104,29 @@ Status RobotLink::Impl::sealAndPublish(const T& message, const std::string& chan
   if (!bytes) return Status::failure(std::string("seal ") + msg::toString(T::kType) + ": " + bytes.error());
   Status s = transport_.publish(channel, *bytes);
   if (s) bytes_sent_ += bytes->size();
+  return s;
+}
+
+Status RobotLink::Impl::publishCommand(msg::VelocityCommand command) {
+  command.robot_id = options_.robot_id;
+  Result<msg::Bytes> bytes = [&] {
+    std::lock_guard<std::mutex> lock(signer_mutex_);
+    return signer_.seal(command, nowUtime());
+  }();
+  if (!bytes) return Status::failure(std::string("seal VelocityCommand: ") + bytes.error());
+  const Result<std::string> channel = msg::channelFor(msg::MessageType::kVelocityCommand, options_.robot_id);
+  if (!channel) return Status::failure(channel.error());
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    own_commands_.push_back(std::hash<std::string_view>()(
+        std::string_view(reinterpret_cast<const char*>(bytes->data()), bytes->size())));
+    if (own_commands_.size() > 16) own_commands_.pop_front();
+  }
+  Status s = transport_.publish(*channel, *bytes);
+  if (!s) return s;
+  bytes_sent_ += bytes->size();
+  std::lock_guard<std::mutex> lock(mutex_);
+  ++counts_.commands_sent;
   return s;
 }
 
@@ -280,6 +306,7 @@ std::optional<SE3> RobotLink::correctedKeyframe(int keyframe_id) const {
   return impl_->correctedKeyframe(keyframe_id);
 }
 std::optional<msg::OccupancySlice> RobotLink::latestSlice() const { return impl_->latest(&Impl::slice_); }
+Status RobotLink::publishCommand(const msg::VelocityCommand& command) { return impl_->publishCommand(command); }
 std::optional<msg::VelocityCommand> RobotLink::latestCommand() const {
   return impl_->latest(&Impl::command_);
 }

@@ -4,6 +4,7 @@
 #include <atomic>
 #include <chrono>
 #include <condition_variable>
+#include <deque>
 #include <map>
 #include <memory>
 #include <mutex>
@@ -27,6 +28,7 @@ class RobotLink::Impl : public std::enable_shared_from_this<RobotLink::Impl> {
   void stop();
   Status sendKeyframe(const Keyframe& keyframe, const RgbdFrame& frame);
   void setTrackingState(int last_keyframe_id, int segment, TrackingState state);
+  Status publishCommand(msg::VelocityCommand command);
   SE3 mapFromOdom(int segment) const;
   std::optional<SE3> correctedKeyframe(int keyframe_id) const;
   template <typename T>
@@ -97,6 +99,9 @@ class RobotLink::Impl : public std::enable_shared_from_this<RobotLink::Impl> {
   TrackingState tracking_state_ = TrackingState::kInitialized;
   RobotLinkStats counts_;  ///< the counters kept here (the rest come from the sender and rejects_)
   std::atomic<uint64_t> bytes_sent_{0}, bytes_received_{0};
+  /// Hashes of the last commands this link published: their echo on the subscribed cmd_vel channel is
+  /// dropped before the envelope check (it is this robot's message, not a forged server one).
+  std::deque<size_t> own_commands_;
   std::mutex lifecycle_;  ///< serialises start() and stop()
   std::thread periodic_;
 };

@@ -4,6 +4,9 @@
 
 #include "rgbdmap/common/logging.hpp"
 #include "rgbdmap/proto/channels.hpp"
+#include <functional>
+#include <string_view>
+
 #include "robot_link_impl.hpp"
 
 namespace rgbdmap {
@@ -31,6 +34,10 @@ void RobotLink::Impl::onMessage(const uint8_t* data, size_t size) {
   {
     std::lock_guard<std::mutex> lock(mutex_);
     if (stopping_) return;
+    if constexpr (std::is_same_v<T, msg::VelocityCommand>) {
+      const size_t hash = std::hash<std::string_view>()(std::string_view(reinterpret_cast<const char*>(data), size));
+      if (std::find(own_commands_.begin(), own_commands_.end(), hash) != own_commands_.end()) return;  // our echo
+    }
   }
   bytes_received_ += size;
   Result<msg::OpenedEnvelope> opened = msg::openEnvelope(data, size, keys_, &replay_guard_, &rejects_);

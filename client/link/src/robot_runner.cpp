@@ -83,9 +83,37 @@ void sendKeyframe(const TrackingResult& r, const RgbdFrame& frame, RobotLink& li
   state->last_sent_keyframe = kf.id;
 }
 
+double systemNowS() {
+  return std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count();
+}
+
+/// One avoidance step at the live pose: decide on the latest slice, publish the command, record it.
+void avoid(AvoidanceController& controller, RobotLink& link, const StampedPose& live, AvoidanceSummary* summary) {
+  const std::optional<msg::OccupancySlice> slice = link.latestSlice();
+  const AvoidanceDecision d = controller.update(slice ? *slice : msg::OccupancySlice{}, live.T_world_cam, systemNowS());
+  summary->decisions.push_back({live.timestamp, d.state, d.closest_obstacle_m, d.stopped});
+  if (d.stopped)
+    ++summary->stopped;
+  else if (d.state == AvoidanceState::kForward)
+    ++summary->forward;
+  else if (d.state == AvoidanceState::kTurnLeft)
+    ++summary->turn_left;
+  else
+    ++summary->back_right;
+  if (link.publishCommand(controller.command(d, "")))
+    ++summary->commands_published;
+  else
+    ++summary->commands_failed;
+}
+
 void trackFrames(const TumDataset& dataset, VisualOdometry& vo, RobotLink& link,
                  const RobotRunOptions& options, size_t first, size_t end, RunState* state,
                  RobotRunResult* out) {
+  std::optional<AvoidanceController> controller;
+  if (options.avoidance) {
+    controller.emplace(*options.avoidance);
+    out->avoidance.emplace();
+  }
   const Clock::time_point wall0 = Clock::now();
   const double t0 = dataset.entry(first).rgb_timestamp;
   log::RateLimiter limiter(1.0);
@@ -112,6 +140,7 @@ void trackFrames(const TumDataset& dataset, VisualOdometry& vo, RobotLink& link,
     link.setTrackingState(last_keyframe, r.segment, r.state);
     state->frames.push_back({r.timestamp, r.T_odom_cam, r.segment, r.reference_keyframe});
     out->live.push_back({r.timestamp, link.mapFromOdom(r.segment) * r.T_odom_cam});
+    if (controller) avoid(*controller, link, out->live.back(), &*out->avoidance);
     out->odometry.push_back({r.timestamp, r.T_odom_cam});
     out->times.push_back(r.times);
     out->segments = std::max(out->segments, r.segment + 1);

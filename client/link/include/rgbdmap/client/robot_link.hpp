@@ -59,6 +59,7 @@ struct RobotLinkStats {
   uint64_t corrections_received = 0;  ///< PoseCorrections applied
   uint64_t corrections_stale = 0;     ///< ignored: graph_revision not newer
   uint64_t slices_received = 0, commands_received = 0, status_received = 0;
+  uint64_t commands_sent = 0;  ///< publishCommand (the robot's own avoidance commands on its cmd_vel channel)
   uint64_t hellos_sent = 0, heartbeats_sent = 0;
   uint64_t messages_rejected = 0;  ///< every rejection (envelope, payload, wrong sender or robot)
   uint64_t bytes_sent = 0, bytes_received = 0;  ///< this link's messages only (the transport may be shared)
@@ -82,6 +83,10 @@ class RobotLink {  // thread-safe; handlers never block the transport's receive 
   /// Encodes the images, builds the message (keyframeToMessage), submits it reliably; blocks while the send
   /// window is full (up to send_timeout_s, less if stop() is called). Remembers T_odom_cam and segment.
   Status sendKeyframe(const Keyframe& keyframe, const RgbdFrame& frame);
+  /// Publishes a VelocityCommand (robot_id set to this robot) on the robot's cmd_vel channel, signed like
+  /// every message of this robot, for the robot's motor controller. The link does not take its own commands
+  /// back as server commands (latestCommand stays the server's): their echo is recognised and dropped.
+  Status publishCommand(const msg::VelocityCommand& command);
   /// What the next heartbeats report.
   void setTrackingState(int last_keyframe_id, int segment, TrackingState state);
 

@@ -6,8 +6,10 @@
 #include <condition_variable>
 #include <functional>
 #include <mutex>
+#include <optional>
 #include <vector>
 
+#include "rgbdmap/client/avoidance.hpp"
 #include "rgbdmap/client/odometry.hpp"
 #include "rgbdmap/client/robot_link.hpp"
 #include "rgbdmap/common/camera.hpp"
@@ -38,6 +40,24 @@ struct RobotRunOptions {
   /// Called after each frame with (frames done, frames in the range); e.g. the CLI's progress line.
   std::function<void(int done, int total)> progress;
   const StopRequest* stop = nullptr;  ///< optional: ends the run early (outputs are still complete)
+  /// Set: every frame, the reactive avoidance rule (Lin et al. 2017, section 3) runs on the link's latest
+  /// slice at the live pose and its VelocityCommand is published through the link (cmd_vel). Off by default.
+  std::optional<AvoidanceConfig> avoidance;
+};
+
+/// One avoidance decision of runRobot (one per frame).
+struct AvoidanceRecord {
+  double timestamp = 0.0;  ///< the frame's
+  AvoidanceState state = AvoidanceState::kForward;
+  double closest_obstacle_m = 0.0;  ///< +inf: corridor clear; NaN: not evaluated (stopped)
+  bool stopped = false;             ///< no usable slice (missing, stale) or invalid pose: zero command
+};
+
+struct AvoidanceSummary {
+  int forward = 0, turn_left = 0, back_right = 0;  ///< decisions that drove, per state
+  int stopped = 0;                                 ///< decisions that stopped the robot
+  int commands_published = 0, commands_failed = 0;
+  std::vector<AvoidanceRecord> decisions;
 };
 
 struct RobotRunResult {
@@ -55,6 +75,7 @@ struct RobotRunResult {
   bool interrupted = false;  ///< options.stop ended the run
   RobotLinkStats link;
   double wall_s = 0.0;
+  std::optional<AvoidanceSummary> avoidance;  ///< when RobotRunOptions::avoidance was set
 
   /// Median of a per-frame stage time (ms); 0 without frames.
   double medianMs(double StageTimes::*stage = &StageTimes::total_ms) const;
