@@ -125,6 +125,19 @@ TEST(MapServer, TwoRobotsWithOverlappingSegmentsEndInOneMergedMap) {
   const auto c = r1.corrections();
   ASSERT_TRUE(c);
   EXPECT_FALSE(c->T_map_odom.isApprox(SE3::Identity(), 1e-3));
+  // The occupancy map followed the merge: robot1's keyframes moved into robot0's map (a rebuild), and the
+  // files hold one map.
+  const MapServerStats s = h.server->stats();
+  EXPECT_EQ(s.map_keyframes, a.keyframes.size() + b.keyframes.size());
+  EXPECT_GE(s.map_rebuilds, 1u);
+  const std::string out = freshDir("merge_out");
+  ASSERT_TRUE(h.server->writeMapOutputs(out));
+  std::vector<std::string> files;
+  for (const auto& entry : std::filesystem::directory_iterator(out)) files.push_back(entry.path().filename());
+  std::sort(files.begin(), files.end());
+  const std::vector<std::string> expected = {"map.bt", "map.ot", "map.ply", "map.png", "slice_robot0.pgm",
+                                             "slice_robot0.yaml", "slice_robot1.pgm", "slice_robot1.yaml"};
+  EXPECT_EQ(files, expected);
 }
 
 TEST(MapServer, RestartOnTheSameMapDirectoryLosesNoAcknowledgedKeyframe) {
