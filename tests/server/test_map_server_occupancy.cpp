@@ -21,7 +21,8 @@ using testing::ScriptedRobot;
 constexpr int kFrames = 300;
 
 std::string freshDir(const std::string& name) {
-  const std::string dir = ::testing::TempDir() + "rgbdmap_occserver_" + name + "_" + std::to_string(::getpid());
+  const std::string dir =
+      ::testing::TempDir() + "rgbdmap_occserver_" + name + "_" + std::to_string(::getpid());
   std::filesystem::remove_all(dir);
   return dir;
 }
@@ -79,7 +80,8 @@ SE3 worldFromMap(const OdometrySegment& seg, const MapServer& server) {
   EXPECT_FALSE(kfs.empty());
   const StampedPose* best = &seg.gt.front();
   for (const StampedPose& p : seg.gt)
-    if (std::abs(p.timestamp - kfs.front().timestamp) < std::abs(best->timestamp - kfs.front().timestamp)) best = &p;
+    if (std::abs(p.timestamp - kfs.front().timestamp) < std::abs(best->timestamp - kfs.front().timestamp))
+      best = &p;
   return best->T_world_cam * kfs.front().T_map_kf.inverse();
 }
 
@@ -91,7 +93,8 @@ double nearSurfaceFraction(const octomap::OcTree& tree, const SyntheticScene& sc
     if (!tree.isNodeOccupied(*it)) continue;
     ++occupied;
     const octomap::point3d c = it.getCoordinate();
-    if (scene.distanceToSurface(T_world_map * Vec3(c.x(), c.y(), c.z())) <= 2.0 * tree.getResolution()) ++near;
+    if (scene.distanceToSurface(T_world_map * Vec3(c.x(), c.y(), c.z())) <= 2.0 * tree.getResolution())
+      ++near;
   }
   if (occupied_out) *occupied_out = occupied;
   return occupied ? double(near) / double(occupied) : 0.0;
@@ -135,14 +138,15 @@ TEST(MapServerOccupancy, SyntheticLoopBuildsTheRoomSendsSlicesAndStreamsAndWrite
   EXPECT_GT(s.map_occupied_leaves, 1000u);
   EXPECT_GT(s.map_tree_memory_bytes, 0u);
   EXPECT_EQ(s.slices_sent, seg.keyframes.size()) << "slice_period_s 0: one slice per keyframe";
-  std::printf("[ measured ] synthetic loop, %zu keyframes: ingest median %.1f ms, octree insert median %.1f ms "
-              "(map worker), %zu leaves (%zu occupied), tree %.2f MB, clouds %.2f MB, %llu rebuilds (last %.0f ms), "
-              "%llu slices, %llu map updates (%.1f KB)\n",
-              seg.keyframes.size(), s.ingest_ms_median, s.map_insert_ms_median, s.map_leaves, s.map_occupied_leaves,
-              s.map_tree_memory_bytes / 1e6, s.map_clouds_memory_bytes / 1e6,
-              static_cast<unsigned long long>(s.map_rebuilds), s.map_last_rebuild_ms,
-              static_cast<unsigned long long>(s.slices_sent), static_cast<unsigned long long>(s.map_updates_sent),
-              s.map_bytes_sent / 1e3);
+  std::printf(
+      "[ measured ] synthetic loop, %zu keyframes: ingest median %.1f ms, octree insert median %.1f ms "
+      "(map worker), %zu leaves (%zu occupied), tree %.2f MB, clouds %.2f MB, %llu rebuilds (last %.0f ms), "
+      "%llu slices, %llu map updates (%.1f KB)\n",
+      seg.keyframes.size(), s.ingest_ms_median, s.map_insert_ms_median, s.map_leaves, s.map_occupied_leaves,
+      s.map_tree_memory_bytes / 1e6, s.map_clouds_memory_bytes / 1e6,
+      static_cast<unsigned long long>(s.map_rebuilds), s.map_last_rebuild_ms,
+      static_cast<unsigned long long>(s.slices_sent), static_cast<unsigned long long>(s.map_updates_sent),
+      s.map_bytes_sent / 1e3);
 
   // The robot's slices: the last one is around its last keyframe and sees walls and free floor space.
   EXPECT_EQ(robot.slicesReceived(), static_cast<int>(seg.keyframes.size()));
@@ -164,8 +168,8 @@ TEST(MapServerOccupancy, SyntheticLoopBuildsTheRoomSendsSlicesAndStreamsAndWrite
   size_t occupied = 0;
   const SE3 T_world_map = worldFromMap(seg, *h.server);
   const double near = nearSurfaceFraction(**bt, loopScene(), T_world_map, &occupied);
-  std::printf("[ measured ] map.bt: %zu occupied leaves, %.1f%% within 2 leaves of a true surface\n", occupied,
-              100.0 * near);
+  std::printf("[ measured ] map.bt: %zu occupied leaves, %.1f%% within 2 leaves of a true surface\n",
+              occupied, 100.0 * near);
   EXPECT_EQ(occupied, s.map_occupied_leaves);
   EXPECT_EQ(countOccupied(**ot), occupied);
   EXPECT_GE(near, 0.9);
@@ -184,7 +188,8 @@ TEST(MapServerOccupancy, SyntheticLoopBuildsTheRoomSendsSlicesAndStreamsAndWrite
   // The map stream converges to the server's tree (full first and after rebuilds, partial in between).
   const double cells = occupiedCells(**bt);
   double robot_cells = 0;
-  EXPECT_TRUE(robot.waitMap([&](const octomap::OcTree& t) { return (robot_cells = occupiedCells(t)) == cells; }, 10.0))
+  EXPECT_TRUE(robot.waitMap(
+      [&](const octomap::OcTree& t) { return (robot_cells = occupiedCells(t)) == cells; }, 10.0))
       << "the streamed map never matched map.bt: occupied cells " << robot_cells << " vs " << cells;
   const auto seen = robot.mapStream();
   EXPECT_GE(seen.full, 1);
@@ -291,10 +296,12 @@ TEST(MapServerOccupancy, RobotRunAvoidsOnTheServersSlices) {
   ASSERT_EQ(r.frames, sc.frames);
   ASSERT_TRUE(r.avoidance);
   const AvoidanceSummary& a = *r.avoidance;
-  std::printf("[ measured ] robot run with avoidance, %d frames: forward %d, turn-left %d, back-right %d, stopped %d; "
-              "%llu slices received, %d commands published\n",
-              r.frames, a.forward, a.turn_left, a.back_right, a.stopped,
-              static_cast<unsigned long long>(r.link.slices_received), a.commands_published);
+  std::printf(
+      "[ measured ] robot run with avoidance, %d frames: forward %d, turn-left %d, back-right %d, stopped "
+      "%d; "
+      "%llu slices received, %d commands published\n",
+      r.frames, a.forward, a.turn_left, a.back_right, a.stopped,
+      static_cast<unsigned long long>(r.link.slices_received), a.commands_published);
   EXPECT_EQ(a.decisions.size(), static_cast<size_t>(r.frames));
   EXPECT_EQ(a.forward + a.turn_left + a.back_right + a.stopped, r.frames);
   EXPECT_EQ(a.commands_published, r.frames);
@@ -325,7 +332,8 @@ TEST(MapServerOccupancy, RobotRunAvoidsOnTheServersSlices) {
         nearest = std::min(nearest, scene->distanceToSurface(centre + l * left + z * up));
     real += nearest <= 0.1;
   }
-  std::printf("[ measured ] %d decisions saw an obstacle in the corridor, %d of them on a true surface\n", finite, real);
+  std::printf("[ measured ] %d decisions saw an obstacle in the corridor, %d of them on a true surface\n",
+              finite, real);
   EXPECT_GT(finite, 0) << "the loop passes walls and furniture: some obstacle must be seen ahead";
   EXPECT_GE(real, finite * 9 / 10);
 }

@@ -37,7 +37,8 @@ Status writeCloud(const std::vector<OccupancyMap::KeptCloud>& clouds, const std:
 
 }  // namespace
 
-Status MapWorker::writeOutputs(const std::string& out_dir, const std::vector<ServerKeyframe>& keyframes) const {
+Status MapWorker::writeOutputs(const std::string& out_dir,
+                               const std::vector<ServerKeyframe>& keyframes) const {
   namespace fs = std::filesystem;
   std::error_code ec;
   fs::create_directories(out_dir, ec);

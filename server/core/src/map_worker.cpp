@@ -1,9 +1,9 @@
 #include "map_worker.hpp"
 
+#include <pthread.h>
 #include <algorithm>
 #include <chrono>
 #include <ctime>
-#include <pthread.h>
 
 #include "rgbdmap/common/logging.hpp"
 #include "rgbdmap/map/map_io.hpp"
@@ -81,10 +81,12 @@ void MapWorker::updatePoses(std::vector<MapNodePose> poses) {
 }
 
 bool MapWorker::waitIdle(double timeout_s) const {
-  const auto deadline = Clock::now() + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(timeout_s));
+  const auto deadline =
+      Clock::now() + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(timeout_s));
   {
     std::unique_lock<std::mutex> lock(queue_mutex_);
-    if (!idle_cv_.wait_until(lock, deadline, [&] { return stopping_ || (queue_.empty() && !busy_); }) || stopping_)
+    if (!idle_cv_.wait_until(lock, deadline, [&] { return stopping_ || (queue_.empty() && !busy_); }) ||
+        stopping_)
       return false;
   }
   return occupancy_.waitIdle(std::max(0.0, std::chrono::duration<double>(deadline - Clock::now()).count()));
@@ -151,7 +153,8 @@ void MapWorker::insertKeyframe(MapKeyframeJob& job) {
     job.depth = images->depth;
     job.color = images->color;
   }
-  auto cloud = makerFor(job.robot_id, job.camera).make(job.node_id, job.depth, job.camera.depth_scale, job.color);
+  auto cloud =
+      makerFor(job.robot_id, job.camera).make(job.node_id, job.depth, job.camera.depth_scale, job.color);
   if (!cloud) {
     log::error("map: keyframe ", job.node_id, " of ", job.robot_id, ": ", cloud.error());
     return;
@@ -201,8 +204,8 @@ void MapWorker::publishSlice(const std::string& robot_id) {
     newest = nodes_.at(it->second);
   }
   const double cpu0 = threadCpuMs();
-  Result<msg::OccupancySlice> slice = Result<msg::OccupancySlice>::failure("no tree for map " +
-                                                                          std::to_string(newest.map_id));
+  Result<msg::OccupancySlice> slice =
+      Result<msg::OccupancySlice>::failure("no tree for map " + std::to_string(newest.map_id));
   occupancy_.read(newest.map_id, [&](const octomap::OcTree& tree) {
     slice = extractSlice(tree, newest.T_map_kf, config_.slice);
   });

@@ -33,8 +33,8 @@ struct MapKeyframeJob {
   int map_id = 0;
   SE3 T_map_kf = SE3::Identity();
   CameraIntrinsics camera;
-  cv::Mat depth;  ///< CV_16UC1 raw units
-  cv::Mat color;  ///< CV_8UC3 BGR or empty
+  cv::Mat depth;     ///< CV_16UC1 raw units
+  cv::Mat color;     ///< CV_8UC3 BGR or empty
   bool live = true;  ///< a just-received keyframe (a slice follows); false when restored
 };
 
