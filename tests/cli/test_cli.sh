@@ -32,6 +32,12 @@ check "run on a dataset" 0 "$bin" run --dataset "$tmp/seq" --out "$tmp/run"
 contains "report has ATE" "$tmp/run/report.json" '"ate_rmse_m": 0.0'
 contains "report has timing" "$tmp/run/report.json" 'client_ms_per_frame_median'
 [ -s "$tmp/run/trajectory_robot0.txt" ] && [ -s "$tmp/run/keyframes_robot0.txt" ] && echo "ok: run outputs" || { echo "FAIL: run outputs"; fail=1; }
+contains "report says the server ran" "$tmp/run/report.json" '"server_ms_per_keyframe_median"'
+check "run with two robots on one dataset" 0 "$bin" run --dataset "$tmp/seq" --robots 2 --out "$tmp/run2"
+contains "robot1 in the report" "$tmp/run2/report.json" '"robot1"'
+contains "robot1 frame range overlaps robot0's" "$tmp/run2/report.json" '"frame_range": \[20, 45\]'
+[ "$(grep -vc '^#' "$tmp/run2/trajectory_robot1.txt")" -eq 25 ] && echo "ok: robot1 one pose per frame of its segment" || { echo "FAIL: robot1 pose count"; fail=1; }
+check "several datasets need matching --robots" 2 "$bin" run --dataset "$tmp/seq,$tmp/seq" --robots 3 --out "$tmp/run3"
 
 check "unknown option is a usage error" 2 "$bin" odometry --dataset "$tmp/seq" --out "$tmp/x.txt" --bogus 1
 contains "unknown option named" "$tmp/err.txt" "unknown option --bogus"
