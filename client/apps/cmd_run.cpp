@@ -22,6 +22,7 @@
 #include "rgbdmap/common/evaluation.hpp"
 #include "rgbdmap/common/logging.hpp"
 #include "rgbdmap/common/synth.hpp"
+#include "rgbdmap/common/text_lines.hpp"
 #include "rgbdmap/server/map_server.hpp"
 #include "rgbdmap/server/server_config.hpp"
 #include "rgbdmap/transport/transport.hpp"
@@ -144,15 +145,6 @@ std::string num(double v, const char* fmt = "%.6g") {
   char buf[64];
   std::snprintf(buf, sizeof buf, fmt, v);
   return buf;
-}
-
-std::string jsonString(const std::string& s) {
-  std::string out = "\"";
-  for (const char c : s) {
-    if (c == '"' || c == '\\') out += '\\';
-    out += c;
-  }
-  return out + "\"";
 }
 
 std::string reportJson(const RunOptions& o, const std::vector<std::string>& datasets, const std::vector<Robot>& robots,
