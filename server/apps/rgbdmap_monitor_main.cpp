@@ -326,4 +326,4 @@ int runMonitor(int argc, char** argv) {
 }  // namespace
 }  // namespace rgbdmap
 
-int main(int argc, char** argv) { return rgbdmap::runMonitor(argc, argv); }
+int main(int argc, char** argv) { return rgbdmap::runMonitor(argc - 1, argv + 1); }
