@@ -17,7 +17,7 @@
 # logs/, eval_<R>.txt, eval_merged.txt, time_*.txt (peak memory, CPU), summary.txt (key=value).
 set -euo pipefail
 repo="$(cd "$(dirname "$0")/.." && pwd)"
-bin="$repo/build/bin"
+bin="${RGBDMAP_BIN:-$repo/build/bin}"
 transport=lcm robots=2 dataset="" out="" frames=300 check="" netns=1
 while [ $# -gt 0 ]; do
   case "$1" in
