@@ -7,7 +7,7 @@
 #
 # Usage: bash deploy/run_multiprocess.sh [--transport lcm|dds] [--robots N] [--dataset DIR] [--out DIR]
 #          [--frames F] [--check MAX_ATE_M] [--no-netns]
-#   --frames F     frames of the synthetic sequence (default 300; ignored with --dataset)
+#   --frames F     frames of the synthetic sequence (default 300), or the first F frames of --dataset
 #   --check M      exit 1 unless every keyframe was acknowledged, all robots end in one map, the merged
 #                  keyframe ATE is below M metres and the monitor printed a status (used by the CI test)
 #   --no-netns     run on the host network (the default re-runs itself inside tests/transport/run_in_netns.sh,
@@ -18,7 +18,7 @@
 set -euo pipefail
 repo="$(cd "$(dirname "$0")/.." && pwd)"
 bin="${RGBDMAP_BIN:-$repo/build/bin}"
-transport=lcm robots=2 dataset="" out="" frames=300 check="" netns=1
+transport=lcm robots=2 dataset="" out="" frames="" check="" netns=1
 while [ $# -gt 0 ]; do
   case "$1" in
     --transport) transport="$2"; shift 2 ;;
@@ -34,7 +34,8 @@ while [ $# -gt 0 ]; do
 done
 case "$transport" in lcm|dds) ;; *) echo "--transport must be lcm or dds" >&2; exit 2 ;; esac
 [[ "$robots" =~ ^[1-9][0-9]?$ ]] || { echo "--robots must be 1..99" >&2; exit 2; }
-[[ "$frames" =~ ^[0-9]+$ ]] && [ "$frames" -ge $((robots * 20)) ] || { echo "--frames must be >= 20 per robot" >&2; exit 2; }
+[ -z "$frames" ] || { [[ "$frames" =~ ^[0-9]+$ ]] && [ "$frames" -ge $((robots * 20)) ]; } \
+  || { echo "--frames must be at least 20 per robot" >&2; exit 2; }
 for b in rgbdmap rgbdmap-server rgbdmap-client rgbdmap-monitor; do
   [ -x "$bin/$b" ] || { echo "missing $bin/$b: run deploy/build.sh (or ninja -C build $b)" >&2; exit 1; }
 done
@@ -45,7 +46,8 @@ out="$(cd "$out" && pwd)"
 # Re-run inside a private loopback-only network namespace unless already there (or told not to).
 if [ "$netns" = 1 ] && [ -z "${RGBDMAP_TRANSPORT_NETNS:-}" ]; then
   if command -v ip >/dev/null 2>&1 && unshare -n true 2>/dev/null; then
-    args=(--transport "$transport" --robots "$robots" --out "$out" --frames "$frames")
+    args=(--transport "$transport" --robots "$robots" --out "$out")
+    [ -n "$frames" ] && args+=(--frames "$frames")
     [ -n "$dataset" ] && args+=(--dataset "$(cd "$dataset" && pwd)")
     [ -n "$check" ] && args+=(--check "$check")
     exec bash "$repo/tests/transport/run_in_netns.sh" bash "$0" "${args[@]}"
@@ -62,13 +64,14 @@ fi
 
 # --- data -------------------------------------------------------------------------------------------------
 if [ -z "$dataset" ]; then
-  dataset="$out/synthetic_loop_$frames"
+  dataset="$out/synthetic_loop_${frames:-300}"
   if [ ! -s "$dataset/groundtruth.txt" ]; then
-    "$bin/rgbdmap" synth --scene loop --frames "$frames" --out "$dataset" >"$out/synth.log" 2>&1 \
+    "$bin/rgbdmap" synth --scene loop --frames "${frames:-300}" --out "$dataset" >"$out/synth.log" 2>&1 \
       || { cat "$out/synth.log" >&2; exit 1; }
   fi
 fi
 total=$(grep -vc '^#' "$dataset/rgb.txt")
+[ -n "$frames" ] && [ "$frames" -lt "$total" ] && total=$frames
 gt="$dataset/groundtruth.txt"
 
 # --- keys and configs ---------------------------------------------------------------------------------------
@@ -171,15 +174,17 @@ ingest_cpu=$(num "$sj" ingest_cpu_ms_median)
 groups=$(tr -d '\n ' <"$sj" | grep -o '"merged_maps":\[.*\]' | sed 's/"merged_maps"://')
 one_map=0; [ "$(echo "$groups" | grep -o '\]' | wc -l)" -eq 2 ] && one_map=1  # [[...]] = one group
 [ "$robots" -eq 1 ] && one_map=1
+bt_kb=n/a  # the map stream as rgbdmap-monitor --save-map recorded it (needs a server that publishes maps)
+ls "$out"/maps_monitor/*.bt >/dev/null 2>&1 && bt_kb=$(du -ck "$out"/maps_monitor/*.bt | awk 'END {print $1}')
 srv_cpu=$(cpu_s "$out/time_server.txt"); srv_mb=$(peak_mb "$out/time_server.txt")
 echo
 echo "server: keyframes $skf, loops $loops, maps $maps, merged $groups, ingest median ${ingest} ms (CPU ${ingest_cpu} ms)," \
-  "CPU ${srv_cpu} s, peak ${srv_mb} MB; merged keyframe ATE ${merged_ate} m; wall ${clients_s} s"
+  "CPU ${srv_cpu} s, peak ${srv_mb} MB; map .bt ${bt_kb} KB; merged keyframe ATE ${merged_ate} m; wall ${clients_s} s"
 status_ok=0; grep -q 'state=running' "$out/logs/monitor_once.txt" && status_ok=1
 echo "monitor: $(head -c 300 "$out/logs/monitor_once.txt")"
 { echo "server_keyframes=$skf"; echo "loops=$loops"; echo "maps=$maps"; echo "merged_maps=$groups"
   echo "one_map=$one_map"; echo "ingest_ms_median=$ingest"; echo "ingest_cpu_ms_median=$ingest_cpu"
-  echo "server_cpu_s=$srv_cpu"; echo "server_peak_mb=$srv_mb"; echo "merged_ate_m=$merged_ate"
+  echo "server_cpu_s=$srv_cpu"; echo "map_bt_kb=$bt_kb"; echo "server_peak_mb=$srv_mb"; echo "merged_ate_m=$merged_ate"
   echo "all_acked=$all_acked"; echo "monitor_status=$status_ok"; } >>"$summary"
 
 if [ -n "$check" ]; then
