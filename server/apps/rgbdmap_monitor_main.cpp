@@ -6,6 +6,7 @@
 #include <signal.h>
 #include <unistd.h>
 
+#include <octomap/OcTree.h>
 #include <chrono>
 #include <condition_variable>
 #include <cstdio>
@@ -13,7 +14,6 @@
 #include <map>
 #include <memory>
 #include <mutex>
-#include <octomap/OcTree.h>
 #include <string>
 #include <thread>
 #include <vector>
@@ -49,8 +49,8 @@ using Clock = std::chrono::steady_clock;
 struct RobotView {
   msg::KeyStore keys;  ///< "server" -> this robot's key
   msg::ReplayGuard guard;
-  uint64_t bytes_up = 0, bytes_down = 0;             ///< since start
-  uint64_t bytes_up_last = 0, bytes_down_last = 0;   ///< at the previous print
+  uint64_t bytes_up = 0, bytes_down = 0;            ///< since start
+  uint64_t bytes_up_last = 0, bytes_down_last = 0;  ///< at the previous print
   bool has_status = false;
   msg::ServerStatus status;
   std::unique_ptr<octomap::OcTree> map;
@@ -97,9 +97,10 @@ class Monitor {
     std::unique_lock<std::mutex> lock(mutex_);
     auto last = Clock::now();
     for (;;) {
-      const auto deadline = options_.timeout_s > 0 ? start_ + std::chrono::duration_cast<Clock::duration>(
-                                                                  std::chrono::duration<double>(options_.timeout_s))
-                                                   : Clock::time_point::max();
+      const auto deadline = options_.timeout_s > 0
+                                ? start_ + std::chrono::duration_cast<Clock::duration>(
+                                               std::chrono::duration<double>(options_.timeout_s))
+                                : Clock::time_point::max();
       const auto next = last + std::chrono::duration_cast<Clock::duration>(
                                    std::chrono::duration<double>(options_.period_s));
       cv_.wait_until(lock, std::min(next, deadline), [&] { return stop_ || (options_.once && anyStatus()); });
@@ -198,12 +199,13 @@ class Monitor {
     const bool table = isatty(STDOUT_FILENO) && !options_.once;
     if (table) std::printf("\033[H\033[2J");
     if (table)
-      std::printf("rgbdmap-monitor  %.0f s   server %s, up %.0f s, graph revision %lld, rejected %llu\n\n"
-                  "%-12s %9s %6s %10s %12s %12s %9s\n",
-                  t, status ? status->state.c_str() : "(no status yet)", status ? status->uptime_s : 0.0,
-                  static_cast<long long>(status ? status->graph_revision : 0),
-                  static_cast<unsigned long long>(rejects_.total()), "robot", "keyframes", "loops", "refused",
-                  "up Mbit/s", "down Mbit/s", "map rev");
+      std::printf(
+          "rgbdmap-monitor  %.0f s   server %s, up %.0f s, graph revision %lld, rejected %llu\n\n"
+          "%-12s %9s %6s %10s %12s %12s %9s\n",
+          t, status ? status->state.c_str() : "(no status yet)", status ? status->uptime_s : 0.0,
+          static_cast<long long>(status ? status->graph_revision : 0),
+          static_cast<unsigned long long>(rejects_.total()), "robot", "keyframes", "loops", "refused",
+          "up Mbit/s", "down Mbit/s", "map rev");
     else
       std::printf("monitor t=%.1fs state=%s graph_revision=%lld", t, status ? status->state.c_str() : "none",
                   static_cast<long long>(status ? status->graph_revision : 0));
@@ -223,7 +225,8 @@ class Monitor {
       else
         std::printf(" | %s keyframes=%d loops=%d up_mbps=%.2f down_mbps=%.2f bytes_up=%llu map_rev=%lld",
                     robot.c_str(), r ? r->keyframes : 0, r ? r->loop_closures : 0, up, down,
-                    static_cast<unsigned long long>(view.bytes_up), static_cast<long long>(view.map_revision));
+                    static_cast<unsigned long long>(view.bytes_up),
+                    static_cast<long long>(view.map_revision));
     }
     std::printf("\n");
     std::fflush(stdout);
@@ -276,7 +279,8 @@ int runMonitor(int argc, char** argv) {
   for (int s : {SIGINT, SIGTERM, SIGUSR1}) sigaddset(&signals, s);
   pthread_sigmask(SIG_BLOCK, &signals, nullptr);
 
-  args.checkAllowed({"transport", "robots", "keys-file", "open", "period", "save-map", "once", "timeout", "log-level"});
+  args.checkAllowed(
+      {"transport", "robots", "keys-file", "open", "period", "save-map", "once", "timeout", "log-level"});
   std::vector<std::string> errors(args.errors().begin(), args.errors().end());
   const MonitorOptions options = parseOptions(args, &errors);
   if (!errors.empty()) return cli::usageError(errors, kUsage);

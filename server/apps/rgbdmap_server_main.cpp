@@ -41,7 +41,8 @@ rgbdmap::Status writeSummary(const std::string& path, const rgbdmap::MapServer& 
   std::ofstream out(path);
   out << "{\n  \"keyframes\": " << s.keyframes << ",\n  \"loops\": " << s.loops_accepted
       << ",\n  \"loops_disabled\": " << s.loops_disabled << ",\n  \"maps\": " << s.maps
-      << ",\n  \"optimizations\": " << s.optimizations << ",\n  \"messages_rejected\": " << s.messages_rejected
+      << ",\n  \"optimizations\": " << s.optimizations
+      << ",\n  \"messages_rejected\": " << s.messages_rejected
       << ",\n  \"ingest_ms_median\": " << s.ingest_ms_median << ",\n  \"ingest_ms_p90\": " << s.ingest_ms_p90
       << ",\n  \"ingest_cpu_ms_median\": " << s.ingest_cpu_ms_median << ",\n  \"robots\": [";
   for (size_t i = 0; i < s.robots.size(); ++i) {
