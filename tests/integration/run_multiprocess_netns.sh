@@ -5,7 +5,7 @@
 # that every keyframe was acknowledged (client_<R>.json), that both robots end in one merged map
 # (server_summary.json), that the server's optimised keyframes of both robots, aligned once to the ground
 # truth, have ATE below 2 cm (measured 2.8 mm), and that rgbdmap-monitor --once printed a status. Here we
-# also check the map directory's outputs. Exit 77 (skip) where 'unshare -n' is not permitted.
+# also check the map directory's outputs, and (robot_restart.sh) a robot killed and restarted mid-run. Exit 77 (skip) where 'unshare -n' is not permitted.
 # Usage: run_multiprocess_netns.sh BIN_DIR
 set -u
 repo="$(cd "$(dirname "$0")/../.." && pwd)"
@@ -42,5 +42,11 @@ for transport in lcm dds; do
   [ "$n" -eq "$kf" ] && [ "$n" -ge 20 ] && echo "ok: $n keyframes in the server's files" \
     || { echo "FAIL: $transport: $n keyframes in files, summary says $kf"; fail=1; }
 done
+# A robot killed and restarted mid-run, over LCM with the first run's configs and keys.
+if [ -s "$tmp/lcm/server.yaml" ]; then
+  echo "== lcm, robot0 killed and restarted"
+  bash "$repo/tests/transport/run_in_netns.sh" bash "$repo/tests/integration/robot_restart.sh" "$tmp/lcm" "$bin" \
+    "$tmp/seq" 0.02 || fail=1
+fi
 [ "$fail" -eq 0 ] && echo "integration: all checks passed"
 exit "$fail"
