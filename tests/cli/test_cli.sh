@@ -3,22 +3,7 @@
 # the documented exit codes (2 = usage, 1 = bad data). Usage: test_cli.sh BIN_DIR
 set -u
 bin="$1/rgbdmap"
-tmp=$(mktemp -d)
-trap 'rm -rf "$tmp"' EXIT
-fail=0
-check() {  # check "description" expected_exit command...
-  local what="$1" want="$2"; shift 2
-  "$@" >"$tmp/out.txt" 2>"$tmp/err.txt"
-  local got=$?
-  if [ "$got" -ne "$want" ]; then
-    echo "FAIL: $what: exit $got, expected $want"; sed 's/^/  | /' "$tmp/err.txt" | tail -5; fail=1
-  else
-    echo "ok: $what"
-  fi
-}
-contains() {  # contains "description" file pattern
-  if grep -q -- "$3" "$2"; then echo "ok: $1"; else echo "FAIL: $1: '$3' not in $2"; fail=1; fi
-}
+source "$(dirname "$0")/cli_test_lib.sh"
 
 check "synth writes a sequence" 0 "$bin" synth --out "$tmp/seq" --scene sweep --frames 45 --seed 3
 for f in rgb.txt depth.txt groundtruth.txt camera.yaml; do contains "synth wrote $f" "$tmp/seq/$f" "."; done
