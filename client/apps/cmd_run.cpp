@@ -8,6 +8,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <mutex>
 #include <random>
 #include <sstream>
 #include <thread>
@@ -17,6 +18,7 @@
 #include "cli.hpp"
 #include "commands.hpp"
 #include "odometry_setup.hpp"
+#include "progress.hpp"
 #include "rgbdmap/client/robot_link.hpp"
 #include "rgbdmap/client/robot_runner.hpp"
 #include "rgbdmap/common/evaluation.hpp"
@@ -348,10 +350,21 @@ int run(int argc, char** argv) {
 
   // Robots run concurrently, each on its own thread, as they would on their own computers.
   const auto t0 = std::chrono::steady_clock::now();
+  size_t total_frames = 0;
+  for (const Robot& r : robots) total_frames += static_cast<size_t>(r.end - r.first);
+  // One progress line for all robots (frames done, rate, ETA) on a terminal; silent in CI and logs.
+  app::Progress progress("rgbdmap run", total_frames);
+  std::mutex progress_mutex;
+  size_t frames_done = 0;
+  auto advance = [&] {
+    std::lock_guard<std::mutex> lock(progress_mutex);
+    progress.update(++frames_done);
+  };
   std::vector<std::thread> threads;
   for (Robot& r : robots) {
-    threads.emplace_back([&r, &datasets, &setups, &o] {
+    threads.emplace_back([&r, &datasets, &setups, &o, &advance] {
       RobotRunOptions ro;
+      ro.progress = [&advance](int, int) { advance(); };
       ro.first_frame = r.first;
       ro.end_frame = r.end;
       ro.realtime = o.realtime;
@@ -360,6 +373,7 @@ int run(int argc, char** argv) {
     });
   }
   for (std::thread& t : threads) t.join();
+  progress.finish();
   // Let the last optimisation reach every robot, then re-anchor each robot's frames on it.
   server.waitIdle(60.0);
   const auto server_keyframes = server.keyframes();
