@@ -3,25 +3,9 @@
 #include <cstdio>
 #include <fstream>
 
+#include "rgbdmap/common/text_lines.hpp"
 namespace rgbdmap::app {
 namespace {
-
-std::string quoted(const std::string& s) {
-  std::string out = "\"";
-  for (const char ch : s) {
-    if (ch == '"' || ch == '\\') {
-      out += '\\';
-      out += ch;
-    } else if (static_cast<unsigned char>(ch) < 0x20) {
-      char buf[8];
-      std::snprintf(buf, sizeof buf, "\\u%04x", static_cast<unsigned>(ch));
-      out += buf;
-    } else {
-      out += ch;
-    }
-  }
-  return out + "\"";
-}
 
 std::string field(const char* name, const std::string& value, bool last = false) {
   return std::string("  \"") + name + "\": " + value + (last ? "\n" : ",\n");
@@ -38,9 +22,9 @@ std::string flag(bool b) { return b ? "true" : "false"; }
 std::string clientJson(const ClientRunInfo& info, const RobotRunResult& r) {
   const RobotLinkStats& l = r.link;
   std::string s = "{\n";
-  s += field("robot_id", quoted(info.robot_id));
-  s += field("dataset", quoted(info.dataset));
-  s += field("transport", quoted(info.transport_url));
+  s += field("robot_id", jsonString(info.robot_id));
+  s += field("dataset", jsonString(info.dataset));
+  s += field("transport", jsonString(info.transport_url));
   s += field("signed", flag(info.signed_messages));
   s += field("frames", std::to_string(r.frames));
   s += field("keyframes", std::to_string(r.keyframes));

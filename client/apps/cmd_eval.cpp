@@ -4,6 +4,7 @@
 #include <string>
 
 #include "cli.hpp"
+#include "rgbdmap/common/text_lines.hpp"
 #include "commands.hpp"
 #include "rgbdmap/common/evaluation.hpp"
 #include "rgbdmap/common/logging.hpp"
@@ -70,23 +71,6 @@ std::string number(double v) {
   char buf[32];
   std::snprintf(buf, sizeof buf, "%.9g", v);
   return buf;
-}
-
-std::string jsonString(const std::string& s) {
-  std::string out = "\"";
-  for (const char ch : s) {
-    if (ch == '"' || ch == '\\') {
-      out += '\\';
-      out += ch;
-    } else if (static_cast<unsigned char>(ch) < 0x20) {
-      char buf[8];
-      std::snprintf(buf, sizeof buf, "\\u%04x", static_cast<unsigned>(ch));
-      out += buf;
-    } else {
-      out += ch;
-    }
-  }
-  return out + "\"";
 }
 
 void printJson(const EvalConfig& c, size_t gt_poses, size_t est_poses, const Result<AteResult>& ate,

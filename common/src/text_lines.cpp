@@ -34,6 +34,23 @@ Result<double> parseFiniteNumber(const std::string& token, const std::string& wh
   return v;
 }
 
+std::string jsonString(const std::string& text) {
+  std::string out = "\"";
+  for (const char ch : text) {
+    if (ch == '"' || ch == '\\') {
+      out += '\\';
+      out += ch;
+    } else if (static_cast<unsigned char>(ch) < 0x20) {
+      char buf[8];
+      std::snprintf(buf, sizeof buf, "\\u%04x", static_cast<unsigned>(ch));
+      out += buf;
+    } else {
+      out += ch;
+    }
+  }
+  return out + "\"";
+}
+
 std::string formatShort(double value) {
   char buf[32];
   std::snprintf(buf, sizeof buf, "%g", value);

@@ -27,10 +27,44 @@ const char* kUsage =
     "  --status-every S    print a status line every S seconds (default 5; 0: never)\n"
     "  --log-level L       debug|info|warn|error\n"
     "On SIGINT/SIGTERM it stops and writes keyframes_<robot>.txt (optimised, map frame) into the map "
-    "directory, and (map.enabled) the map files: map.bt, map.ot, map.ply, map.png, slice_<robot>.pgm/.yaml.\n";
+    "directory,\n"
+    "server_summary.json (keyframes, loops, maps, ingest times, per-robot counters, merged_maps) and (map.enabled)\n"
+    "the map files: map.bt, map.ot, map.ply, map.png, slice_<robot>.pgm/.yaml.\n";
 
 std::atomic<bool> g_stop{false};
 void onSignal(int) { g_stop = true; }
+
+std::string quoted(const std::string& text) { return "\"" + text + "\""; }  // ids are [A-Za-z0-9_-]
+
+/// server_summary.json in the map directory: what the deployment scripts and tests check after a run.
+rgbdmap::Status writeSummary(const std::string& path, const rgbdmap::MapServer& server) {
+  const rgbdmap::MapServerStats s = server.stats();
+  std::ofstream out(path);
+  out << "{\n  \"keyframes\": " << s.keyframes << ",\n  \"loops\": " << s.loops_accepted
+      << ",\n  \"loops_disabled\": " << s.loops_disabled << ",\n  \"maps\": " << s.maps
+      << ",\n  \"optimizations\": " << s.optimizations
+      << ",\n  \"messages_rejected\": " << s.messages_rejected
+      << ",\n  \"ingest_ms_median\": " << s.ingest_ms_median << ",\n  \"ingest_ms_p90\": " << s.ingest_ms_p90
+      << ",\n  \"ingest_cpu_ms_median\": " << s.ingest_cpu_ms_median << ",\n  \"robots\": [";
+  for (size_t i = 0; i < s.robots.size(); ++i) {
+    const rgbdmap::ServerRobotStats& r = s.robots[i];
+    out << (i ? "," : "") << "\n    {\"robot\": " << quoted(r.robot_id) << ", \"keyframes\": " << r.keyframes
+        << ", \"sessions\": " << r.sessions << ", \"loops\": " << r.loops << ", \"map_id\": " << r.map_id
+        << ", \"merged\": " << (r.merged ? "true" : "false") << ", \"bytes_received\": " << r.bytes_received
+        << ", \"bytes_sent\": " << r.bytes_sent << ", \"refused\": " << r.keyframes_refused << "}";
+  }
+  out << "\n  ],\n  \"merged_maps\": [";
+  const auto groups = server.mergedMaps();
+  for (size_t g = 0; g < groups.size(); ++g) {
+    out << (g ? ", " : "") << "[";
+    for (size_t i = 0; i < groups[g].size(); ++i) out << (i ? ", " : "") << quoted(groups[g][i]);
+    out << "]";
+  }
+  out << "]\n}\n";
+  out.close();
+  if (!out) return rgbdmap::Status::failure("cannot write " + path);
+  return rgbdmap::Status();
+}
 
 }  // namespace
 
@@ -124,6 +158,8 @@ int main(int argc, char** argv) {
     if (const Status s = writeTumTrajectory(path, traj, "rgbdmap-server, optimised keyframes, map frame"); !s)
       log::error(s.error());
   }
+  if (const Status w = writeSummary(config.server.map_dir + "/server_summary.json", server); !w)
+    log::error(w.error());
   bool map_files = false;
   if (config.server.occupancy_enabled && !server.keyframes().empty()) {
     if (const Status st = server.writeMapOutputs(config.server.map_dir); !st)

@@ -3,22 +3,7 @@
 # the documented exit codes (2 = usage, 1 = bad data). Usage: test_cli.sh BIN_DIR
 set -u
 bin="$1/rgbdmap"
-tmp=$(mktemp -d)
-trap 'rm -rf "$tmp"' EXIT
-fail=0
-check() {  # check "description" expected_exit command...
-  local what="$1" want="$2"; shift 2
-  "$@" >"$tmp/out.txt" 2>"$tmp/err.txt"
-  local got=$?
-  if [ "$got" -ne "$want" ]; then
-    echo "FAIL: $what: exit $got, expected $want"; sed 's/^/  | /' "$tmp/err.txt" | tail -5; fail=1
-  else
-    echo "ok: $what"
-  fi
-}
-contains() {  # contains "description" file pattern
-  if grep -q -- "$3" "$2"; then echo "ok: $1"; else echo "FAIL: $1: '$3' not in $2"; fail=1; fi
-}
+source "$(dirname "$0")/cli_test_lib.sh"
 
 check "synth writes a sequence" 0 "$bin" synth --out "$tmp/seq" --scene sweep --frames 45 --seed 3
 for f in rgb.txt depth.txt groundtruth.txt camera.yaml; do contains "synth wrote $f" "$tmp/seq/$f" "."; done
@@ -32,6 +17,12 @@ check "run on a dataset" 0 "$bin" run --dataset "$tmp/seq" --out "$tmp/run"
 contains "report has ATE" "$tmp/run/report.json" '"ate_rmse_m": 0.0'
 contains "report has timing" "$tmp/run/report.json" 'client_ms_per_frame_median'
 [ -s "$tmp/run/trajectory_robot0.txt" ] && [ -s "$tmp/run/keyframes_robot0.txt" ] && echo "ok: run outputs" || { echo "FAIL: run outputs"; fail=1; }
+contains "report says the server ran" "$tmp/run/report.json" '"server_ms_per_keyframe_median"'
+check "run with two robots on one dataset" 0 "$bin" run --dataset "$tmp/seq" --robots 2 --out "$tmp/run2"
+contains "robot1 in the report" "$tmp/run2/report.json" '"robot1"'
+contains "robot1 frame range overlaps robot0's" "$tmp/run2/report.json" '"frame_range": \[20, 45\]'
+[ "$(grep -vc '^#' "$tmp/run2/trajectory_robot1.txt")" -eq 25 ] && echo "ok: robot1 one pose per frame of its segment" || { echo "FAIL: robot1 pose count"; fail=1; }
+check "several datasets need matching --robots" 2 "$bin" run --dataset "$tmp/seq,$tmp/seq" --robots 3 --out "$tmp/run3"
 
 check "unknown option is a usage error" 2 "$bin" odometry --dataset "$tmp/seq" --out "$tmp/x.txt" --bogus 1
 contains "unknown option named" "$tmp/err.txt" "unknown option --bogus"

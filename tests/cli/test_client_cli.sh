@@ -4,22 +4,7 @@
 # test_client_cli.sh BIN_DIR
 set -u
 client="$1/rgbdmap-client"
-tmp=$(mktemp -d)
-trap 'rm -rf "$tmp"' EXIT
-fail=0
-check() {  # check "description" expected_exit command...
-  local what="$1" want="$2"; shift 2
-  "$@" >"$tmp/out.txt" 2>"$tmp/err.txt"
-  local got=$?
-  if [ "$got" -ne "$want" ]; then
-    echo "FAIL: $what: exit $got, expected $want"; sed 's/^/  | /' "$tmp/err.txt" | tail -5; fail=1
-  else
-    echo "ok: $what"
-  fi
-}
-contains() {  # contains "description" file pattern
-  if grep -q -- "$3" "$2"; then echo "ok: $1"; else echo "FAIL: $1: '$3' not in $2"; fail=1; fi
-}
+source "$(dirname "$0")/cli_test_lib.sh"
 
 check "synth writes a sequence" 0 "$1/rgbdmap" synth --out "$tmp/seq" --scene sweep --frames 30 --seed 2
 printf 'robot:\n  id: alpha\nlink:\n  final_wait_s: 0.2\n' >"$tmp/client.yaml"

@@ -168,6 +168,39 @@ TEST(MapServer, RestartOnTheSameMapDirectoryLosesNoAcknowledgedKeyframe) {
   EXPECT_LE(slam, 0.65 * odo) << "same bound as without a restart (measured 0.0045 m both ways)";
 }
 
+TEST(MapServer, ARestartedRobotContinuesAsANewChainAndIsReAnchoredByLoopClosure) {
+  // The robot process restarts half way: a new session, odometry from scratch in a new frame.
+  const OdometrySegment& first = loopSegment(kFrames, 0, 170);
+  const OdometrySegment& second = loopSegment(kFrames, 130, kFrames);
+  Harness h(freshDir("robot_restart"));
+  {
+    ScriptedRobot before(*h.transport, "robot0", rgbdmap::testing::testKey(1), 100);
+    drive(h, before, first);
+  }
+  ScriptedRobot after(*h.transport, "robot0", rgbdmap::testing::testKey(1), 200);
+  drive(h, after, second);
+  const MapServerStats s = h.server->stats();
+  ASSERT_EQ(s.robots.size(), 1u);
+  EXPECT_EQ(s.robots[0].sessions, 2);
+  EXPECT_EQ(s.robots[0].chains, 2);
+  EXPECT_EQ(s.keyframes, static_cast<int>(first.keyframes.size() + second.keyframes.size()));
+  EXPECT_EQ(s.maps, 1) << "the second chain was not joined to the first";
+  // Both chains in one alignment: only a correct re-anchoring puts them in one frame.
+  Trajectory all = testing::serverTrajectory(*h.server, "robot0");
+  std::sort(all.begin(), all.end(), [](const StampedPose& a, const StampedPose& b) { return a.timestamp < b.timestamp; });
+  Trajectory distinct;
+  for (const StampedPose& p : all)
+    if (distinct.empty() || p.timestamp > distinct.back().timestamp + 1e-6) distinct.push_back(p);
+  const double joint = ateOf(first.gt, distinct);
+  std::printf("[ measured ] restarted robot: two chains re-anchored, joint ATE %.4f m\n", joint);
+  EXPECT_LT(joint, 0.01);
+  // The restarted process gets corrections for its own keyframes, in the map of the first chain.
+  const auto c = after.corrections();
+  ASSERT_TRUE(c);
+  EXPECT_EQ(c->keyframes.size(), second.keyframes.size());
+  EXPECT_FALSE(c->T_map_odom.isApprox(SE3::Identity(), 1e-3));
+}
+
 TEST(MapServer, InjectedFalseLoopsDoNotMoveTheOptimisedTrajectory) {
   const OdometrySegment& seg = loopSegment(kFrames, 0, kFrames);
   const std::string dir = freshDir("false_loops");

@@ -96,6 +96,25 @@ TEST(MapStore, ReopenGivesTheSameContent) {
   }
 }
 
+TEST(MapStore, LoopsAppendedTogetherReadBackLikeSingleOnes) {
+  testing::TempDir tmp;
+  const Sample sample;
+  {
+    auto store = openStore(tmp.dir(), true);
+    ASSERT_TRUE(store);
+    for (const auto& k : sample.keyframes) ASSERT_TRUE(store->appendKeyframe(k).ok());
+    ASSERT_TRUE(store->appendLoops(sample.loops).ok());
+    EXPECT_TRUE(store->appendLoops({}).ok());
+    // One bad loop refuses the whole batch and writes nothing.
+    EXPECT_FALSE(store->appendLoops({makeLoop(0, 1), makeLoop(0, 99)}).ok());
+    EXPECT_EQ(store->loops().size(), sample.loops.size());
+  }
+  auto store = openStore(tmp.dir());
+  ASSERT_TRUE(store);
+  EXPECT_EQ(store->recovery().corrupt_records, 0);
+  expectContent(*store, sample);
+}
+
 TEST(MapStore, SecondOpenOfALockedDirectoryFails) {
   testing::TempDir tmp;
   {

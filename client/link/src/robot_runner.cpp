@@ -41,18 +41,8 @@ namespace {
 
 using Clock = std::chrono::steady_clock;
 
-struct FrameRecord {
-  double timestamp = 0.0;
-  SE3 T_odom_cam = SE3::Identity();
-  int segment = 0;
-  int reference_keyframe = -1;
-};
-
-struct KeyframeRecord {
-  double timestamp = 0.0;
-  SE3 T_odom_cam = SE3::Identity();
-  int segment = 0;
-};
+using FrameRecord = RunFrameRecord;
+using KeyframeRecord = RunKeyframeRecord;
 
 struct RunState {
   std::vector<FrameRecord> frames;
@@ -149,9 +139,9 @@ void trackFrames(const TumDataset& dataset, VisualOdometry& vo, RobotLink& link,
 }
 
 /// T_map_odom of the frame's segment, through its reference keyframe's final correction when there is one.
-SE3 finalMapFromOdom(const FrameRecord& f, const RunState& state, const RobotLink& link) {
-  const auto kf = state.keyframes.find(f.reference_keyframe);
-  if (kf != state.keyframes.end() && kf->second.segment == f.segment)
+SE3 finalMapFromOdom(const FrameRecord& f, const std::map<int, KeyframeRecord>& keyframes, const RobotLink& link) {
+  const auto kf = keyframes.find(f.reference_keyframe);
+  if (kf != keyframes.end() && kf->second.segment == f.segment)
     if (const std::optional<SE3> T_map_kf = link.correctedKeyframe(f.reference_keyframe))
       return *T_map_kf * kf->second.T_odom_cam.inverse();
   return link.mapFromOdom(f.segment);
@@ -167,16 +157,25 @@ void finish(const RunState& state, RobotLink& link, const RobotRunOptions& optio
   out->all_acked = !any_sent || link.waitAllAcked(std::max(0.0, remaining()));
   out->final_correction_received =
       any_sent && link.waitForCorrection(state.last_sent_keyframe, std::max(0.0, remaining()));
-  for (const FrameRecord& f : state.frames)
-    out->final_map.push_back({f.timestamp, se3::normalized(finalMapFromOdom(f, state, link) * f.T_odom_cam)});
-  for (const auto& [id, kf] : state.keyframes) {
+  out->frame_records = state.frames;
+  out->keyframe_records = state.keyframes;
+  reanchorFinalMap(link, out);
+}
+
+}  // namespace
+
+void reanchorFinalMap(const RobotLink& link, RobotRunResult* out) {
+  out->final_map.clear();
+  out->keyframes_final.clear();
+  for (const FrameRecord& f : out->frame_records)
+    out->final_map.push_back(
+        {f.timestamp, se3::normalized(finalMapFromOdom(f, out->keyframe_records, link) * f.T_odom_cam)});
+  for (const auto& [id, kf] : out->keyframe_records) {
     const std::optional<SE3> T_map_kf = link.correctedKeyframe(id);
     out->keyframes_final.push_back(
         {kf.timestamp, T_map_kf ? *T_map_kf : link.mapFromOdom(kf.segment) * kf.T_odom_cam});
   }
 }
-
-}  // namespace
 
 RobotRunResult runRobot(const TumDataset& dataset, const CameraIntrinsics& camera,
                         const OdometryConfig& odometry, RobotLink& link, const RobotRunOptions& options) {

@@ -550,18 +550,21 @@ struct MapServer::Impl {
     verify_ms.push_back(loop_stats.verify_ms);
     for (int r = 0; r < kLoopRejectionCount; ++r) counters.loops_rejected_by_reason[r] += loop_stats.rejected_by_reason[r];
     int added = 0;
+    std::vector<StoredLoop> to_store;
     for (const LoopEdge& edge : edges) {
       if (const Status s = addLoopEdge(edge); !s) {
         log::warn("server: loop edge ", edge.from_id, "-", edge.to_id, ": ", s.error());
         continue;
       }
-      StoredLoop loop{edge.from_id, edge.to_id, edge.T_from_to, edge.information, edge.inliers, edge.motion_measure};
-      if (const Status s = store->appendLoop(loop); !s) log::error("server: cannot store loop: ", s.error());
+      to_store.push_back(
+          {edge.from_id, edge.to_id, edge.T_from_to, edge.information, edge.inliers, edge.motion_measure});
       ++added;
       registry.countLoop(nodes[static_cast<size_t>(edge.from_id)].kf.robot_id);
       if (nodes[static_cast<size_t>(edge.to_id)].robot != robot)
         registry.countLoop(nodes[static_cast<size_t>(edge.to_id)].kf.robot_id);
     }
+    // One write and one sync for all of this keyframe's loops (a lost loop edge costs accuracy, not data).
+    if (const Status s = store->appendLoops(to_store); !s) log::error("server: cannot store loops: ", s.error());
     counters.loops_accepted += added;
     ++counters.keyframes;
     registry.countKeyframe(kf.robot_id);

@@ -191,6 +191,25 @@ Status MapStore::appendLoop(const StoredLoop& loop) {
   return Status::success();
 }
 
+Status MapStore::appendLoops(const std::vector<StoredLoop>& loops) {
+  if (loops.empty()) return Status::success();
+  State& s = *state_;
+  std::lock_guard<std::mutex> lock(s.append_mutex);
+  if (!s.failed.empty()) return Status::failure("map store failed earlier (" + s.failed + "); reopen it");
+  msg::Bytes records;
+  for (const StoredLoop& loop : loops) {
+    Result<msg::Bytes> payload = store::encodeLoopPayload(loop);
+    if (!payload) return Status::failure(payload.error());
+    for (int64_t node : {loop.from_node, loop.to_node})
+      if (!s.hasNode(node)) return Status::failure("loop refers to unknown node id " + std::to_string(node));
+    const msg::Bytes record = store::frameRecord(store::RecordType::kLoop, *payload);
+    records.insert(records.end(), record.begin(), record.end());
+  }
+  if (Status st = s.append(&s.loop_log, records); !st) return st;
+  s.loops.insert(s.loops.end(), loops.begin(), loops.end());
+  return Status::success();
+}
+
 Result<StoredKeyframe> MapStore::readKeyframe(int64_t node_id) const {
   using R = Result<StoredKeyframe>;
   RecordLocation where;

@@ -23,6 +23,9 @@ Result<double> parseFiniteNumber(const std::string& token, const std::string& wh
 /// Shortest readable form of a number (printf %g), e.g. "0.02", "1": for messages.
 std::string formatShort(double value);
 
+/// A JSON string literal: quotes, backslash and control characters escaped.
+std::string jsonString(const std::string& text);
+
 /// The contents of a file, or "<path>: cannot open".
 Result<std::string> readTextFile(const std::string& path);
 

@@ -5,6 +5,7 @@
 #include <chrono>
 #include <condition_variable>
 #include <functional>
+#include <map>
 #include <mutex>
 #include <optional>
 #include <vector>
@@ -60,6 +61,20 @@ struct AvoidanceSummary {
   std::vector<AvoidanceRecord> decisions;
 };
 
+/// Per frame: what re-anchoring it on corrected keyframe poses needs.
+struct RunFrameRecord {
+  double timestamp = 0.0;
+  SE3 T_odom_cam = SE3::Identity();
+  int segment = 0;
+  int reference_keyframe = -1;
+};
+/// Per keyframe the odometry made.
+struct RunKeyframeRecord {
+  double timestamp = 0.0;
+  SE3 T_odom_cam = SE3::Identity();
+  int segment = 0;
+};
+
 struct RobotRunResult {
   /// Every frame, T_map_cam as known at that moment: mapFromOdom(segment) * T_odom_cam.
   Trajectory live;
@@ -77,6 +92,9 @@ struct RobotRunResult {
   double wall_s = 0.0;
   std::optional<AvoidanceSummary> avoidance;  ///< when RobotRunOptions::avoidance was set
 
+  std::vector<RunFrameRecord> frame_records;         ///< parallel to odometry
+  std::map<int, RunKeyframeRecord> keyframe_records;  ///< by keyframe id
+
   /// Median of a per-frame stage time (ms); 0 without frames.
   double medianMs(double StageTimes::*stage = &StageTimes::total_ms) const;
 };
@@ -84,6 +102,10 @@ struct RobotRunResult {
 /// Runs VisualOdometry over frames [first_frame, end_frame) of the dataset, sends each new keyframe through
 /// `link` (which the caller has started), keeps heartbeats' tracking state current. Never throws; unreadable
 /// frames are logged and counted.
+/// Recomputes final_map and keyframes_final from the link's latest corrections: e.g. after the run, once
+/// other robots' keyframes have merged the maps and the server sent newer corrections. runRobot calls it.
+void reanchorFinalMap(const RobotLink& link, RobotRunResult* result);
+
 RobotRunResult runRobot(const TumDataset& dataset, const CameraIntrinsics& camera,
                         const OdometryConfig& odometry, RobotLink& link, const RobotRunOptions& options);
 
