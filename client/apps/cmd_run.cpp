@@ -169,6 +169,11 @@ std::string reportJson(const RunOptions& o, const std::vector<std::string>& data
     << "    \"server_ms_per_keyframe_p90\": " << num(s.ingest_ms_p90) << ",\n"
     << "    \"server_cpu_ms_per_keyframe_median\": " << num(s.ingest_cpu_ms_median) << ",\n"
     << "    \"messages_rejected\": " << s.messages_rejected << ",\n"
+    << "    \"octree_leaves\": " << s.map_leaves << ",\n"
+    << "    \"octree_occupied_leaves\": " << s.map_occupied_leaves << ",\n"
+    << "    \"octree_memory_bytes\": " << s.map_tree_memory_bytes << ",\n"
+    << "    \"octree_rebuilds\": " << s.map_rebuilds << ",\n"
+    << "    \"slices_sent\": " << s.slices_sent << ",\n"
     << "    \"maps\": [";
   for (size_t m = 0; m < maps.size(); ++m) {
     j << (m ? ", " : "") << "[";
@@ -424,6 +429,9 @@ int run(int argc, char** argv) {
   }
   const MapServerStats stats = server.stats();
   const auto maps = server.mergedMaps();
+  // The occupancy map and what a person looks at first: map.bt/.ot, map.ply, slice_<robot>.pgm/.yaml, map.png.
+  if (config.occupancy_enabled)
+    if (const Status s = server.writeMapOutputs(o.out); !s) log::warn("map files: ", s.error());
   for (Robot& r : robots) {
     r.link->stop();
     if (r.own_transport) r.own_transport->stop();
@@ -442,7 +450,14 @@ int run(int argc, char** argv) {
   std::fprintf(stderr, "  server: %d keyframes, %d loops (%d rejected by the graph), %zu map(s)%s, %.1f ms/keyframe\n",
                stats.keyframes, stats.loops_accepted, stats.loops_disabled, maps.size(),
                joint ? (", joint ATE " + num(joint->rmse, "%.4f") + " m").c_str() : "", stats.ingest_ms_median);
-  std::fprintf(stderr, "wrote %s/{trajectory,keyframes}_<robot>.txt, report.json, map/\n", o.out.c_str());
+  std::fprintf(stderr, "  map: %zu octree leaves (%zu occupied), %.1f MB in memory, %llu rebuild(s), %llu slices sent\n",
+               static_cast<size_t>(stats.map_leaves), static_cast<size_t>(stats.map_occupied_leaves),
+               stats.map_tree_memory_bytes / 1e6, static_cast<unsigned long long>(stats.map_rebuilds),
+               static_cast<unsigned long long>(stats.slices_sent));
+  std::fprintf(stderr,
+               "wrote %s/: trajectory_<robot>.txt, keyframes_<robot>.txt, report.json, map.png, map.bt, map.ot, "
+               "map.ply, slice_<robot>.pgm/.yaml, map/\n",
+               o.out.c_str());
   return 0;
 }
 
