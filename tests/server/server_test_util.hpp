@@ -202,6 +202,20 @@ class ScriptedRobot {
   std::shared_ptr<State> state_;
 };
 
+/// Sends keyframes [from, to) of `seg` (Hello first), then waits for all their acks and for the server to
+/// settle.
+inline void driveRobot(MapServer& server, ScriptedRobot& robot, const OdometrySegment& seg, size_t from = 0,
+                       size_t to = static_cast<size_t>(-1)) {
+  robot.hello(seg.camera);
+  std::set<int> ids;
+  for (size_t i = from; i < std::min(to, seg.keyframes.size()); ++i) {
+    robot.send(*seg.keyframes[i], seg.images[i]);
+    ids.insert(seg.keyframes[i]->id);
+  }
+  EXPECT_TRUE(robot.waitAcked(ids, 120.0)) << "not every keyframe was acknowledged";
+  EXPECT_TRUE(server.waitIdle(120.0));
+}
+
 /// Server keyframes of one robot as a trajectory (optimised, map frame).
 inline Trajectory serverTrajectory(const MapServer& server, const std::string& robot) {
   Trajectory t;

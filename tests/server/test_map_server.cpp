@@ -51,19 +51,6 @@ struct Harness {
   }
 };
 
-/// Sends every keyframe of `seg` (Hello first) and waits for all acks and the server to settle.
-void drive(Harness& h, ScriptedRobot& robot, const OdometrySegment& seg, size_t from = 0,
-           size_t to = static_cast<size_t>(-1)) {
-  robot.hello(seg.camera);
-  std::set<int> ids;
-  for (size_t i = from; i < std::min(to, seg.keyframes.size()); ++i) {
-    robot.send(*seg.keyframes[i], seg.images[i]);
-    ids.insert(seg.keyframes[i]->id);
-  }
-  EXPECT_TRUE(robot.waitAcked(ids, 120.0)) << "not every keyframe was acknowledged";
-  EXPECT_TRUE(h.server->waitIdle(120.0));
-}
-
 double ateOf(const Trajectory& gt, const Trajectory& est) {
   const auto ate = computeAte(gt, est);
   EXPECT_TRUE(ate) << ate.error();
@@ -75,7 +62,7 @@ TEST(MapServer, LoopClosureReducesTheOdometryErrorOnTheSyntheticLoop) {
   ASSERT_GT(seg.keyframes.size(), 20u);
   Harness h(freshDir("loop"));
   ScriptedRobot robot(*h.transport, "robot0", rgbdmap::testing::testKey(1), 100);
-  drive(h, robot, seg);
+  testing::driveRobot(*h.server, robot, seg);
   const MapServerStats s = h.server->stats();
   EXPECT_EQ(s.keyframes, static_cast<int>(seg.keyframes.size()));
   EXPECT_GE(s.loops_accepted, 1);
@@ -98,8 +85,8 @@ TEST(MapServer, TwoRobotsWithOverlappingSegmentsEndInOneMergedMap) {
   Harness h(freshDir("merge"));
   ScriptedRobot r0(*h.transport, "robot0", rgbdmap::testing::testKey(1), 100);
   ScriptedRobot r1(*h.transport, "robot1", rgbdmap::testing::testKey(2), 100);
-  drive(h, r0, a);
-  drive(h, r1, b);
+  testing::driveRobot(*h.server, r0, a);
+  testing::driveRobot(*h.server, r1, b);
   const auto maps = h.server->mergedMaps();
   ASSERT_EQ(maps.size(), 1u) << "the two robots' maps did not merge";
   EXPECT_EQ(maps[0].size(), 2u);
@@ -147,7 +134,7 @@ TEST(MapServer, RestartOnTheSameMapDirectoryLosesNoAcknowledgedKeyframe) {
   Harness h(dir);
   {
     ScriptedRobot robot(*h.transport, "robot0", rgbdmap::testing::testKey(1), 100);
-    drive(h, robot, seg, 0, half);
+    testing::driveRobot(*h.server, robot, seg, 0, half);
     EXPECT_EQ(h.server->stats().keyframes, static_cast<int>(half));
   }
   h.server->stop();
@@ -156,7 +143,7 @@ TEST(MapServer, RestartOnTheSameMapDirectoryLosesNoAcknowledgedKeyframe) {
   EXPECT_EQ(h.server->stats().restored_keyframes, static_cast<int>(half));
   // The same robot process goes on: it re-sends its last three keyframes (acks it never saw) and the rest.
   ScriptedRobot robot(*h.transport, "robot0", rgbdmap::testing::testKey(1), 100);
-  drive(h, robot, seg, half - 3, seg.keyframes.size());
+  testing::driveRobot(*h.server, robot, seg, half - 3, seg.keyframes.size());
   const MapServerStats s = h.server->stats();
   EXPECT_EQ(s.keyframes, static_cast<int>(seg.keyframes.size())) << "keyframes lost or duplicated";
   ASSERT_EQ(s.robots.size(), 1u);
@@ -175,10 +162,10 @@ TEST(MapServer, ARestartedRobotContinuesAsANewChainAndIsReAnchoredByLoopClosure)
   Harness h(freshDir("robot_restart"));
   {
     ScriptedRobot before(*h.transport, "robot0", rgbdmap::testing::testKey(1), 100);
-    drive(h, before, first);
+    testing::driveRobot(*h.server, before, first);
   }
   ScriptedRobot after(*h.transport, "robot0", rgbdmap::testing::testKey(1), 200);
-  drive(h, after, second);
+  testing::driveRobot(*h.server, after, second);
   const MapServerStats s = h.server->stats();
   ASSERT_EQ(s.robots.size(), 1u);
   EXPECT_EQ(s.robots[0].sessions, 2);
@@ -208,7 +195,7 @@ TEST(MapServer, InjectedFalseLoopsDoNotMoveTheOptimisedTrajectory) {
   {
     Harness h(dir);
     ScriptedRobot robot(*h.transport, "robot0", rgbdmap::testing::testKey(1), 100);
-    drive(h, robot, seg);
+    testing::driveRobot(*h.server, robot, seg);
     clean = h.server->keyframes();
   }
   // Forge wrong loops into the map directory: far-apart keyframes claimed to be 10 cm apart.
@@ -255,7 +242,7 @@ TEST(MapServer, BadInputIsCountedRefusedOrIgnoredAndNothingStoredIsLost) {
   robot.send(*seg.keyframes[0], seg.images[0]);
   ASSERT_TRUE(h.server->waitIdle(30.0));
   EXPECT_TRUE(robot.acks().empty());
-  drive(h, robot, seg, 0, 1);
+  testing::driveRobot(*h.server, robot, seg, 0, 1);
   EXPECT_EQ(robot.acks().at(seg.keyframes[0]->id), true);
   const uint64_t rejected_before = h.server->stats().messages_rejected;
   // Garbage, truncated and forged envelopes on the keyframe channel.
@@ -285,7 +272,7 @@ TEST(MapServer, BadInputIsCountedRefusedOrIgnoredAndNothingStoredIsLost) {
   EXPECT_EQ(s.keyframes_refused, 1u);
   EXPECT_EQ(s.keyframes, 1) << "the stored keyframe is kept, nothing bad was added";
   // A good keyframe still goes through afterwards.
-  drive(h, robot, seg, 2, 3);
+  testing::driveRobot(*h.server, robot, seg, 2, 3);
   EXPECT_EQ(h.server->stats().keyframes, 2);
 }
 

@@ -62,17 +62,6 @@ struct Harness {
   }
 };
 
-void drive(Harness& h, ScriptedRobot& robot, const OdometrySegment& seg, size_t from, size_t to) {
-  robot.hello(seg.camera);
-  std::set<int> ids;
-  for (size_t i = from; i < std::min(to, seg.keyframes.size()); ++i) {
-    robot.send(*seg.keyframes[i], seg.images[i]);
-    ids.insert(seg.keyframes[i]->id);
-  }
-  EXPECT_TRUE(robot.waitAcked(ids, 120.0)) << "not every keyframe was acknowledged";
-  EXPECT_TRUE(h.server->waitIdle(120.0));
-}
-
 /// The synthetic world pose of the map frame: the map frame is the first keyframe's odometry frame, which
 /// the server keeps fixed, so world <- map = gt(first keyframe) * (T_map_kf of node 0)^-1.
 SE3 worldFromMap(const OdometrySegment& seg, const MapServer& server) {
@@ -130,7 +119,7 @@ TEST(MapServerOccupancy, SyntheticLoopBuildsTheRoomSendsSlicesAndStreamsAndWrite
   ASSERT_GT(seg.keyframes.size(), 20u);
   Harness h(testConfig(freshDir("loop")));
   ScriptedRobot robot(*h.transport, "robot0", rgbdmap::testing::testKey(1), 100);
-  drive(h, robot, seg, 0, seg.keyframes.size());
+  testing::driveRobot(*h.server, robot, seg, 0, seg.keyframes.size());
   const MapServerStats s = h.server->stats();
   EXPECT_EQ(s.map_keyframes, seg.keyframes.size());
   EXPECT_GE(s.optimizations, 1);
@@ -205,7 +194,7 @@ TEST(MapServerOccupancy, RestartReinsertsTheStoredKeyframes) {
   size_t occupied_before = 0;
   {
     ScriptedRobot robot(*h.transport, "robot0", rgbdmap::testing::testKey(1), 100);
-    drive(h, robot, seg, 0, half);
+    testing::driveRobot(*h.server, robot, seg, 0, half);
     occupied_before = h.server->stats().map_occupied_leaves;
   }
   h.server->stop();
@@ -220,7 +209,7 @@ TEST(MapServerOccupancy, RestartReinsertsTheStoredKeyframes) {
   EXPECT_EQ(s.slices_sent, 0u) << "restored keyframes send no slices";
   // The robot goes on; its new keyframes join the restored map and get slices.
   ScriptedRobot robot(*h.transport, "robot0", rgbdmap::testing::testKey(1), 100);
-  drive(h, robot, seg, half, seg.keyframes.size());
+  testing::driveRobot(*h.server, robot, seg, half, seg.keyframes.size());
   EXPECT_EQ(h.server->stats().map_keyframes, seg.keyframes.size());
   EXPECT_GE(robot.slicesReceived(), 1);
   const std::string out = freshDir("restart_out");
@@ -236,7 +225,7 @@ TEST(MapServerOccupancy, OffMeansNoOctreeNoSlicesAndAClearErrorForFiles) {
   config.occupancy_enabled = false;
   Harness h(config);
   ScriptedRobot robot(*h.transport, "robot0", rgbdmap::testing::testKey(1), 100);
-  drive(h, robot, seg, 0, 3);
+  testing::driveRobot(*h.server, robot, seg, 0, 3);
   const MapServerStats s = h.server->stats();
   EXPECT_EQ(s.keyframes, 3);
   EXPECT_EQ(s.map_keyframes, 0u);
