@@ -4,11 +4,11 @@
 #include <chrono>
 #include <cmath>
 
-#include "rgbdmap/client/guided_matcher.hpp"
+#include "rgbdmap/vision/guided_matcher.hpp"
 #include "rgbdmap/client/keyframe_selector.hpp"
-#include "rgbdmap/client/matcher.hpp"
-#include "rgbdmap/client/pose_refiner.hpp"
-#include "rgbdmap/client/ransac.hpp"
+#include "rgbdmap/vision/matcher.hpp"
+#include "rgbdmap/vision/pose_refiner.hpp"
+#include "rgbdmap/vision/ransac.hpp"
 
 namespace rgbdmap {
 namespace {

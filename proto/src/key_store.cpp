@@ -1,5 +1,7 @@
 // KeyStore, hex keys, session ids, reject reason names.
 #include <chrono>
+#include <fstream>
+#include <sstream>
 
 #include "rgbdmap/common/logging.hpp"
 #include "rgbdmap/proto/envelope.hpp"
@@ -96,6 +98,29 @@ uint64_t RejectCounters::total() const {
   uint64_t sum = 0;
   for (const auto& c : counts_) sum += c.load();
   return sum;
+}
+
+Result<KeyStore> readKeysFile(const std::string& path, KeyStore keys) {
+  std::ifstream in(path);
+  if (!in) return Result<KeyStore>::failure("cannot read keys file " + path);
+  std::string line;
+  int number = 0;
+  while (std::getline(in, line)) {
+    ++number;
+    const size_t hash = line.find('#');
+    if (hash != std::string::npos) line.resize(hash);
+    std::istringstream fields(line);
+    std::string id, hex, extra;
+    if (!(fields >> id)) continue;
+    const std::string where = path + ":" + std::to_string(number) + ": ";
+    if (!(fields >> hex) || (fields >> extra))
+      return Result<KeyStore>::failure(where + "expected 'robot_id hexkey'");
+    auto key = parseHexKey(hex);
+    if (!key) return Result<KeyStore>::failure(where + key.error());
+    if (keys.find(id)) return Result<KeyStore>::failure(where + "second key for '" + id + "'");
+    if (const Status s = keys.add(id, *key); !s) return Result<KeyStore>::failure(where + s.error());
+  }
+  return keys;
 }
 
 }  // namespace rgbdmap::msg

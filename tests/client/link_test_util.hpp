@@ -6,7 +6,7 @@
 
 #include <gtest/gtest.h>
 
-#include "rgbdmap/client/robot_link.hpp"
+#include "rgbdmap/link/robot_link.hpp"
 #include "rgbdmap/transport/transport.hpp"
 
 namespace rgbdmap::testing {

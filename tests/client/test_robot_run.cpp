@@ -5,8 +5,8 @@
 #include "fake_map_server.hpp"
 #include "link_test_util.hpp"
 #include "rgbdmap/client/odometry_config_io.hpp"
-#include "rgbdmap/client/robot_client_config.hpp"
-#include "rgbdmap/client/robot_runner.hpp"
+#include "rgbdmap/link/robot_client_config.hpp"
+#include "rgbdmap/link/robot_runner.hpp"
 #include "rgbdmap/common/synth.hpp"
 
 namespace rgbdmap {

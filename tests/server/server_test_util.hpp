@@ -11,7 +11,7 @@
 #include <octomap/OcTree.h>
 
 #include "proto/proto_test_util.hpp"
-#include "rgbdmap/client/keyframe_message.hpp"
+#include "rgbdmap/vision/keyframe_message.hpp"
 #include "rgbdmap/client/odometry.hpp"
 #include "rgbdmap/common/evaluation.hpp"
 #include "rgbdmap/common/synth.hpp"

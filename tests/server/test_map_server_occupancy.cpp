@@ -6,7 +6,7 @@
 
 #include <gtest/gtest.h>
 
-#include "rgbdmap/client/robot_runner.hpp"
+#include "rgbdmap/link/robot_runner.hpp"
 #include "rgbdmap/export/point_cloud_export.hpp"
 #include "rgbdmap/export/slice_export.hpp"
 #include "server/server_test_util.hpp"

@@ -7,9 +7,9 @@
 #include <cmath>
 #include <random>
 
-#include "rgbdmap/server/pose_graph.hpp"
-#include "rgbdmap/server/pose_graph_cost.hpp"
-#include "rgbdmap/server/pose_graph_residual.hpp"
+#include "rgbdmap/graph/pose_graph.hpp"
+#include "rgbdmap/graph/pose_graph_cost.hpp"
+#include "rgbdmap/graph/pose_graph_residual.hpp"
 
 namespace rgbdmap {
 namespace {

@@ -8,8 +8,8 @@
 #include <thread>
 #include <vector>
 
-#include "rgbdmap/server/pose_graph_optimizer.hpp"
-#include "rgbdmap/server/pose_graph_synth.hpp"
+#include "rgbdmap/graph/pose_graph_optimizer.hpp"
+#include "rgbdmap/graph/pose_graph_synth.hpp"
 
 namespace rgbdmap {
 namespace {

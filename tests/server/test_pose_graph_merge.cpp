@@ -4,8 +4,8 @@
 #include <algorithm>
 #include <random>
 
-#include "rgbdmap/server/pose_graph.hpp"
-#include "rgbdmap/server/pose_graph_synth.hpp"
+#include "rgbdmap/graph/pose_graph.hpp"
+#include "rgbdmap/graph/pose_graph_synth.hpp"
 
 namespace rgbdmap {
 namespace {

@@ -42,7 +42,7 @@ TEST(ServerConfig, KeysFileIsParsedStrictly) {
     std::ofstream f(path);
     f << "# robots\nrobot0 " << std::string(64, 'a') << "\n\nrobot1 " << std::string(64, 'b') << "  # second\n";
   }
-  auto keys = readKeysFile(path);
+  auto keys = msg::readKeysFile(path);
   ASSERT_TRUE(keys) << keys.error();
   EXPECT_TRUE(keys->find("robot0"));
   EXPECT_TRUE(keys->find("robot1"));
@@ -50,10 +50,10 @@ TEST(ServerConfig, KeysFileIsParsedStrictly) {
     std::ofstream f(path);
     f << "robot0 xyz\n";
   }
-  auto bad = readKeysFile(path);
+  auto bad = msg::readKeysFile(path);
   ASSERT_FALSE(bad);
   EXPECT_NE(bad.error().find(":1:"), std::string::npos) << bad.error();
-  EXPECT_FALSE(readKeysFile(path + ".missing"));
+  EXPECT_FALSE(msg::readKeysFile(path + ".missing"));
 }
 
 }  // namespace

@@ -9,8 +9,8 @@
 
 #include <benchmark/benchmark.h>
 
-#include "rgbdmap/client/features.hpp"
-#include "rgbdmap/client/robot_link.hpp"
+#include "rgbdmap/vision/features.hpp"
+#include "rgbdmap/link/robot_link.hpp"
 #include "rgbdmap/common/logging.hpp"
 #include "rgbdmap/common/synth.hpp"
 #include "rgbdmap/proto/channels.hpp"

@@ -1,5 +1,5 @@
 // robot.*, transport.*, link.* keys of the robot program's configuration.
-#include "rgbdmap/client/robot_client_config.hpp"
+#include "rgbdmap/link/robot_client_config.hpp"
 
 #include <cctype>
 #include <filesystem>

@@ -1,11 +1,11 @@
 // RobotLink: lifecycle, Hello/Heartbeat worker, keyframe sending through the ReliableSender.
-#include "rgbdmap/client/robot_link.hpp"
+#include "rgbdmap/link/robot_link.hpp"
 
 #include <algorithm>
 #include <chrono>
 #include <cmath>
 
-#include "rgbdmap/client/keyframe_message.hpp"
+#include "rgbdmap/vision/keyframe_message.hpp"
 #include "rgbdmap/common/logging.hpp"
 #include "rgbdmap/proto/channels.hpp"
 #include <functional>

@@ -12,7 +12,7 @@
 #include <string>
 #include <thread>
 
-#include "rgbdmap/client/robot_link.hpp"
+#include "rgbdmap/link/robot_link.hpp"
 #include "rgbdmap/proto/envelope.hpp"
 
 namespace rgbdmap {

@@ -1,5 +1,5 @@
 // runRobot: odometry over a dataset, keyframes through the RobotLink, trajectories in the map frame.
-#include "rgbdmap/client/robot_runner.hpp"
+#include "rgbdmap/link/robot_runner.hpp"
 
 #include <algorithm>
 #include <exception>

@@ -13,7 +13,7 @@
 
 #include <opencv2/core.hpp>
 
-#include "rgbdmap/client/keyframe_message.hpp"
+#include "rgbdmap/vision/keyframe_message.hpp"
 #include "rgbdmap/client/odometry.hpp"
 #include "rgbdmap/common/synth.hpp"
 #include "rgbdmap/common/tum_dataset.hpp"

@@ -13,7 +13,7 @@
 
 #include "map_worker.hpp"
 #include "robot_registry.hpp"
-#include "rgbdmap/client/keyframe_message.hpp"
+#include "rgbdmap/vision/keyframe_message.hpp"
 #include "rgbdmap/common/logging.hpp"
 #include "rgbdmap/proto/channels.hpp"
 #include "rgbdmap/proto/codec.hpp"
@@ -107,28 +107,6 @@ std::string MapServerConfig::validate() const {
   return out;
 }
 
-Result<msg::KeyStore> readKeysFile(const std::string& path, msg::KeyStore keys) {
-  std::ifstream in(path);
-  if (!in) return Result<msg::KeyStore>::failure("cannot read keys file " + path);
-  std::string line;
-  int number = 0;
-  while (std::getline(in, line)) {
-    ++number;
-    const size_t hash = line.find('#');
-    if (hash != std::string::npos) line.resize(hash);
-    std::istringstream fields(line);
-    std::string id, hex, extra;
-    if (!(fields >> id)) continue;
-    const std::string where = path + ":" + std::to_string(number) + ": ";
-    if (!(fields >> hex) || (fields >> extra))
-      return Result<msg::KeyStore>::failure(where + "expected 'robot_id hexkey'");
-    auto key = msg::parseHexKey(hex);
-    if (!key) return Result<msg::KeyStore>::failure(where + key.error());
-    if (keys.find(id)) return Result<msg::KeyStore>::failure(where + "second key for '" + id + "'");
-    if (const Status s = keys.add(id, *key); !s) return Result<msg::KeyStore>::failure(where + s.error());
-  }
-  return keys;
-}
 
 // ---------------------------------------------------------------------------------------------------------
 

@@ -22,7 +22,7 @@
 
 #include "rgbdmap/map/occupancy_map.hpp"
 #include "rgbdmap/server/map_server.hpp"
-#include "rgbdmap/server/map_store.hpp"
+#include "rgbdmap/store/map_store.hpp"
 
 namespace rgbdmap {
 

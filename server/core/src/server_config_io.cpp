@@ -1,23 +1,10 @@
 #include "rgbdmap/server/server_config.hpp"
 
+#include "rgbdmap/common/text_lines.hpp"
+
 #include <sstream>
 
 namespace rgbdmap {
-namespace {
-
-}  // namespace
-
-std::vector<std::string> splitRobotList(const std::string& text) {
-  std::vector<std::string> out;
-  std::string item;
-  std::istringstream in(text);
-  while (std::getline(in, item, ',')) {
-    const size_t b = item.find_first_not_of(" \t");
-    const size_t e = item.find_last_not_of(" \t");
-    if (b != std::string::npos) out.push_back(item.substr(b, e - b + 1));
-  }
-  return out;
-}
 
 namespace {
 
@@ -34,7 +21,7 @@ void readServerConfig(ConfigReader& r, ServerAppConfig* c) {
   r.read("server.map_dir", &s.map_dir);
   std::string robots = joinList(s.robots);
   r.read("server.robots", &robots);
-  s.robots = splitRobotList(robots);
+  s.robots = splitList(robots);
   r.read("server.transport", &c->transport_url);
   r.read("server.keys_file", &c->keys_file);
   r.read("server.open_mode", &c->open_mode);

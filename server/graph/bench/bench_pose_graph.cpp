@@ -6,7 +6,7 @@
 //   taskset -c 1 build/bin/bench_pose_graph
 #include <benchmark/benchmark.h>
 
-#include "rgbdmap/server/pose_graph_synth.hpp"
+#include "rgbdmap/graph/pose_graph_synth.hpp"
 
 namespace {
 

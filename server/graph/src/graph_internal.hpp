@@ -6,7 +6,7 @@
 #include <vector>
 
 #include "rgbdmap/common/result.hpp"
-#include "rgbdmap/server/pose_graph.hpp"
+#include "rgbdmap/graph/pose_graph.hpp"
 
 namespace rgbdmap::graph_detail {
 

@@ -5,8 +5,8 @@
 #include <numeric>
 
 #include "graph_internal.hpp"
-#include "rgbdmap/server/pose_graph_cost.hpp"
-#include "rgbdmap/server/pose_graph_residual.hpp"
+#include "rgbdmap/graph/pose_graph_cost.hpp"
+#include "rgbdmap/graph/pose_graph_residual.hpp"
 
 namespace rgbdmap {
 

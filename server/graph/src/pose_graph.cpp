@@ -1,11 +1,11 @@
-#include "rgbdmap/server/pose_graph.hpp"
+#include "rgbdmap/graph/pose_graph.hpp"
 
 #include <algorithm>
 #include <chrono>
 #include <string>
 
 #include "graph_internal.hpp"
-#include "rgbdmap/server/pose_graph_residual.hpp"
+#include "rgbdmap/graph/pose_graph_residual.hpp"
 
 namespace rgbdmap {
 

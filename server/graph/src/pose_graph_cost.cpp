@@ -1,4 +1,4 @@
-#include "rgbdmap/server/pose_graph_cost.hpp"
+#include "rgbdmap/graph/pose_graph_cost.hpp"
 
 #include <ceres/manifold.h>
 

@@ -1,4 +1,4 @@
-#include "rgbdmap/server/pose_graph_optimizer.hpp"
+#include "rgbdmap/graph/pose_graph_optimizer.hpp"
 
 #include <chrono>
 #include <utility>

@@ -1,4 +1,4 @@
-#include "rgbdmap/server/pose_graph_synth.hpp"
+#include "rgbdmap/graph/pose_graph_synth.hpp"
 
 #include <cmath>
 #include <random>

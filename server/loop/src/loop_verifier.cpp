@@ -1,8 +1,8 @@
 #include "rgbdmap/loop/loop_verifier.hpp"
 
-#include "rgbdmap/client/matcher.hpp"
-#include "rgbdmap/client/pose_refiner.hpp"
-#include "rgbdmap/client/ransac.hpp"
+#include "rgbdmap/vision/matcher.hpp"
+#include "rgbdmap/vision/pose_refiner.hpp"
+#include "rgbdmap/vision/ransac.hpp"
 
 namespace rgbdmap {
 

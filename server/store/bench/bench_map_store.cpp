@@ -15,7 +15,7 @@
 #include "rgbdmap/common/image_codec.hpp"
 #include "rgbdmap/common/logging.hpp"
 #include "rgbdmap/common/synth.hpp"
-#include "rgbdmap/server/map_store.hpp"
+#include "rgbdmap/store/map_store.hpp"
 
 namespace {
 

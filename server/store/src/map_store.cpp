@@ -1,4 +1,4 @@
-#include "rgbdmap/server/map_store.hpp"
+#include "rgbdmap/store/map_store.hpp"
 
 #include <atomic>
 #include <mutex>

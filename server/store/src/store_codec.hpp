@@ -18,7 +18,7 @@
 
 #include "rgbdmap/common/result.hpp"
 #include "rgbdmap/proto/messages.hpp"
-#include "rgbdmap/server/map_store.hpp"
+#include "rgbdmap/store/map_store.hpp"
 
 namespace rgbdmap::store {
 

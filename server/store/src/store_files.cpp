@@ -12,7 +12,7 @@
 #include <sstream>
 
 #include "rgbdmap/proto/messages.hpp"
-#include "rgbdmap/server/map_store.hpp"
+#include "rgbdmap/store/map_store.hpp"
 
 namespace rgbdmap::store {
 namespace fs = std::filesystem;

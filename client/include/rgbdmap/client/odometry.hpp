@@ -6,9 +6,10 @@
 #include <string>
 #include <vector>
 
-#include "rgbdmap/client/features.hpp"
+#include "rgbdmap/vision/features.hpp"
+#include "rgbdmap/vision/keyframe.hpp"
 #include "rgbdmap/client/odometry_config.hpp"
-#include "rgbdmap/client/ransac.hpp"
+#include "rgbdmap/vision/ransac.hpp"
 #include "rgbdmap/common/camera.hpp"
 #include "rgbdmap/common/rgbd_frame.hpp"
 
@@ -21,20 +22,6 @@ enum class TrackingState {
   kLost,         ///< not tracked; the pose is the motion-model prediction
 };
 const char* toString(TrackingState state);
-
-struct Keyframe {
-  int id = 0;
-  int segment = 0;  ///< odometry segment; a new one starts after a loss that relocalisation could not fix
-  int frame_index = 0;
-  double timestamp = 0.0;
-  SE3 T_odom_cam = SE3::Identity();
-  FrameFeatures features;
-  int previous_id = -1;              ///< previous keyframe in the same segment, -1 for a segment start
-  SE3 T_prev_cur = SE3::Identity();  ///< relative pose from the previous keyframe (odometry edge)
-  /// Information of that edge, tangent order (rho, omega), for a right perturbation T_prev_cur * exp(xi)
-  /// (the refinement's left perturbation of T_cur_prev).
-  Mat6 information = Mat6::Zero();
-};
 
 struct StageTimes {
   double extract_ms = 0, match_ms = 0, ransac_ms = 0, refine_ms = 0, total_ms = 0;

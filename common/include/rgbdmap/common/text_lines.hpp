@@ -29,4 +29,7 @@ std::string jsonString(const std::string& text);
 /// The contents of a file, or "<path>: cannot open".
 Result<std::string> readTextFile(const std::string& path);
 
+/// "a, b,c" -> {"a", "b", "c"}: comma-separated items, blanks around them trimmed, empty items dropped.
+std::vector<std::string> splitList(const std::string& text);
+
 }  // namespace rgbdmap

@@ -90,6 +90,10 @@ class KeyStore {
 /// Hex string (64 hex digits for 32 bytes, any even length >= 2 * kMinKeyBytes) -> key bytes.
 Result<Bytes> parseHexKey(const std::string& hex);
 
+/// Reads `robot_id hexkey` lines ('#' comments, blank lines ignored) into `keys` (e.g. an open-mode store,
+/// where robots with a key must then still sign).
+Result<KeyStore> readKeysFile(const std::string& path, KeyStore keys = {});
+
 /// Sliding-window replay protection per sender. Thread-safe.
 class ReplayGuard {
  public:

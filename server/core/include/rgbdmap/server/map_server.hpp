@@ -34,9 +34,9 @@
 #include "rgbdmap/map/occupancy_slice.hpp"
 #include "rgbdmap/proto/envelope.hpp"
 #include "rgbdmap/proto/messages.hpp"
-#include "rgbdmap/server/map_store.hpp"
-#include "rgbdmap/server/pose_graph.hpp"
-#include "rgbdmap/server/pose_graph_optimizer.hpp"
+#include "rgbdmap/store/map_store.hpp"
+#include "rgbdmap/graph/pose_graph.hpp"
+#include "rgbdmap/graph/pose_graph_optimizer.hpp"
 #include "rgbdmap/transport/transport.hpp"
 
 namespace rgbdmap {
@@ -173,9 +173,5 @@ class MapServer {
   struct Impl;
   std::unique_ptr<Impl> impl_;
 };
-
-/// Reads `robot_id hexkey` lines ('#' comments, blank lines ignored) into `keys` (e.g. an open-mode store,
-/// where robots with a key must then still sign).
-Result<msg::KeyStore> readKeysFile(const std::string& path, msg::KeyStore keys = {});
 
 }  // namespace rgbdmap

@@ -15,9 +15,6 @@ struct ServerAppConfig {
   bool open_mode = false;                 ///< accept unsigned messages from robots without a key (demos)
 };
 
-/// "a, b,c" -> {"a", "b", "c"}.
-std::vector<std::string> splitRobotList(const std::string& text);
-
 /// Reads every key (server.*, loop.*, graph.*); problems are recorded in the reader.
 void readServerConfig(ConfigReader& reader, ServerAppConfig* config);
 

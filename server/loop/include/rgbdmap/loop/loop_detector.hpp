@@ -9,7 +9,7 @@
 #include <unordered_map>
 #include <vector>
 
-#include "rgbdmap/client/features.hpp"
+#include "rgbdmap/vision/features.hpp"
 #include "rgbdmap/common/camera.hpp"
 #include "rgbdmap/common/result.hpp"
 #include "rgbdmap/loop/binary_words.hpp"

@@ -6,9 +6,10 @@
 #include <optional>
 #include <string>
 
-#include "rgbdmap/client/features.hpp"
-#include "rgbdmap/client/guided_matcher.hpp"
-#include "rgbdmap/client/odometry_config.hpp"
+#include "rgbdmap/vision/features.hpp"
+#include "rgbdmap/vision/guided_matcher.hpp"
+#include "rgbdmap/vision/guided_match_config.hpp"
+#include "rgbdmap/vision/vision_config.hpp"
 #include "rgbdmap/common/camera.hpp"
 #include "rgbdmap/common/se3.hpp"
 

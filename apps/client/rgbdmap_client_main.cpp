@@ -1,0 +1,197 @@
+// rgbdmap-client: the robot program. Runs the visual odometry on a dataset at its frame rate (or --fast),
+// sends keyframes to the mapping server, applies its corrections, and writes the trajectory in the map frame.
+#include <pthread.h>
+#include <signal.h>
+
+#include <cstdio>
+#include <cstdlib>
+#include <exception>
+#include <filesystem>
+#include <thread>
+
+#include <opencv2/core.hpp>
+
+#include "rgbdmap/cli/cli.hpp"
+#include "client_outputs.hpp"
+#include "rgbdmap/cli/odometry_setup.hpp"
+#include "rgbdmap/cli/progress.hpp"
+#include "rgbdmap/link/robot_client_config.hpp"
+#include "rgbdmap/common/logging.hpp"
+
+namespace rgbdmap::app {
+namespace {
+
+const char* kUsage =
+    "usage: rgbdmap-client --dataset DIR [--config FILE] [--robot-id R] [options]\n"
+    "Runs visual odometry on a TUM-layout dataset as robot R, sends keyframes to the mapping server, "
+    "applies\n"
+    "its pose corrections and writes into --out: trajectory_R.txt (every frame, map frame, final "
+    "corrections),\n"
+    "trajectory_R_live.txt (as known at each frame), keyframes_R.txt, client_R.json (counters, timings).\n"
+    "  --config FILE           YAML: robot, transport, link (see deploy/config/client.yaml) and the camera,\n"
+    "                          dataset and odometry sections of deploy/config/odometry.yaml\n"
+    "  --dataset DIR           TUM layout: rgb.txt, depth.txt, rgb/, depth/ [, camera.yaml]\n"
+    "  --robot-id R            overrides robot.id\n"
+    "  --transport URL         overrides transport.url: memq:// | udpm://239.255.76.67:7667?ttl=0 |\n"
+    "                          dds://?domain=0 (Cyclone DDS needs CYCLONEDDS_URI, e.g.\n"
+    "                          CYCLONEDDS_URI=file://$PWD/deploy/dds/cyclonedds-loopback.xml)\n"
+    "  --fast                  as fast as possible instead of the dataset's frame rate\n"
+    "  --frames A:B            frames A (inclusive) to B (exclusive); A: or :B leave one end open\n"
+    "  --out DIR               output folder (default: out)\n"
+    "  --threads N             OpenCV threads (default 1)\n";
+
+struct ClientArgs {
+  std::string dataset, out = "out";
+  int first_frame = 0, end_frame = -1, threads = 1;
+  bool fast = false;
+};
+
+bool parseFrameRange(const std::string& text, int* first, int* end) {
+  const auto colon = text.find(':');
+  if (colon == std::string::npos) return false;
+  auto parse = [](const std::string& s, int fallback, int* out) {
+    if (s.empty()) return (*out = fallback), true;
+    char* e = nullptr;
+    const long v = std::strtol(s.c_str(), &e, 10);
+    if (*e != '\0' || v < 0 || v > 100000000) return false;
+    return (*out = static_cast<int>(v)), true;
+  };
+  return parse(text.substr(0, colon), 0, first) && parse(text.substr(colon + 1), -1, end) &&
+         (*end < 0 || *end > *first);
+}
+
+ClientArgs parseArgs(cli::Args& args, std::vector<std::string>* errors) {
+  ClientArgs a;
+  a.dataset = args.getOr("dataset", "");
+  if (a.dataset.empty()) errors->push_back("--dataset is required");
+  a.out = args.getOr("out", a.out);
+  a.fast = args.has("fast");
+  const long long threads = args.getInt("threads").value_or(1);
+  if (threads < 1 || threads > 256) errors->push_back("--threads must be in [1, 256]");
+  a.threads = static_cast<int>(threads);
+  if (auto range = args.get("frames"); range && !parseFrameRange(*range, &a.first_frame, &a.end_frame))
+    errors->push_back("--frames takes A:B with 0 <= A < B (either may be left out), not '" + *range + "'");
+  for (const auto& p : args.positional()) errors->push_back("unexpected argument '" + p + "'");
+  return a;
+}
+
+/// The whole configuration: --config sections, then command-line overrides; every problem in *errors.
+RobotClientConfig loadClientConfig(cli::Args& args, const ClientArgs& a, OdometrySetup* setup,
+                                   std::vector<std::string>* errors) {
+  RobotClientConfig c;
+  *setup =
+      loadOdometrySetup(args, a.dataset, errors, [&c](ConfigReader& r) { readRobotClientConfig(r, &c); });
+  c.robot_id = args.getOr("robot-id", c.robot_id);
+  c.transport_url = args.getOr("transport", c.transport_url);
+  if (!c.key_file.empty()) {
+    const std::string config_dir = std::filesystem::path(args.getOr("config", "")).parent_path().string();
+    if (auto key = readKeyFile(c.key_file, config_dir))
+      c.link.key = *key;
+    else
+      errors->push_back(key.error());
+  }
+  c.link.robot_id = c.robot_id;
+  c.link.camera = setup->camera;
+  if (const std::string e = c.link.validate(); !e.empty()) errors->push_back(e);
+  return c;
+}
+
+/// SIGINT/SIGTERM are blocked in every thread and taken by one waiting thread: the first asks the run to
+/// stop (outputs are still written), a second one exits at once. SIGUSR1 ends the thread quietly.
+class SignalThread {
+ public:
+  SignalThread() {
+    sigemptyset(&set_);
+    for (int s : {SIGINT, SIGTERM, SIGUSR1}) sigaddset(&set_, s);
+    pthread_sigmask(SIG_BLOCK, &set_, nullptr);  // before any other thread exists: they inherit it
+  }
+  void start(StopRequest* stop, RobotLink* link) {
+    thread_ = std::thread([this, stop, link] {
+      for (int count = 0;; ++count) {
+        int sig = 0;
+        if (sigwait(&set_, &sig) != 0 || sig == SIGUSR1) return;
+        if (count > 0) std::_Exit(130);
+        log::warn("signal ", sig, ": stopping (again to quit at once); outputs will still be written");
+        stop->request();
+        link->stop();
+      }
+    });
+  }
+  ~SignalThread() {
+    if (!thread_.joinable()) return;
+    pthread_kill(thread_.native_handle(), SIGUSR1);
+    thread_.join();
+  }
+
+ private:
+  sigset_t set_;
+  std::thread thread_;
+};
+
+int run(int argc, char** argv) {
+  cli::Args args(argc, argv, {"fast", "help"});
+  if (args.has("help")) {
+    std::printf("%s%s", kUsage, datasetOptionsHelp());
+    return 0;
+  }
+  SignalThread signals;
+  auto allowed = datasetOptionNames();
+  allowed.insert(allowed.end(), {"dataset", "robot-id", "transport", "fast", "frames", "out", "threads"});
+  args.checkAllowed(allowed);
+  std::vector<std::string> errors;
+  applyLogLevel(args, &errors);
+  const ClientArgs a = parseArgs(args, &errors);
+  OdometrySetup setup;
+  RobotClientConfig config = loadClientConfig(args, a, &setup, &errors);
+  errors.insert(errors.begin(), args.errors().begin(), args.errors().end());
+  if (!errors.empty()) return cli::usageError(errors, kUsage);
+
+  std::error_code ec;
+  std::filesystem::create_directories(a.out, ec);
+  if (ec) return log::error("cannot create ", a.out, ": ", ec.message()), 1;
+  cv::setNumThreads(a.threads);
+  const auto dataset = TumDataset::open(a.dataset, setup.dataset);
+  if (!dataset) return log::error(dataset.error()), 1;
+  auto transport = transport::makeTransport(config.transport_url);
+  if (!transport) return log::error("transport ", config.transport_url, ": ", transport.error()), 1;
+  log::info("robot ", config.robot_id, " on ", config.transport_url, ", camera from ", setup.camera_source);
+  log::debug("configuration in effect:\n", setup.effective);
+
+  RobotLink link(**transport, config.link);
+  StopRequest stop;
+  signals.start(&stop, &link);
+  if (Status s = link.start(); !s) return log::error(s.error()), 1;
+  RobotRunOptions ro;
+  ro.first_frame = a.first_frame;
+  ro.end_frame = a.end_frame;
+  ro.realtime = !a.fast;
+  ro.final_wait_s = config.final_wait_s;
+  ro.stop = &stop;
+  const int total = static_cast<int>(dataset->size());
+  Progress progress("robot " + config.robot_id, static_cast<size_t>(total));
+  ro.progress = [&progress](int done, int) { progress.update(static_cast<size_t>(done)); };
+  const RobotRunResult result = runRobot(*dataset, setup.camera, setup.odometry, link, ro);
+  progress.finish();
+  link.stop();
+  (*transport)->stop();
+
+  const ClientRunInfo info{config.robot_id, a.dataset, config.transport_url, !config.link.key.empty()};
+  if (Status s = writeClientOutputs(a.out, info, result); !s) return log::error(s.error()), 1;
+  std::fprintf(stderr,
+               "%s\nwrote %s/trajectory_%s.txt, trajectory_%s_live.txt, keyframes_%s.txt, client_%s.json\n",
+               clientSummary(result).c_str(), a.out.c_str(), config.robot_id.c_str(), config.robot_id.c_str(),
+               config.robot_id.c_str(), config.robot_id.c_str());
+  return 0;
+}
+
+}  // namespace
+}  // namespace rgbdmap::app
+
+int main(int argc, char** argv) {
+  try {
+    return rgbdmap::app::run(argc - 1, argv + 1);
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "rgbdmap-client: unexpected error: %s\n", e.what());
+    return 1;
+  }
+}

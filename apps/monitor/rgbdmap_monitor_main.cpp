@@ -1,0 +1,332 @@
+// rgbdmap-monitor: a read-only subscriber that shows what the mapping server is doing. It listens on every
+// channel of the given robots: ServerStatus and MapUpdate are authenticated (each robot's copy is signed with
+// that robot's key, so the monitor needs the keys file or --open) and decoded; the other channels are only
+// counted, which gives each robot's bandwidth up (robot -> server) and down (server -> robot).
+#include <pthread.h>
+#include <signal.h>
+#include <unistd.h>
+
+#include <octomap/OcTree.h>
+#include <chrono>
+#include <condition_variable>
+#include <cstdio>
+#include <filesystem>
+#include <map>
+#include <memory>
+#include <mutex>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "rgbdmap/cli/cli.hpp"
+#include "rgbdmap/common/logging.hpp"
+#include "rgbdmap/common/text_lines.hpp"
+#include "rgbdmap/map/map_io.hpp"
+#include "rgbdmap/proto/channels.hpp"
+#include "rgbdmap/proto/envelope.hpp"
+#include "rgbdmap/transport/transport.hpp"
+
+namespace rgbdmap {
+namespace {
+
+const char* kUsage =
+    "usage: rgbdmap-monitor --transport URL --robots a,b (--keys-file FILE | --open) [options]\n"
+    "Prints the mapping server's status (robots, keyframes, loops, graph revision, bandwidth per robot).\n"
+    "  --transport URL     udpm://239.255.76.67:7667?ttl=0 | dds://?domain=0 (needs CYCLONEDDS_URI)\n"
+    "  --robots a,b,c      robots whose channels to watch (the server signs each robot's copy with its key)\n"
+    "  --keys-file FILE    the server's keys file (\"robot_id hexkey\" lines)\n"
+    "  --open              accept unsigned messages (server in open mode)\n"
+    "  --period S          print every S seconds (default 2)\n"
+    "  --save-map DIR      write the latest map stream of each robot to DIR/map_<robot>.bt\n"
+    "  --once              exit after the first status message (exit 1 if none within --timeout)\n"
+    "  --timeout S         give up after S seconds (default 0: run until SIGINT/SIGTERM)\n"
+    "  --log-level L       debug|info|warn|error\n"
+    "On a terminal the table is redrawn in place; otherwise one line per period.\n";
+
+using Clock = std::chrono::steady_clock;
+
+struct RobotView {
+  msg::KeyStore keys;  ///< "server" -> this robot's key
+  msg::ReplayGuard guard;
+  uint64_t bytes_up = 0, bytes_down = 0;            ///< since start
+  uint64_t bytes_up_last = 0, bytes_down_last = 0;  ///< at the previous print
+  bool has_status = false;
+  msg::ServerStatus status;
+  std::unique_ptr<octomap::OcTree> map;
+  int64_t map_revision = -1, map_saved_revision = -1;
+  uint64_t map_updates = 0, map_errors = 0;
+};
+
+struct MonitorOptions {
+  std::string transport_url, keys_file, save_dir;
+  std::vector<std::string> robots;
+  bool open = false, once = false;
+  double period_s = 2.0, timeout_s = 0.0;
+};
+
+class Monitor {
+ public:
+  explicit Monitor(const MonitorOptions& options) : options_(options), start_(Clock::now()) {}
+
+  Status setup(const msg::KeyStore& server_keys, transport::Transport& transport) {
+    for (const std::string& robot : options_.robots) {
+      RobotView& view = robots_[robot];
+      view.keys = options_.open ? msg::KeyStore::openMode() : msg::KeyStore();
+      if (const msg::Bytes* key = server_keys.find(robot)) {
+        if (Status s = view.keys.add(msg::kServerId, *key); !s) return s;
+      } else if (!options_.open) {
+        return Status::failure("no key for robot '" + robot + "' in " + options_.keys_file);
+      }
+      for (int t = 1; t <= msg::kNumMessageTypes; ++t) {
+        const auto type = static_cast<msg::MessageType>(t);
+        const auto channel = msg::channelFor(type, robot);
+        if (!channel) return Status::failure(channel.error());
+        if (channel->rfind("rgbdmap/" + robot + "/", 0) != 0) continue;  // server-wide channels
+        auto handler = [this, robot, type](const std::string&, const uint8_t* data, size_t size) {
+          onMessage(robot, type, data, size);
+        };
+        if (Status s = transport.subscribe(*channel, handler); !s) return s;
+      }
+    }
+    return Status();
+  }
+
+  /// Prints every period until stopped (or the first status with --once). Returns the exit code.
+  int run() {
+    std::unique_lock<std::mutex> lock(mutex_);
+    auto last = Clock::now();
+    for (;;) {
+      const auto deadline = options_.timeout_s > 0
+                                ? start_ + std::chrono::duration_cast<Clock::duration>(
+                                               std::chrono::duration<double>(options_.timeout_s))
+                                : Clock::time_point::max();
+      const auto next = last + std::chrono::duration_cast<Clock::duration>(
+                                   std::chrono::duration<double>(options_.period_s));
+      cv_.wait_until(lock, std::min(next, deadline), [&] { return stop_ || (options_.once && anyStatus()); });
+      if (options_.once && anyStatus()) {
+        print(Clock::now() - last);
+        return 0;
+      }
+      if (stop_) break;
+      if (Clock::now() >= deadline) {
+        if (options_.once) {
+          std::fprintf(stderr, "rgbdmap-monitor: no status within %.1f s\n", options_.timeout_s);
+          return 1;
+        }
+        break;
+      }
+      if (Clock::now() >= next) {
+        print(Clock::now() - last);
+        saveMaps();
+        last = Clock::now();
+      }
+    }
+    print(Clock::now() - last);
+    saveMaps();
+    return 0;
+  }
+
+  void requestStop() {
+    std::lock_guard<std::mutex> lock(mutex_);
+    stop_ = true;
+    cv_.notify_all();
+  }
+
+  uint64_t rejected() const { return rejects_.total(); }
+
+ private:
+  bool anyStatus() const {
+    for (const auto& [robot, view] : robots_)
+      if (view.has_status) return true;
+    return false;
+  }
+
+  void onMessage(const std::string& robot, msg::MessageType type, const uint8_t* data, size_t size) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    RobotView& view = robots_[robot];
+    (msg::directionOf(type) == msg::Direction::kRobotToServer ? view.bytes_up : view.bytes_down) += size;
+    if (type != msg::MessageType::kServerStatus && type != msg::MessageType::kMapUpdate) return;
+    auto opened = msg::openEnvelope(data, size, view.keys, &view.guard, &rejects_);
+    if (!opened) return;  // counted and logged (rate-limited) by openEnvelope
+    if (opened->header.sender != msg::kServerId) {
+      rejects_.add(msg::RejectReason::kUnknownSender, "monitor: " + opened->header.sender + " on " + robot);
+      return;
+    }
+    if (type == msg::MessageType::kServerStatus) {
+      auto status = msg::decodeMessage<msg::ServerStatus>(*opened, &rejects_);
+      if (!status) return;
+      view.status = std::move(*status);
+      view.has_status = true;
+      cv_.notify_all();
+    } else if (!options_.save_dir.empty()) {
+      auto update = msg::decodeMessage<msg::MapUpdate>(*opened, &rejects_);
+      if (!update) return;
+      if (const Status s = applyMapUpdate(*update, &view.map); !s) {
+        ++view.map_errors;
+        log::warn("monitor: map update for ", robot, ": ", s.error());
+        return;
+      }
+      view.map_revision = update->map_revision;
+      ++view.map_updates;
+    }
+  }
+
+  void saveMaps() {
+    if (options_.save_dir.empty()) return;
+    for (auto& [robot, view] : robots_) {
+      if (!view.map || view.map_revision == view.map_saved_revision) continue;
+      const std::string path = options_.save_dir + "/map_" + robot + ".bt";
+      if (const Status s = writeMapFiles(*view.map, path, ""); !s)
+        log::error("monitor: ", s.error());
+      else
+        view.map_saved_revision = view.map_revision;
+    }
+  }
+
+  /// The newest status any robot's copy carried (all copies describe the same server).
+  const msg::ServerStatus* newestStatus() const {
+    const msg::ServerStatus* best = nullptr;
+    for (const auto& [robot, view] : robots_)
+      if (view.has_status && (!best || view.status.header.utime > best->header.utime)) best = &view.status;
+    return best;
+  }
+
+  void print(Clock::duration since_last) {
+    const double dt = std::max(1e-3, std::chrono::duration<double>(since_last).count());
+    const double t = std::chrono::duration<double>(Clock::now() - start_).count();
+    const msg::ServerStatus* status = newestStatus();
+    const bool table = isatty(STDOUT_FILENO) && !options_.once;
+    if (table) std::printf("\033[H\033[2J");
+    if (table)
+      std::printf(
+          "rgbdmap-monitor  %.0f s   server %s, up %.0f s, graph revision %lld, rejected %llu\n\n"
+          "%-12s %9s %6s %10s %12s %12s %9s\n",
+          t, status ? status->state.c_str() : "(no status yet)", status ? status->uptime_s : 0.0,
+          static_cast<long long>(status ? status->graph_revision : 0),
+          static_cast<unsigned long long>(rejects_.total()), "robot", "keyframes", "loops", "refused",
+          "up Mbit/s", "down Mbit/s", "map rev");
+    else
+      std::printf("monitor t=%.1fs state=%s graph_revision=%lld", t, status ? status->state.c_str() : "none",
+                  static_cast<long long>(status ? status->graph_revision : 0));
+    for (auto& [robot, view] : robots_) {
+      const msg::RobotStatus* r = nullptr;
+      if (status)
+        for (const msg::RobotStatus& s : status->robots)
+          if (s.robot_id == robot) r = &s;
+      const double up = 8e-6 * static_cast<double>(view.bytes_up - view.bytes_up_last) / dt;
+      const double down = 8e-6 * static_cast<double>(view.bytes_down - view.bytes_down_last) / dt;
+      view.bytes_up_last = view.bytes_up;
+      view.bytes_down_last = view.bytes_down;
+      if (table)
+        std::printf("%-12s %9d %6d %10lld %12.2f %12.2f %9lld\n", robot.c_str(), r ? r->keyframes : 0,
+                    r ? r->loop_closures : 0, static_cast<long long>(r ? r->rejected_messages : 0), up, down,
+                    static_cast<long long>(view.map_revision));
+      else
+        std::printf(" | %s keyframes=%d loops=%d up_mbps=%.2f down_mbps=%.2f bytes_up=%llu map_rev=%lld",
+                    robot.c_str(), r ? r->keyframes : 0, r ? r->loop_closures : 0, up, down,
+                    static_cast<unsigned long long>(view.bytes_up),
+                    static_cast<long long>(view.map_revision));
+    }
+    std::printf("\n");
+    std::fflush(stdout);
+  }
+
+  MonitorOptions options_;
+  Clock::time_point start_;
+  std::mutex mutex_;
+  std::condition_variable cv_;
+  bool stop_ = false;
+  std::map<std::string, RobotView> robots_;
+  msg::RejectCounters rejects_;
+};
+
+MonitorOptions parseOptions(cli::Args& args, std::vector<std::string>* errors) {
+  MonitorOptions o;
+  o.transport_url = args.getOr("transport", "");
+  if (o.transport_url.empty()) errors->push_back("--transport URL is required");
+  o.robots = splitList(args.getOr("robots", ""));
+  if (o.robots.empty()) errors->push_back("--robots a,b is required");
+  o.keys_file = args.getOr("keys-file", "");
+  o.open = args.has("open");
+  if (o.keys_file.empty() && !o.open) errors->push_back("--keys-file FILE or --open is required");
+  o.once = args.has("once");
+  o.save_dir = args.getOr("save-map", "");
+  o.period_s = args.getDouble("period").value_or(2.0);
+  if (!(o.period_s >= 0.05 && o.period_s <= 3600)) errors->push_back("--period must be in [0.05, 3600] s");
+  o.timeout_s = args.getDouble("timeout").value_or(0.0);
+  if (!(o.timeout_s >= 0 && o.timeout_s <= 1e6)) errors->push_back("--timeout must be in [0, 1e6] s");
+  if (const auto level = args.get("log-level")) {
+    log::Level l;
+    if (log::parseLevel(*level, &l))
+      log::setLevel(l);
+    else
+      errors->push_back("--log-level must be debug, info, warn or error");
+  }
+  for (const auto& p : args.positional()) errors->push_back("unexpected argument '" + p + "'");
+  return o;
+}
+
+int runMonitor(int argc, char** argv) {
+  cli::Args args(argc, argv, {"help", "open", "once"});
+  if (args.has("help")) {
+    std::fputs(kUsage, stdout);
+    return 0;
+  }
+  // SIGINT/SIGTERM blocked in every thread (set before any thread starts) and taken by sigwait below.
+  sigset_t signals;
+  sigemptyset(&signals);
+  for (int s : {SIGINT, SIGTERM, SIGUSR1}) sigaddset(&signals, s);
+  pthread_sigmask(SIG_BLOCK, &signals, nullptr);
+
+  args.checkAllowed(
+      {"transport", "robots", "keys-file", "open", "period", "save-map", "once", "timeout", "log-level"});
+  std::vector<std::string> errors(args.errors().begin(), args.errors().end());
+  const MonitorOptions options = parseOptions(args, &errors);
+  if (!errors.empty()) return cli::usageError(errors, kUsage);
+
+  msg::KeyStore server_keys;
+  if (!options.keys_file.empty()) {
+    auto read = msg::readKeysFile(options.keys_file);
+    if (!read) {
+      log::error(read.error());
+      return 2;
+    }
+    server_keys = std::move(*read);
+  }
+  if (!options.save_dir.empty()) {
+    std::error_code ec;
+    std::filesystem::create_directories(options.save_dir, ec);
+    if (ec) {
+      log::error("--save-map ", options.save_dir, ": ", ec.message());
+      return 1;
+    }
+  }
+  auto transport = transport::makeTransport(options.transport_url);
+  if (!transport) {
+    log::error("transport ", options.transport_url, ": ", transport.error());
+    return 1;
+  }
+  Monitor monitor(options);
+  if (const Status s = monitor.setup(server_keys, **transport); !s) {
+    log::error(s.error());
+    return 2;
+  }
+  if (const Status s = (*transport)->start(); !s) {
+    log::error("transport start: ", s.error());
+    return 1;
+  }
+  std::thread signal_thread([&] {
+    int sig = 0;
+    if (sigwait(&signals, &sig) == 0 && sig != SIGUSR1) monitor.requestStop();
+  });
+  const int code = monitor.run();
+  pthread_kill(signal_thread.native_handle(), SIGUSR1);
+  signal_thread.join();
+  (*transport)->stop();
+  return code;
+}
+
+}  // namespace
+}  // namespace rgbdmap
+
+int main(int argc, char** argv) { return rgbdmap::runMonitor(argc - 1, argv + 1); }

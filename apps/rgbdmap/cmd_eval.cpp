@@ -1,0 +1,129 @@
+// rgbdmap eval: ATE and RPE of an estimated trajectory against ground truth (TUM benchmark conventions).
+#include <cstdio>
+#include <optional>
+#include <string>
+
+#include "rgbdmap/cli/cli.hpp"
+#include "rgbdmap/common/text_lines.hpp"
+#include "commands.hpp"
+#include "rgbdmap/common/evaluation.hpp"
+#include "rgbdmap/common/logging.hpp"
+#include "rgbdmap/common/trajectory.hpp"
+
+namespace rgbdmap::cmd {
+namespace {
+
+const char* kUsage =
+    "usage: rgbdmap eval --gt GROUNDTRUTH --est ESTIMATE [options]\n"
+    "Absolute trajectory error (after least-squares alignment) and relative pose error of an estimated\n"
+    "trajectory; both files in TUM format (timestamp tx ty tz qx qy qz qw, '#' comments).\n"
+    "options:\n"
+    "  --gt FILE          ground-truth trajectory, e.g. a TUM groundtruth.txt\n"
+    "  --est FILE         estimated trajectory (T_world_cam per line)\n"
+    "  --max-dt S         timestamp association tolerance in seconds (default 0.02)\n"
+    "  --delta S          RPE pose-pair spacing in seconds (default 1.0)\n"
+    "  --scale            align with scale as well (Sim(3), for monocular estimates)\n"
+    "  --json             print one JSON object instead of `key value` lines\n"
+    "  --log-level LEVEL  debug|info|warn|error|off (default warn)\n"
+    "  --help             this text\n"
+    "exit status: 0 success, 1 unreadable file or evaluation impossible, 2 usage error\n";
+
+struct EvalConfig {
+  std::string gt_path;
+  std::string est_path;
+  AteOptions ate;
+  RpeOptions rpe;
+  bool json = false;
+};
+
+/// Parses and checks every option; all problems are reported together.
+std::optional<EvalConfig> parseConfig(cli::Args& args) {
+  args.checkAllowed({"gt", "est", "max-dt", "delta", "scale", "json", "log-level", "help"});
+  for (const auto& p : args.positional()) args.addError("unexpected argument '" + p + "'");
+  EvalConfig c;
+  c.gt_path = args.getOr("gt", "");
+  c.est_path = args.getOr("est", "");
+  if (c.gt_path.empty()) args.addError("--gt is required");
+  if (c.est_path.empty()) args.addError("--est is required");
+  if (const auto v = args.getDouble("max-dt")) {
+    if (*v > 0)
+      c.ate.max_dt = c.rpe.max_dt = *v;
+    else
+      args.addError("--max-dt must be > 0");
+  }
+  if (const auto v = args.getDouble("delta")) {
+    if (*v > 0)
+      c.rpe.delta = *v;
+    else
+      args.addError("--delta must be > 0");
+  }
+  log::Level level = log::Level::kWarn;
+  if (args.has("log-level") && !log::parseLevel(args.getOr("log-level", ""), &level))
+    args.addError("--log-level: expected debug|info|warn|error|off");
+  log::setLevel(level);
+  c.ate.with_scale = args.has("scale");
+  c.json = args.has("json");
+  if (!args.errors().empty()) return std::nullopt;
+  return c;
+}
+
+std::string number(double v) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.9g", v);
+  return buf;
+}
+
+void printJson(const EvalConfig& c, size_t gt_poses, size_t est_poses, const Result<AteResult>& ate,
+               const Result<RpeResult>& rpe) {
+  std::string out = "{\"gt\":" + jsonString(c.gt_path) + ",\"est\":" + jsonString(c.est_path) +
+                    ",\"gt_poses\":" + std::to_string(gt_poses) +
+                    ",\"est_poses\":" + std::to_string(est_poses) + ",\"max_dt_s\":" + number(c.ate.max_dt) +
+                    ",\"delta_s\":" + number(c.rpe.delta) +
+                    ",\"alignment\":" + (c.ate.with_scale ? "\"sim3\"" : "\"se3\"");
+  out += ",\"ate\":" + (ate ? ateToJson(*ate) : "null");
+  if (!ate) out += ",\"ate_error\":" + jsonString(ate.error());
+  out += ",\"rpe\":" + (rpe ? rpeToJson(*rpe) : "null");
+  if (!rpe) out += ",\"rpe_error\":" + jsonString(rpe.error());
+  std::printf("%s}\n", out.c_str());
+}
+
+void printText(const EvalConfig& c, size_t gt_poses, size_t est_poses, const Result<AteResult>& ate,
+               const Result<RpeResult>& rpe) {
+  std::printf("gt_poses %zu\nest_poses %zu\nmax_dt_s %g\nalignment %s\n", gt_poses, est_poses, c.ate.max_dt,
+              c.ate.with_scale ? "sim3" : "se3");
+  if (ate) std::fputs(formatAte(*ate).c_str(), stdout);
+  if (rpe) std::fputs(formatRpe(*rpe).c_str(), stdout);
+}
+
+}  // namespace
+
+int eval(int argc, char** argv) {
+  cli::Args args(argc, argv, {"scale", "json", "help"});
+  if (args.has("help")) {
+    std::fputs(kUsage, stdout);
+    return 0;
+  }
+  const std::optional<EvalConfig> config = parseConfig(args);
+  if (!config) return cli::usageError(args.errors(), kUsage);
+  const auto gt = readTumTrajectory(config->gt_path);
+  const auto est = readTumTrajectory(config->est_path);
+  if (!gt || !est) {
+    if (!gt) std::fprintf(stderr, "rgbdmap eval: %s\n", gt.error().c_str());
+    if (!est) std::fprintf(stderr, "rgbdmap eval: %s\n", est.error().c_str());
+    return 1;
+  }
+  log::info("eval: gt ", config->gt_path, " (", gt->size(), " poses), est ", config->est_path, " (",
+            est->size(), " poses), max_dt ", config->ate.max_dt, " s, delta ", config->rpe.delta,
+            " s, alignment ", config->ate.with_scale ? "sim3" : "se3");
+  const Result<AteResult> ate = computeAte(*gt, *est, config->ate);
+  const Result<RpeResult> rpe = computeRpe(*gt, *est, config->rpe);
+  if (config->json)
+    printJson(*config, gt->size(), est->size(), ate, rpe);
+  else
+    printText(*config, gt->size(), est->size(), ate, rpe);
+  if (!ate) std::fprintf(stderr, "rgbdmap eval: %s\n", ate.error().c_str());
+  if (!rpe) std::fprintf(stderr, "rgbdmap eval: %s\n", rpe.error().c_str());
+  return ate && rpe ? 0 : 1;
+}
+
+}  // namespace rgbdmap::cmd

@@ -1,0 +1,79 @@
+// rgbdmap odometry: visual odometry over a TUM-layout dataset; writes a pose per frame and the keyframes.
+#include <cstdio>
+
+#include <opencv2/core.hpp>
+
+#include "rgbdmap/cli/cli.hpp"
+#include "commands.hpp"
+#include "odometry_runner.hpp"
+#include "rgbdmap/common/logging.hpp"
+
+namespace rgbdmap::cmd {
+namespace {
+
+const char* kUsage =
+    "usage: rgbdmap odometry --dataset DIR --out traj.txt [options]\n"
+    "  --dataset DIR           TUM layout: rgb.txt, depth.txt, rgb/, depth/ [, groundtruth.txt, "
+    "camera.yaml]\n"
+    "  --out FILE              trajectory, TUM format, one pose per frame; keyframes go to FILE's\n"
+    "                          stem + .keyframes.txt\n"
+    "  --frames N              only the first N frames\n"
+    "  --threads N             OpenCV threads (default 1: the per-core figure a robot budget needs)\n";
+
+std::string keyframesPath(const std::string& out) {
+  const auto dot = out.rfind('.');
+  const auto slash = out.rfind('/');
+  const bool has_ext = dot != std::string::npos && (slash == std::string::npos || dot > slash);
+  return (has_ext ? out.substr(0, dot) : out) + ".keyframes.txt";
+}
+
+}  // namespace
+
+int odometry(int argc, char** argv) {
+  cli::Args args(argc, argv, {"help"});
+  if (args.has("help")) {
+    std::printf("%s%s", kUsage, app::datasetOptionsHelp());
+    return 0;
+  }
+  auto allowed = app::datasetOptionNames();
+  allowed.insert(allowed.end(), {"dataset", "out", "frames", "threads"});
+  args.checkAllowed(allowed);
+  std::vector<std::string> errors;
+  const auto dataset_dir = args.get("dataset");
+  const auto out = args.get("out");
+  if (!dataset_dir) errors.push_back("--dataset is required");
+  if (!out) errors.push_back("--out is required");
+  const long long frames = args.getInt("frames").value_or(0);
+  const long long threads = args.getInt("threads").value_or(1);
+  if (frames < 0) errors.push_back("--frames must be >= 0");
+  if (threads < 1 || threads > 256) errors.push_back("--threads must be in [1, 256]");
+  app::applyLogLevel(args, &errors);
+  const app::OdometrySetup setup = app::loadOdometrySetup(args, dataset_dir.value_or(""), &errors);
+  errors.insert(errors.begin(), args.errors().begin(), args.errors().end());
+  if (!errors.empty()) return cli::usageError(errors, kUsage);
+
+  cv::setNumThreads(static_cast<int>(threads));
+  const auto dataset = TumDataset::open(*dataset_dir, setup.dataset);
+  if (!dataset) {
+    log::error(dataset.error());
+    return 1;
+  }
+  log::info("camera from ", setup.camera_source, ": fx ", setup.camera.fx, " fy ", setup.camera.fy, " cx ",
+            setup.camera.cx, " cy ", setup.camera.cy, " depth_scale ", setup.camera.depth_scale);
+  log::debug("configuration in effect:\n", setup.effective);
+  const app::OdometryRun run = app::runOdometry(*dataset, setup, static_cast<int>(frames));
+  for (const auto& [path, traj, what] :
+       {std::tuple{*out, &run.trajectory, "odometry poses, one per frame (T_odom_cam)"},
+        std::tuple{keyframesPath(*out), &run.keyframes, "keyframe poses in creation order (T_odom_cam)"}}) {
+    const Status s = writeTumTrajectory(path, *traj, what);
+    if (!s) {
+      log::error(s.error());
+      return 1;
+    }
+  }
+  std::fprintf(stderr, "%s\nwrote %s and %s\n", run.summary().c_str(), out->c_str(),
+               keyframesPath(*out).c_str());
+  return 0;
+}
+
+}  // namespace rgbdmap::cmd

@@ -1,0 +1,70 @@
+#include "odometry_runner.hpp"
+
+#include <algorithm>
+#include <cstdio>
+#include <numeric>
+
+#include "rgbdmap/cli/progress.hpp"
+#include "rgbdmap/common/logging.hpp"
+
+namespace rgbdmap::app {
+
+double OdometryRun::medianMs(double StageTimes::*stage) const {
+  if (times.empty()) return 0;
+  std::vector<double> v;
+  for (const auto& t : times) v.push_back(t.*stage);
+  std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
+  return v[v.size() / 2];
+}
+
+double OdometryRun::meanMs(double StageTimes::*stage) const {
+  if (times.empty()) return 0;
+  double sum = 0;
+  for (const auto& t : times) sum += t.*stage;
+  return sum / times.size();
+}
+
+std::string OdometryRun::summary() const {
+  char buf[512];
+  std::snprintf(buf, sizeof buf,
+                "frames %d, keyframes %d, tracking losses %d, segments %d, unreadable %d\n"
+                "ms/frame median %.2f mean %.2f (%.1f frames/s); stage medians: extract %.2f, match %.2f, "
+                "ransac %.2f, refine %.2f",
+                frames, keyframe_count, losses, segments, unreadable_frames, medianMs(&StageTimes::total_ms),
+                meanMs(&StageTimes::total_ms), 1000.0 / std::max(1e-9, medianMs(&StageTimes::total_ms)),
+                medianMs(&StageTimes::extract_ms), medianMs(&StageTimes::match_ms),
+                medianMs(&StageTimes::ransac_ms), medianMs(&StageTimes::refine_ms));
+  return buf;
+}
+
+OdometryRun runOdometry(const TumDataset& dataset, const OdometrySetup& setup, int max_frames) {
+  OdometryRun run;
+  VisualOdometry vo(setup.camera, setup.odometry);
+  const size_t n = max_frames > 0 ? std::min<size_t>(dataset.size(), max_frames) : dataset.size();
+  Progress progress("odometry", n);
+  log::RateLimiter limiter(1.0);
+  for (size_t i = 0; i < n; ++i) {
+    const auto frame = dataset.load(i);
+    if (!frame) {
+      ++run.unreadable_frames;
+      uint64_t suppressed = 0;
+      if (limiter.allow(&suppressed))
+        log::warn("skipping frame ", i, ": ", frame.error(), suppressed ? " (+" : "",
+                  suppressed ? std::to_string(suppressed) + " more)" : "");
+      continue;
+    }
+    const TrackingResult r = vo.track(*frame);
+    run.trajectory.push_back({r.timestamp, r.T_odom_cam});
+    run.times.push_back(r.times);
+    if (r.new_keyframe) run.keyframes.push_back({r.timestamp, r.T_odom_cam});
+    run.segments = std::max(run.segments, r.segment + 1);
+    progress.update(i + 1);
+  }
+  progress.finish();
+  run.frames = static_cast<int>(run.trajectory.size());
+  run.keyframe_count = static_cast<int>(vo.keyframes().size());
+  run.losses = vo.trackingLosses();
+  return run;
+}
+
+}  // namespace rgbdmap::app

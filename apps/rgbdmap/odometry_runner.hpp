@@ -1,0 +1,29 @@
+#pragma once
+// Runs the visual odometry over a whole dataset and gathers what the commands write and report.
+#include <string>
+#include <vector>
+
+#include "rgbdmap/cli/odometry_setup.hpp"
+#include "rgbdmap/client/odometry.hpp"
+#include "rgbdmap/common/trajectory.hpp"
+#include "rgbdmap/common/tum_dataset.hpp"
+
+namespace rgbdmap::app {
+
+struct OdometryRun {
+  Trajectory trajectory;  ///< every frame, odometry frame
+  Trajectory keyframes;   ///< keyframe poses in creation order
+  int frames = 0, keyframe_count = 0, losses = 0, segments = 1, unreadable_frames = 0;
+  std::vector<StageTimes> times;  ///< per frame
+
+  double medianMs(double StageTimes::*stage) const;
+  double meanMs(double StageTimes::*stage) const;
+  /// Multi-line human summary (frames, keyframes, losses, per-stage median/mean ms).
+  std::string summary() const;
+};
+
+/// Processes frames [0, max_frames) (all when max_frames <= 0). Unreadable frames are logged, counted
+/// and skipped. Shows progress on an interactive terminal.
+OdometryRun runOdometry(const TumDataset& dataset, const OdometrySetup& setup, int max_frames = 0);
+
+}  // namespace rgbdmap::app

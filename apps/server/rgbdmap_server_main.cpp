@@ -1,0 +1,180 @@
+// rgbdmap-server: the mapping service as a process. Serves robots over the configured transport until
+// SIGINT/SIGTERM; the map directory holds everything acknowledged, so a restart resumes the same map.
+#include <atomic>
+#include <chrono>
+#include <csignal>
+#include <cstdio>
+#include <fstream>
+#include <thread>
+
+#include "rgbdmap/cli/cli.hpp"
+#include "rgbdmap/common/logging.hpp"
+#include "rgbdmap/common/text_lines.hpp"
+#include "rgbdmap/common/trajectory.hpp"
+#include "rgbdmap/server/map_server.hpp"
+#include "rgbdmap/server/server_config.hpp"
+#include "rgbdmap/transport/transport.hpp"
+
+namespace {
+
+const char* kUsage =
+    "usage: rgbdmap-server --config FILE [options]\n"
+    "  --config FILE       YAML configuration (deploy/config/server.yaml documents every key)\n"
+    "  --map-dir DIR       map directory (overrides server.map_dir)\n"
+    "  --transport URL     memq:// | udpm://239.255.76.67:7667?ttl=0 | dds://?domain=0 (overrides)\n"
+    "                      dds:// needs CYCLONEDDS_URI, e.g. file://$PWD/deploy/dds/cyclonedds-loopback.xml\n"
+    "  --robots a,b,c      robots to serve (overrides server.robots)\n"
+    "  --open              accept unsigned messages (local demos only)\n"
+    "  --status-every S    print a status line every S seconds (default 5; 0: never)\n"
+    "  --log-level L       debug|info|warn|error\n"
+    "On SIGINT/SIGTERM it stops and writes keyframes_<robot>.txt (optimised, map frame) into the map "
+    "directory,\n"
+    "server_summary.json (keyframes, loops, maps, ingest times, per-robot counters, merged_maps) and (map.enabled)\n"
+    "the map files: map.bt, map.ot, map.ply, map.png, slice_<robot>.pgm/.yaml.\n";
+
+std::atomic<bool> g_stop{false};
+void onSignal(int) { g_stop = true; }
+
+std::string quoted(const std::string& text) { return "\"" + text + "\""; }  // ids are [A-Za-z0-9_-]
+
+/// server_summary.json in the map directory: what the deployment scripts and tests check after a run.
+rgbdmap::Status writeSummary(const std::string& path, const rgbdmap::MapServer& server) {
+  const rgbdmap::MapServerStats s = server.stats();
+  std::ofstream out(path);
+  out << "{\n  \"keyframes\": " << s.keyframes << ",\n  \"loops\": " << s.loops_accepted
+      << ",\n  \"loops_disabled\": " << s.loops_disabled << ",\n  \"maps\": " << s.maps
+      << ",\n  \"optimizations\": " << s.optimizations
+      << ",\n  \"messages_rejected\": " << s.messages_rejected
+      << ",\n  \"ingest_ms_median\": " << s.ingest_ms_median << ",\n  \"ingest_ms_p90\": " << s.ingest_ms_p90
+      << ",\n  \"ingest_cpu_ms_median\": " << s.ingest_cpu_ms_median << ",\n  \"robots\": [";
+  for (size_t i = 0; i < s.robots.size(); ++i) {
+    const rgbdmap::ServerRobotStats& r = s.robots[i];
+    out << (i ? "," : "") << "\n    {\"robot\": " << quoted(r.robot_id) << ", \"keyframes\": " << r.keyframes
+        << ", \"sessions\": " << r.sessions << ", \"loops\": " << r.loops << ", \"map_id\": " << r.map_id
+        << ", \"merged\": " << (r.merged ? "true" : "false") << ", \"bytes_received\": " << r.bytes_received
+        << ", \"bytes_sent\": " << r.bytes_sent << ", \"refused\": " << r.keyframes_refused << "}";
+  }
+  out << "\n  ],\n  \"merged_maps\": [";
+  const auto groups = server.mergedMaps();
+  for (size_t g = 0; g < groups.size(); ++g) {
+    out << (g ? ", " : "") << "[";
+    for (size_t i = 0; i < groups[g].size(); ++i) out << (i ? ", " : "") << quoted(groups[g][i]);
+    out << "]";
+  }
+  out << "]\n}\n";
+  out.close();
+  if (!out) return rgbdmap::Status::failure("cannot write " + path);
+  return rgbdmap::Status();
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  using namespace rgbdmap;
+  cli::Args args(argc, argv, {"help", "open"});
+  if (args.has("help")) {
+    std::fputs(kUsage, stdout);
+    return 0;
+  }
+  args.checkAllowed({"config", "map-dir", "transport", "robots", "open", "status-every", "log-level"});
+  std::vector<std::string> errors(args.errors().begin(), args.errors().end());
+  ServerAppConfig config;
+  if (const auto path = args.get("config")) {
+    auto reader = ConfigReader::fromFile(*path);
+    if (!reader) {
+      errors.push_back(reader.error());
+    } else {
+      readServerConfig(*reader, &config);
+      for (const std::string& e : reader->errors()) errors.push_back(e);
+    }
+  } else {
+    errors.push_back("--config FILE is required");
+  }
+  if (const auto v = args.get("map-dir")) config.server.map_dir = *v;
+  if (const auto v = args.get("transport")) config.transport_url = *v;
+  if (const auto v = args.get("robots")) {
+    config.server.robots = splitList(*v);
+  }
+  if (args.has("open")) config.open_mode = true;
+  const double status_every = args.getDouble("status-every").value_or(5.0);
+  if (const auto level = args.get("log-level")) {
+    log::Level l;
+    if (log::parseLevel(*level, &l))
+      log::setLevel(l);
+    else
+      errors.push_back("--log-level must be debug, info, warn or error");
+  }
+  if (const std::string p = config.server.validate(); !p.empty()) errors.push_back(p);
+  if (!errors.empty()) return cli::usageError(errors, kUsage);
+
+  msg::KeyStore keys = config.open_mode ? msg::KeyStore::openMode() : msg::KeyStore();
+  if (!config.keys_file.empty()) {
+    auto read = msg::readKeysFile(config.keys_file, std::move(keys));
+    if (!read) {
+      log::error(read.error());
+      return 2;
+    }
+    keys = std::move(*read);
+  } else if (!config.open_mode) {
+    log::error("no server.keys_file and open mode is off: no robot could be authenticated");
+    return 2;
+  }
+
+  auto transport = transport::makeTransport(config.transport_url);
+  if (!transport) {
+    log::error("transport ", config.transport_url, ": ", transport.error());
+    return 1;
+  }
+  MapServer server(config.server, **transport, std::move(keys));
+  if (const Status s = server.start(); !s) {
+    log::error(s.error());
+    return 1;
+  }
+  if (const Status s = (*transport)->start(); !s) {
+    log::error("transport start: ", s.error());
+    return 1;
+  }
+  std::signal(SIGINT, onSignal);
+  std::signal(SIGTERM, onSignal);
+  auto last_print = std::chrono::steady_clock::now();
+  while (!g_stop) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(100));
+    if (status_every > 0 &&
+        std::chrono::steady_clock::now() - last_print > std::chrono::duration<double>(status_every)) {
+      last_print = std::chrono::steady_clock::now();
+      const MapServerStats s = server.stats();
+      std::fprintf(stderr, "[server] robots %zu keyframes %d loops %d (disabled %d) maps %d ingest %.1f ms rejected %llu\n",
+                   s.robots.size(), s.keyframes, s.loops_accepted, s.loops_disabled, s.maps, s.ingest_ms_median,
+                   static_cast<unsigned long long>(s.messages_rejected));
+    }
+  }
+  log::info("stopping");
+  server.waitIdle(5.0);
+  (*transport)->stop();
+  server.stop();
+  std::map<std::string, Trajectory> by_robot;
+  for (const ServerKeyframe& k : server.keyframes()) by_robot[k.robot_id].push_back({k.timestamp, k.T_map_kf});
+  for (const auto& [robot, traj] : by_robot) {
+    const std::string path = config.server.map_dir + "/keyframes_" + robot + ".txt";
+    if (const Status s = writeTumTrajectory(path, traj, "rgbdmap-server, optimised keyframes, map frame"); !s)
+      log::error(s.error());
+  }
+  if (const Status w = writeSummary(config.server.map_dir + "/server_summary.json", server); !w)
+    log::error(w.error());
+  bool map_files = false;
+  if (config.server.occupancy_enabled && !server.keyframes().empty()) {
+    if (const Status st = server.writeMapOutputs(config.server.map_dir); !st)
+      log::error("map files: ", st.error());
+    else
+      map_files = true;
+  }
+  const MapServerStats s = server.stats();
+  std::fprintf(stderr, "[server] final: keyframes %d loops %d maps %d; octree %zu leaves (%zu occupied), %.1f MB, "
+               "%llu rebuilds, %llu slices sent; wrote keyframes_<robot>.txt%s to %s\n",
+               s.keyframes, s.loops_accepted, s.maps, s.map_leaves, s.map_occupied_leaves,
+               s.map_tree_memory_bytes / 1e6, static_cast<unsigned long long>(s.map_rebuilds),
+               static_cast<unsigned long long>(s.slices_sent),
+               map_files ? ", map.bt, map.ot, map.ply, map.png, slice_<robot>.pgm/.yaml" : "",
+               config.server.map_dir.c_str());
+  return 0;
+}

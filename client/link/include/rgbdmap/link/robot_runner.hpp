@@ -1,0 +1,112 @@
+#pragma once
+// Runs the robot: visual odometry over a dataset at its real frame rate (or as fast as possible), each new
+// keyframe sent through a RobotLink, heartbeats kept current, and the trajectory expressed in the map frame
+// with the corrections the server sent.
+#include <chrono>
+#include <condition_variable>
+#include <functional>
+#include <map>
+#include <mutex>
+#include <optional>
+#include <vector>
+
+#include "rgbdmap/client/avoidance.hpp"
+#include "rgbdmap/client/odometry.hpp"
+#include "rgbdmap/link/robot_link.hpp"
+#include "rgbdmap/common/camera.hpp"
+#include "rgbdmap/common/trajectory.hpp"
+#include "rgbdmap/common/tum_dataset.hpp"
+
+namespace rgbdmap {
+
+/// A stop request another thread (e.g. a signal-handling thread) can raise; waits on it end at once.
+class StopRequest {
+ public:
+  void request();
+  bool requested() const;
+  /// Sleeps until `deadline` or a request; true if stop was requested.
+  bool waitUntil(std::chrono::steady_clock::time_point deadline) const;
+
+ private:
+  mutable std::mutex mutex_;
+  mutable std::condition_variable cv_;
+  bool requested_ = false;
+};
+
+struct RobotRunOptions {
+  int first_frame = 0;
+  int end_frame = -1;          ///< exclusive; -1 = all
+  bool realtime = true;        ///< pace frames by the dataset timestamps (false: --fast)
+  double final_wait_s = 20.0;  ///< at the end: wait for every ack and a correction covering the last keyframe
+  /// Called after each frame with (frames done, frames in the range); e.g. the CLI's progress line.
+  std::function<void(int done, int total)> progress;
+  const StopRequest* stop = nullptr;  ///< optional: ends the run early (outputs are still complete)
+  /// Set: every frame, the reactive avoidance rule (Lin et al. 2017, section 3) runs on the link's latest
+  /// slice at the live pose and its VelocityCommand is published through the link (cmd_vel). Off by default.
+  std::optional<AvoidanceConfig> avoidance;
+};
+
+/// One avoidance decision of runRobot (one per frame).
+struct AvoidanceRecord {
+  double timestamp = 0.0;  ///< the frame's
+  AvoidanceState state = AvoidanceState::kForward;
+  double closest_obstacle_m = 0.0;  ///< +inf: corridor clear; NaN: not evaluated (stopped)
+  bool stopped = false;             ///< no usable slice (missing, stale) or invalid pose: zero command
+};
+
+struct AvoidanceSummary {
+  int forward = 0, turn_left = 0, back_right = 0;  ///< decisions that drove, per state
+  int stopped = 0;                                 ///< decisions that stopped the robot
+  int commands_published = 0, commands_failed = 0;
+  std::vector<AvoidanceRecord> decisions;
+};
+
+/// Per frame: what re-anchoring it on corrected keyframe poses needs.
+struct RunFrameRecord {
+  double timestamp = 0.0;
+  SE3 T_odom_cam = SE3::Identity();
+  int segment = 0;
+  int reference_keyframe = -1;
+};
+/// Per keyframe the odometry made.
+struct RunKeyframeRecord {
+  double timestamp = 0.0;
+  SE3 T_odom_cam = SE3::Identity();
+  int segment = 0;
+};
+
+struct RobotRunResult {
+  /// Every frame, T_map_cam as known at that moment: mapFromOdom(segment) * T_odom_cam.
+  Trajectory live;
+  /// Every frame re-anchored on the final corrected pose of its reference keyframe:
+  /// T_map_kf(final) * T_odom_kf^-1 * T_odom_cam (mapFromOdom(segment) when uncorrected).
+  Trajectory final_map;
+  Trajectory odometry;         ///< every frame, odometry frame
+  Trajectory keyframes_final;  ///< keyframe poses, final corrected (map frame)
+  std::vector<StageTimes> times;
+  int frames = 0, keyframes = 0, losses = 0, segments = 0, unreadable_frames = 0;
+  int keyframes_not_sent = 0;  ///< sendKeyframe failed (encoding, window full past the timeout, stopped)
+  bool all_acked = false, final_correction_received = false;
+  bool interrupted = false;  ///< options.stop ended the run
+  RobotLinkStats link;
+  double wall_s = 0.0;
+  std::optional<AvoidanceSummary> avoidance;  ///< when RobotRunOptions::avoidance was set
+
+  std::vector<RunFrameRecord> frame_records;         ///< parallel to odometry
+  std::map<int, RunKeyframeRecord> keyframe_records;  ///< by keyframe id
+
+  /// Median of a per-frame stage time (ms); 0 without frames.
+  double medianMs(double StageTimes::*stage = &StageTimes::total_ms) const;
+};
+
+/// Runs VisualOdometry over frames [first_frame, end_frame) of the dataset, sends each new keyframe through
+/// `link` (which the caller has started), keeps heartbeats' tracking state current. Never throws; unreadable
+/// frames are logged and counted.
+/// Recomputes final_map and keyframes_final from the link's latest corrections: e.g. after the run, once
+/// other robots' keyframes have merged the maps and the server sent newer corrections. runRobot calls it.
+void reanchorFinalMap(const RobotLink& link, RobotRunResult* result);
+
+RobotRunResult runRobot(const TumDataset& dataset, const CameraIntrinsics& camera,
+                        const OdometryConfig& odometry, RobotLink& link, const RobotRunOptions& options);
+
+}  // namespace rgbdmap
