@@ -10,12 +10,12 @@
 #include <benchmark/benchmark.h>
 #include <opencv2/core.hpp>
 
-#include "rgbdmap/vision/matcher.hpp"
 #include "rgbdmap/client/odometry.hpp"
-#include "rgbdmap/vision/pose_refiner.hpp"
-#include "rgbdmap/vision/ransac.hpp"
 #include "rgbdmap/common/evaluation.hpp"
 #include "rgbdmap/common/tum_dataset.hpp"
+#include "rgbdmap/vision/matcher.hpp"
+#include "rgbdmap/vision/pose_refiner.hpp"
+#include "rgbdmap/vision/ransac.hpp"
 
 namespace {
 using namespace rgbdmap;

@@ -4,8 +4,8 @@
 #include <chrono>
 #include <cmath>
 
-#include "rgbdmap/vision/guided_matcher.hpp"
 #include "rgbdmap/client/keyframe_selector.hpp"
+#include "rgbdmap/vision/guided_matcher.hpp"
 #include "rgbdmap/vision/matcher.hpp"
 #include "rgbdmap/vision/pose_refiner.hpp"
 #include "rgbdmap/vision/ransac.hpp"
@@ -238,7 +238,8 @@ TrackingResult VisualOdometry::track(const RgbdFrame& frame) {
     r.T_odom_cam = se3::normalized(reference_->T_odom_cam * est.T_cur_kf.inverse());
   }
   // After a relocalisation the difference to the last (extrapolated) pose is a correction, not motion.
-  velocity_ = r.state == TrackingState::kRelocalized ? SE3::Identity() : T_odom_last_.inverse() * r.T_odom_cam;
+  velocity_ =
+      r.state == TrackingState::kRelocalized ? SE3::Identity() : T_odom_last_.inverse() * r.T_odom_cam;
   T_odom_last_ = r.T_odom_cam;
   if (make_keyframe) {
     auto kf = makeKeyframe(std::move(cur), r);

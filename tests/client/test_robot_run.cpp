@@ -5,9 +5,9 @@
 #include "fake_map_server.hpp"
 #include "link_test_util.hpp"
 #include "rgbdmap/client/odometry_config_io.hpp"
+#include "rgbdmap/common/synth.hpp"
 #include "rgbdmap/link/robot_client_config.hpp"
 #include "rgbdmap/link/robot_runner.hpp"
-#include "rgbdmap/common/synth.hpp"
 
 namespace rgbdmap {
 namespace {

@@ -11,7 +11,6 @@
 #include <octomap/OcTree.h>
 
 #include "proto/proto_test_util.hpp"
-#include "rgbdmap/vision/keyframe_message.hpp"
 #include "rgbdmap/client/odometry.hpp"
 #include "rgbdmap/common/evaluation.hpp"
 #include "rgbdmap/common/synth.hpp"
@@ -20,6 +19,7 @@
 #include "rgbdmap/proto/envelope.hpp"
 #include "rgbdmap/server/map_server.hpp"
 #include "rgbdmap/transport/transport.hpp"
+#include "rgbdmap/vision/keyframe_message.hpp"
 
 namespace rgbdmap::testing {
 
@@ -60,14 +60,19 @@ inline const OdometrySegment& loopSegment(int frames, int first, int end) {
 }
 
 /// Ground truth at the keyframes' stamps vs. poses given per keyframe id.
-inline Result<AteResult> keyframeAte(const Trajectory& gt, const Trajectory& est) { return computeAte(gt, est); }
+inline Result<AteResult> keyframeAte(const Trajectory& gt, const Trajectory& est) {
+  return computeAte(gt, est);
+}
 
 /// A robot driven by the test: signs and publishes, records what the server sends back (acks, corrections,
 /// occupancy slices, and the map stream applied to its own copy of the tree).
 class ScriptedRobot {
  public:
   ScriptedRobot(transport::Transport& transport, std::string id, msg::Bytes key, int64_t session)
-      : transport_(transport), id_(std::move(id)), signer_(id_, key, session), state_(std::make_shared<State>()) {
+      : transport_(transport),
+        id_(std::move(id)),
+        signer_(id_, key, session),
+        state_(std::make_shared<State>()) {
     msg::KeyStore keys = key.empty() ? msg::KeyStore::openMode() : msg::KeyStore();
     if (!key.empty()) {
       EXPECT_TRUE(keys.add(msg::kServerId, key));
@@ -126,7 +131,8 @@ class ScriptedRobot {
   /// The latest corrections, waiting up to timeout_s for the first (delivery is asynchronous).
   std::optional<msg::PoseCorrections> corrections(double timeout_s = 10.0) const {
     std::unique_lock<std::mutex> lock(state_->mutex);
-    state_->cv.wait_for(lock, std::chrono::duration<double>(timeout_s), [&] { return state_->corrections.has_value(); });
+    state_->cv.wait_for(lock, std::chrono::duration<double>(timeout_s),
+                        [&] { return state_->corrections.has_value(); });
     return state_->corrections;
   }
   std::optional<msg::PoseCorrections> correctionsNow() const {

@@ -6,9 +6,9 @@
 
 #include <gtest/gtest.h>
 
-#include "rgbdmap/link/robot_runner.hpp"
 #include "rgbdmap/export/point_cloud_export.hpp"
 #include "rgbdmap/export/slice_export.hpp"
+#include "rgbdmap/link/robot_runner.hpp"
 #include "server/server_test_util.hpp"
 
 namespace rgbdmap {

@@ -25,7 +25,8 @@ TEST(ServerConfig, ExampleLoadsWithoutErrorsAndStatesTheDefaults) {
 
 TEST(ServerConfig, BadValuesAndUnknownKeysAreAllReported) {
   auto reader = ConfigReader::fromString(
-      "server:\n  robots: \"robot0, bad id!\"\n  status_period_s: -1\nloop:\n  recent_k: 500\ngraph:\n  nope: 1\n",
+      "server:\n  robots: \"robot0, bad id!\"\n  status_period_s: -1\nloop:\n  recent_k: 500\ngraph:\n  "
+      "nope: 1\n",
       "x.yaml");
   ASSERT_TRUE(reader);
   ServerAppConfig c;
@@ -40,7 +41,8 @@ TEST(ServerConfig, KeysFileIsParsedStrictly) {
   const std::string path = ::testing::TempDir() + "rgbdmap_keys_test.txt";
   {
     std::ofstream f(path);
-    f << "# robots\nrobot0 " << std::string(64, 'a') << "\n\nrobot1 " << std::string(64, 'b') << "  # second\n";
+    f << "# robots\nrobot0 " << std::string(64, 'a') << "\n\nrobot1 " << std::string(64, 'b')
+      << "  # second\n";
   }
   auto keys = msg::readKeysFile(path);
   ASSERT_TRUE(keys) << keys.error();

@@ -1,10 +1,10 @@
 // Keyframe <-> wire message: what the server reconstructs must equal what the robot's odometry computed.
 #include <gtest/gtest.h>
 
-#include "rgbdmap/vision/keyframe_message.hpp"
 #include "rgbdmap/client/odometry.hpp"
 #include "rgbdmap/common/synth.hpp"
 #include "rgbdmap/proto/codec.hpp"
+#include "rgbdmap/vision/keyframe_message.hpp"
 
 namespace rgbdmap {
 namespace {

@@ -51,8 +51,8 @@ Result<msg::Keyframe> keyframeToMessage(const Keyframe& keyframe, const std::str
   }
   m.descriptors.resize(n * msg::kDescriptorBytes);
   for (size_t i = 0; i < n; ++i)
-    std::memcpy(m.descriptors.data() + i * msg::kDescriptorBytes, f.descriptors.ptr<uint8_t>(static_cast<int>(i)),
-                msg::kDescriptorBytes);
+    std::memcpy(m.descriptors.data() + i * msg::kDescriptorBytes,
+                f.descriptors.ptr<uint8_t>(static_cast<int>(i)), msg::kDescriptorBytes);
   m.images = std::move(images);
   return m;
 }

@@ -9,12 +9,12 @@
 
 #include <benchmark/benchmark.h>
 
-#include "rgbdmap/vision/features.hpp"
-#include "rgbdmap/link/robot_link.hpp"
 #include "rgbdmap/common/logging.hpp"
 #include "rgbdmap/common/synth.hpp"
+#include "rgbdmap/link/robot_link.hpp"
 #include "rgbdmap/proto/channels.hpp"
 #include "rgbdmap/proto/envelope.hpp"
+#include "rgbdmap/vision/features.hpp"
 
 namespace {
 using namespace rgbdmap;

@@ -5,11 +5,11 @@
 #include <chrono>
 #include <cmath>
 
-#include "rgbdmap/vision/keyframe_message.hpp"
-#include "rgbdmap/common/logging.hpp"
-#include "rgbdmap/proto/channels.hpp"
 #include <functional>
 #include <string_view>
+#include "rgbdmap/common/logging.hpp"
+#include "rgbdmap/proto/channels.hpp"
+#include "rgbdmap/vision/keyframe_message.hpp"
 
 #include "robot_link_impl.hpp"
 
@@ -306,7 +306,9 @@ std::optional<SE3> RobotLink::correctedKeyframe(int keyframe_id) const {
   return impl_->correctedKeyframe(keyframe_id);
 }
 std::optional<msg::OccupancySlice> RobotLink::latestSlice() const { return impl_->latest(&Impl::slice_); }
-Status RobotLink::publishCommand(const msg::VelocityCommand& command) { return impl_->publishCommand(command); }
+Status RobotLink::publishCommand(const msg::VelocityCommand& command) {
+  return impl_->publishCommand(command);
+}
 std::optional<msg::VelocityCommand> RobotLink::latestCommand() const {
   return impl_->latest(&Impl::command_);
 }

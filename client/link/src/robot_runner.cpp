@@ -78,9 +78,11 @@ double systemNowS() {
 }
 
 /// One avoidance step at the live pose: decide on the latest slice, publish the command, record it.
-void avoid(AvoidanceController& controller, RobotLink& link, const StampedPose& live, AvoidanceSummary* summary) {
+void avoid(AvoidanceController& controller, RobotLink& link, const StampedPose& live,
+           AvoidanceSummary* summary) {
   const std::optional<msg::OccupancySlice> slice = link.latestSlice();
-  const AvoidanceDecision d = controller.update(slice ? *slice : msg::OccupancySlice{}, live.T_world_cam, systemNowS());
+  const AvoidanceDecision d =
+      controller.update(slice ? *slice : msg::OccupancySlice{}, live.T_world_cam, systemNowS());
   summary->decisions.push_back({live.timestamp, d.state, d.closest_obstacle_m, d.stopped});
   if (d.stopped)
     ++summary->stopped;
@@ -139,7 +141,8 @@ void trackFrames(const TumDataset& dataset, VisualOdometry& vo, RobotLink& link,
 }
 
 /// T_map_odom of the frame's segment, through its reference keyframe's final correction when there is one.
-SE3 finalMapFromOdom(const FrameRecord& f, const std::map<int, KeyframeRecord>& keyframes, const RobotLink& link) {
+SE3 finalMapFromOdom(const FrameRecord& f, const std::map<int, KeyframeRecord>& keyframes,
+                     const RobotLink& link) {
   const auto kf = keyframes.find(f.reference_keyframe);
   if (kf != keyframes.end() && kf->second.segment == f.segment)
     if (const std::optional<SE3> T_map_kf = link.correctedKeyframe(f.reference_keyframe))

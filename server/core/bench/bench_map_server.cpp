@@ -13,12 +13,12 @@
 
 #include <opencv2/core.hpp>
 
-#include "rgbdmap/vision/keyframe_message.hpp"
 #include "rgbdmap/client/odometry.hpp"
 #include "rgbdmap/common/synth.hpp"
 #include "rgbdmap/common/tum_dataset.hpp"
 #include "rgbdmap/proto/channels.hpp"
 #include "rgbdmap/server/map_server.hpp"
+#include "rgbdmap/vision/keyframe_message.hpp"
 
 using namespace rgbdmap;
 
@@ -50,7 +50,8 @@ Sequence prepare() {
     const TrackingResult r = vo.track(f);
     if (!r.new_keyframe) continue;
     auto images = encodeImages(f);
-    auto m = images ? keyframeToMessage(*r.new_keyframe, "robot0", *images) : Result<msg::Keyframe>::failure("");
+    auto m =
+        images ? keyframeToMessage(*r.new_keyframe, "robot0", *images) : Result<msg::Keyframe>::failure("");
     if (m) seq.keyframes.push_back(*m);
   }
   return seq;
@@ -93,10 +94,12 @@ int main(int argc, char** argv) {
   msg::Hello hello;
   hello.robot_id = "robot0";
   hello.camera = seq.camera;
-  (void)transport->publish(*msg::channelFor(msg::MessageType::kHello, "robot0"), signer.seal(hello, 1).value());
+  (void)transport->publish(*msg::channelFor(msg::MessageType::kHello, "robot0"),
+                           signer.seal(hello, 1).value());
   const auto t0 = std::chrono::steady_clock::now();
   for (const msg::Keyframe& kf : seq.keyframes) {
-    (void)transport->publish(*msg::channelFor(msg::MessageType::kKeyframe, "robot0"), signer.seal(kf, 1).value());
+    (void)transport->publish(*msg::channelFor(msg::MessageType::kKeyframe, "robot0"),
+                             signer.seal(kf, 1).value());
     std::unique_lock<std::mutex> lock(mutex);
     cv.wait_for(lock, std::chrono::seconds(30), [&] { return acked.count(kf.keyframe_id) > 0; });
     lock.unlock();
@@ -107,16 +110,19 @@ int main(int argc, char** argv) {
   const MapServerStats s = server.stats();
   std::printf("bench_map_server: %s, %d keyframes, store fdatasync on, one keyframe in flight, octree %s\n",
               seq.name.c_str(), s.keyframes, occupancy ? "on" : "off (--no-occupancy)");
-  std::printf("  ingest per keyframe   median %6.1f ms  p90 %6.1f ms  max %6.1f ms   (target: median <= 30 ms)\n",
-              s.ingest_ms_median, s.ingest_ms_p90, s.ingest_ms_max);
+  std::printf(
+      "  ingest per keyframe   median %6.1f ms  p90 %6.1f ms  max %6.1f ms   (target: median <= 30 ms)\n",
+      s.ingest_ms_median, s.ingest_ms_p90, s.ingest_ms_max);
   std::printf("  ingest CPU time       median %6.1f ms  p90 %6.1f ms   (the worker thread's own CPU time)\n",
               s.ingest_cpu_ms_median, s.ingest_cpu_ms_p90);
-  std::printf("  stages (median)       decode+features %.1f ms, store %.1f ms, loops+graph %.1f ms (verification %.1f ms)\n",
-              s.decode_ms_median, s.store_ms_median, s.loops_ms_median, s.verify_ms_median);
+  std::printf(
+      "  stages (median)       decode+features %.1f ms, store %.1f ms, loops+graph %.1f ms (verification "
+      "%.1f ms)\n",
+      s.decode_ms_median, s.store_ms_median, s.loops_ms_median, s.verify_ms_median);
   std::printf("  loops accepted %d (disabled %d), candidates %d, optimisations %d (last %.1f ms)\n",
               s.loops_accepted, s.loops_disabled, s.loop_candidates, s.optimizations, s.last_optimize_ms);
-  std::printf("  wall %.2f s for the sequence (%.1f keyframes/s including acknowledgements and octree)\n", wall,
-              s.keyframes / wall);
+  std::printf("  wall %.2f s for the sequence (%.1f keyframes/s including acknowledgements and octree)\n",
+              wall, s.keyframes / wall);
   const std::string out = config.map_dir + "_out";
   if (!occupancy) {
     transport->stop();
@@ -126,7 +132,8 @@ int main(int argc, char** argv) {
   }
   const auto t_out = std::chrono::steady_clock::now();
   const Status written = server.writeMapOutputs(out);
-  const double out_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t_out).count();
+  const double out_ms =
+      std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t_out).count();
   const auto size_kb = [&](const char* name) {
     std::error_code ec;
     const auto bytes = std::filesystem::file_size(out + "/" + name, ec);
@@ -134,20 +141,25 @@ int main(int argc, char** argv) {
   };
   std::printf("occupancy map (%.2f m, on the map worker thread, not in the ingest time above):\n",
               config.occupancy.resolution_m);
-  std::printf("  octree insertion      median %6.1f ms CPU per keyframe (cloud reduction + insertion), %zu keyframes\n",
-              s.map_insert_ms_median, s.map_keyframes);
+  std::printf(
+      "  octree insertion      median %6.1f ms CPU per keyframe (cloud reduction + insertion), %zu "
+      "keyframes\n",
+      s.map_insert_ms_median, s.map_keyframes);
   std::printf("  slice extraction      median %6.2f ms CPU (%.0f m x %.0f m at %.2f m), %llu slices sent\n",
               s.slice_ms_median, config.slice.size_m, config.slice.size_m, config.slice.resolution_m,
               static_cast<unsigned long long>(s.slices_sent));
   std::printf("  tree                  %zu leaves (%zu occupied), %.2f MB in memory; kept clouds %.2f MB\n",
-              s.map_leaves, s.map_occupied_leaves, s.map_tree_memory_bytes / 1e6, s.map_clouds_memory_bytes / 1e6);
-  std::printf("  rebuilds              %llu (last %.0f ms)\n", static_cast<unsigned long long>(s.map_rebuilds),
-              s.map_last_rebuild_ms);
+              s.map_leaves, s.map_occupied_leaves, s.map_tree_memory_bytes / 1e6,
+              s.map_clouds_memory_bytes / 1e6);
+  std::printf("  rebuilds              %llu (last %.0f ms)\n",
+              static_cast<unsigned long long>(s.map_rebuilds), s.map_last_rebuild_ms);
   std::printf("  map stream            %llu updates, %.1f KB (zstd)\n",
               static_cast<unsigned long long>(s.map_updates_sent), s.map_bytes_sent / 1e3);
-  std::printf("  map files             %s in %.0f ms: map.bt %.1f KB, map.ot %.1f KB, map.ply %.1f KB, map.png %.1f KB\n",
-              written ? "written" : written.error().c_str(), out_ms, size_kb("map.bt"), size_kb("map.ot"),
-              size_kb("map.ply"), size_kb("map.png"));
+  std::printf(
+      "  map files             %s in %.0f ms: map.bt %.1f KB, map.ot %.1f KB, map.ply %.1f KB, map.png %.1f "
+      "KB\n",
+      written ? "written" : written.error().c_str(), out_ms, size_kb("map.bt"), size_kb("map.ot"),
+      size_kb("map.ply"), size_kb("map.png"));
   transport->stop();
   server.stop();
   std::filesystem::remove_all(config.map_dir);

@@ -1,22 +1,22 @@
 #include "rgbdmap/server/map_server.hpp"
 
+#include <pthread.h>
 #include <algorithm>
 #include <chrono>
-#include <ctime>
-#include <pthread.h>
 #include <cstdio>
+#include <ctime>
 #include <fstream>
+#include <set>
 #include <sstream>
 #include <tuple>
-#include <set>
 #include <unordered_map>
 
 #include "map_worker.hpp"
-#include "robot_registry.hpp"
-#include "rgbdmap/vision/keyframe_message.hpp"
 #include "rgbdmap/common/logging.hpp"
 #include "rgbdmap/proto/channels.hpp"
 #include "rgbdmap/proto/codec.hpp"
+#include "rgbdmap/vision/keyframe_message.hpp"
+#include "robot_registry.hpp"
 
 namespace rgbdmap {
 namespace {
@@ -72,8 +72,8 @@ bool isPositiveDefinite(const Mat6& m) {
 /// and the robust loss and consistency check would throw the true loop away.
 Mat6 withCovarianceFloor(const Mat6& information, double sigma_t, double sigma_r) {
   Mat6 floor = Mat6::Zero();
-  floor.diagonal() << sigma_t * sigma_t, sigma_t * sigma_t, sigma_t * sigma_t, sigma_r * sigma_r, sigma_r * sigma_r,
-      sigma_r * sigma_r;
+  floor.diagonal() << sigma_t * sigma_t, sigma_t * sigma_t, sigma_t * sigma_t, sigma_r * sigma_r,
+      sigma_r * sigma_r, sigma_r * sigma_r;
   const Eigen::LDLT<Mat6> ldlt(0.5 * (information + information.transpose()));
   const Mat6 cov = ldlt.solve(Mat6::Identity());
   Mat6 out = (0.5 * (cov + cov.transpose()) + floor).inverse();
@@ -87,7 +87,8 @@ std::string MapServerConfig::validate() const {
   if (map_dir.empty()) problems.push_back("map_dir is empty");
   for (const std::string& r : robots)
     if (!msg::channelFor(msg::MessageType::kHello, r)) problems.push_back("invalid robot id '" + r + "'");
-  if (!(status_period_s >= 0.0 && status_period_s <= 3600.0)) problems.push_back("status_period_s not in [0, 3600]");
+  if (!(status_period_s >= 0.0 && status_period_s <= 3600.0))
+    problems.push_back("status_period_s not in [0, 3600]");
   if (ingest_queue_capacity < 1 || ingest_queue_capacity > 100000)
     problems.push_back("ingest_queue_capacity not in [1, 100000]");
   if (!(default_odometry_sigma_m > 0.0 && default_odometry_sigma_m < 10.0))
@@ -99,14 +100,14 @@ std::string MapServerConfig::validate() const {
     if (const std::string o = occupancy.validate(); !o.empty()) problems.push_back("occupancy: " + o);
     if (const std::string sl = slice.validate(); !sl.empty()) problems.push_back("slice: " + sl);
   }
-  if (!(slice_period_s >= 0.0 && slice_period_s <= 3600.0)) problems.push_back("slice_period_s not in [0, 3600]");
+  if (!(slice_period_s >= 0.0 && slice_period_s <= 3600.0))
+    problems.push_back("slice_period_s not in [0, 3600]");
   if (!(map_stream_period_s >= 0.0 && map_stream_period_s <= 3600.0))
     problems.push_back("map_stream_period_s not in [0, 3600]");
   std::string out;
   for (const std::string& p : problems) out += (out.empty() ? "" : "; ") + p;
   return out;
 }
-
 
 // ---------------------------------------------------------------------------------------------------------
 
@@ -259,7 +260,8 @@ struct MapServer::Impl {
         auto hello = msg::decodeMessage<msg::Hello>(*opened, &rejects);
         if (!hello) return;
         if (hello->robot_id != robot) {
-          rejects.add(msg::RejectReason::kInvalidContent, "hello for '" + hello->robot_id + "' from " + robot);
+          rejects.add(msg::RejectReason::kInvalidContent,
+                      "hello for '" + hello->robot_id + "' from " + robot);
           return;
         }
         Event e;
@@ -275,7 +277,8 @@ struct MapServer::Impl {
         auto keyframe = msg::decodeMessage<msg::Keyframe>(*opened, &rejects);
         if (!keyframe) return;
         if (keyframe->robot_id != robot) {
-          rejects.add(msg::RejectReason::kInvalidContent, "keyframe for '" + keyframe->robot_id + "' from " + robot);
+          rejects.add(msg::RejectReason::kInvalidContent,
+                      "keyframe for '" + keyframe->robot_id + "' from " + robot);
           return;
         }
         Event e;
@@ -286,7 +289,8 @@ struct MapServer::Impl {
         return;
       }
       default:
-        rejects.add(msg::RejectReason::kWrongType, std::string(msg::toString(opened->type)) + " on " + channel);
+        rejects.add(msg::RejectReason::kWrongType,
+                    std::string(msg::toString(opened->type)) + " on " + channel);
         return;
     }
   }
@@ -335,7 +339,8 @@ struct MapServer::Impl {
       }
       std::lock_guard<std::mutex> lock(queue_mutex);
       busy = false;
-      if (e.kind == Event::Kind::kOptimized) applied_revision = std::max(applied_revision, e.result->revision);
+      if (e.kind == Event::Kind::kOptimized)
+        applied_revision = std::max(applied_revision, e.result->revision);
     }
   }
 
@@ -365,7 +370,8 @@ struct MapServer::Impl {
 
   Mat6 floored(const Mat6& information) const {
     if (config.edge_sigma_floor_m <= 0.0 && config.edge_sigma_floor_deg <= 0.0) return information;
-    return withCovarianceFloor(information, config.edge_sigma_floor_m, config.edge_sigma_floor_deg * M_PI / 180.0);
+    return withCovarianceFloor(information, config.edge_sigma_floor_m,
+                               config.edge_sigma_floor_deg * M_PI / 180.0);
   }
 
   Mat6 odometryInformation(const msg::Keyframe& kf) const {
@@ -373,7 +379,8 @@ struct MapServer::Impl {
     const double st = config.default_odometry_sigma_m;
     const double sr = config.default_odometry_sigma_deg * M_PI / 180.0;
     Mat6 info = Mat6::Zero();
-    info.diagonal() << 1 / (st * st), 1 / (st * st), 1 / (st * st), 1 / (sr * sr), 1 / (sr * sr), 1 / (sr * sr);
+    info.diagonal() << 1 / (st * st), 1 / (st * st), 1 / (st * st), 1 / (sr * sr), 1 / (sr * sr),
+        1 / (sr * sr);
     return info;
   }
 
@@ -432,7 +439,8 @@ struct MapServer::Impl {
     lk.T_map_kf = node.kf.T_map_kf;
     lk.features = features;
     if (!detect) {
-      if (const Status s = detector.restoreKeyframe(std::move(lk)); !s) log::error("server: restore: ", s.error());
+      if (const Status s = detector.restoreKeyframe(std::move(lk)); !s)
+        log::error("server: restore: ", s.error());
       return {};
     }
     auto detection = detector.addKeyframe(std::move(lk));
@@ -521,12 +529,13 @@ struct MapServer::Impl {
     const std::vector<LoopEdge> edges = integrate(stored, *features, true, &loop_stats);
     if (map_worker) {
       const Node& n = nodes.back();
-      map_worker->addKeyframe({n.kf.node_id, n.kf.robot_id, n.kf.map_id, n.kf.T_map_kf, *camera, images->depth,
-                               images->color, true});
+      map_worker->addKeyframe({n.kf.node_id, n.kf.robot_id, n.kf.map_id, n.kf.T_map_kf, *camera,
+                               images->depth, images->color, true});
     }
     counters.loop_candidates += loop_stats.candidates;
     verify_ms.push_back(loop_stats.verify_ms);
-    for (int r = 0; r < kLoopRejectionCount; ++r) counters.loops_rejected_by_reason[r] += loop_stats.rejected_by_reason[r];
+    for (int r = 0; r < kLoopRejectionCount; ++r)
+      counters.loops_rejected_by_reason[r] += loop_stats.rejected_by_reason[r];
     int added = 0;
     std::vector<StoredLoop> to_store;
     for (const LoopEdge& edge : edges) {
@@ -542,7 +551,8 @@ struct MapServer::Impl {
         registry.countLoop(nodes[static_cast<size_t>(edge.to_id)].kf.robot_id);
     }
     // One write and one sync for all of this keyframe's loops (a lost loop edge costs accuracy, not data).
-    if (const Status s = store->appendLoops(to_store); !s) log::error("server: cannot store loops: ", s.error());
+    if (const Status s = store->appendLoops(to_store); !s)
+      log::error("server: cannot store loops: ", s.error());
     counters.loops_accepted += added;
     ++counters.keyframes;
     registry.countKeyframe(kf.robot_id);
@@ -654,14 +664,19 @@ struct MapServer::Impl {
   /// the map worker, in the background).
   void startMapWorker() {
     MapWorkerPublishers publishers;
-    publishers.slice = [this](const std::string& robot, const msg::OccupancySlice& slice) { publishTo(robot, slice); };
-    publishers.map = [this](const std::string& robot, const msg::MapUpdate& update) { publishTo(robot, update); };
+    publishers.slice = [this](const std::string& robot, const msg::OccupancySlice& slice) {
+      publishTo(robot, slice);
+    };
+    publishers.map = [this](const std::string& robot, const msg::MapUpdate& update) {
+      publishTo(robot, update);
+    };
     map_worker = std::make_unique<MapWorker>(config, *store, std::move(publishers));
     std::lock_guard<std::mutex> lock(state_mutex);
     for (const Node& n : nodes) {
       const auto camera = n.valid ? registry.camera(n.kf.robot_id) : std::nullopt;
       if (!camera) continue;
-      map_worker->addKeyframe({n.kf.node_id, n.kf.robot_id, n.kf.map_id, n.kf.T_map_kf, *camera, {}, {}, false});
+      map_worker->addKeyframe(
+          {n.kf.node_id, n.kf.robot_id, n.kf.map_id, n.kf.T_map_kf, *camera, {}, {}, false});
     }
     map_worker->start();
   }
@@ -674,12 +689,13 @@ struct MapServer::Impl {
     int skipped = 0;
     for (const StoredKeyframe& stored : store->keyframes()) {
       const auto camera = registry.camera(stored.keyframe.robot_id);
-      const auto features = camera ? featuresFromMessage(stored.keyframe, PinholeCamera(*camera))
-                                   : Result<FrameFeatures>::failure("no camera for robot " + stored.keyframe.robot_id);
+      const auto features =
+          camera ? featuresFromMessage(stored.keyframe, PinholeCamera(*camera))
+                 : Result<FrameFeatures>::failure("no camera for robot " + stored.keyframe.robot_id);
       if (!features || stored.node_id < static_cast<int64_t>(nodes.size())) {
         ++skipped;
-        log::error("server: stored keyframe ", stored.node_id, " skipped: ",
-                   features ? "node id out of order" : features.error());
+        log::error("server: stored keyframe ", stored.node_id,
+                   " skipped: ", features ? "node id out of order" : features.error());
         continue;
       }
       integrate(stored, *features, false, nullptr);
@@ -688,7 +704,8 @@ struct MapServer::Impl {
     }
     for (const StoredLoop& loop : store->loops()) {
       if (loop.from_node < 0 || loop.to_node < 0 || loop.from_node >= static_cast<int64_t>(nodes.size()) ||
-          loop.to_node >= static_cast<int64_t>(nodes.size()) || !nodes[static_cast<size_t>(loop.from_node)].valid ||
+          loop.to_node >= static_cast<int64_t>(nodes.size()) ||
+          !nodes[static_cast<size_t>(loop.from_node)].valid ||
           !nodes[static_cast<size_t>(loop.to_node)].valid) {
         log::error("server: stored loop ", loop.from_node, "-", loop.to_node, " names unknown keyframes");
         continue;
@@ -712,8 +729,9 @@ struct MapServer::Impl {
     counters.restored_keyframes = counters.keyframes;
     refreshComponents();
     if (counters.keyframes > 0)
-      log::info("server: restored ", counters.keyframes, " keyframes, ", counters.restored_loops, " loops from ",
-                store->directory(), skipped ? " (" + std::to_string(skipped) + " skipped)" : std::string());
+      log::info("server: restored ", counters.keyframes, " keyframes, ", counters.restored_loops,
+                " loops from ", store->directory(),
+                skipped ? " (" + std::to_string(skipped) + " skipped)" : std::string());
     return Status::success();
   }
 };
@@ -769,15 +787,17 @@ Status MapServer::start() {
     patterns.push_back("rgbdmap/*");
   } else {
     for (const std::string& robot : m.config.robots)
-      for (const auto type : {msg::MessageType::kHello, msg::MessageType::kHeartbeat, msg::MessageType::kKeyframe})
+      for (const auto type :
+           {msg::MessageType::kHello, msg::MessageType::kHeartbeat, msg::MessageType::kKeyframe})
         patterns.push_back(*msg::channelFor(type, robot));
   }
   for (const std::string& p : patterns)
     if (const Status s = m.transport.subscribe(p, handler); !s)
       return Status::failure("subscribe " + p + ": " + s.error() +
                              (m.config.robots.empty() ? " (list the robots in the configuration)" : ""));
-  log::info("server: serving ", m.config.robots.empty() ? std::string("any robot") :
-                                    std::to_string(m.config.robots.size()) + " robot(s)",
+  log::info("server: serving ",
+            m.config.robots.empty() ? std::string("any robot")
+                                    : std::to_string(m.config.robots.size()) + " robot(s)",
             " from ", m.config.map_dir);
   return Status::success();
 }
@@ -803,7 +823,8 @@ void MapServer::stop() {
 
 bool MapServer::waitIdle(double timeout_s) {
   Impl& m = *impl_;
-  const auto deadline = Clock::now() + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(timeout_s));
+  const auto deadline =
+      Clock::now() + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(timeout_s));
   {
     std::unique_lock<std::mutex> lock(m.queue_mutex);
     const bool idle = m.idle_cv.wait_until(lock, deadline, [&] {
@@ -812,7 +833,8 @@ bool MapServer::waitIdle(double timeout_s) {
     if (!idle || m.stopping) return false;
   }
   if (!m.map_worker) return true;
-  return m.map_worker->waitIdle(std::max(0.0, std::chrono::duration<double>(deadline - Clock::now()).count()));
+  return m.map_worker->waitIdle(
+      std::max(0.0, std::chrono::duration<double>(deadline - Clock::now()).count()));
 }
 
 MapServerStats MapServer::stats() const {
@@ -871,7 +893,8 @@ std::vector<std::vector<std::string>> MapServer::mergedMaps() const {
 }
 
 Status MapServer::writeMapOutputs(const std::string& out_dir) const {
-  if (!impl_->map_worker) return Status::failure("the occupancy map is off (occupancy_enabled: false) or not started");
+  if (!impl_->map_worker)
+    return Status::failure("the occupancy map is off (occupancy_enabled: false) or not started");
   return impl_->map_worker->writeOutputs(out_dir, keyframes());
 }
 

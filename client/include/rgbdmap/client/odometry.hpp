@@ -6,12 +6,12 @@
 #include <string>
 #include <vector>
 
-#include "rgbdmap/vision/features.hpp"
-#include "rgbdmap/vision/keyframe.hpp"
 #include "rgbdmap/client/odometry_config.hpp"
-#include "rgbdmap/vision/ransac.hpp"
 #include "rgbdmap/common/camera.hpp"
 #include "rgbdmap/common/rgbd_frame.hpp"
+#include "rgbdmap/vision/features.hpp"
+#include "rgbdmap/vision/keyframe.hpp"
+#include "rgbdmap/vision/ransac.hpp"
 
 namespace rgbdmap {
 

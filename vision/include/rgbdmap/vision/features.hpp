@@ -5,10 +5,10 @@
 #include <opencv2/core.hpp>
 #include <opencv2/features2d.hpp>
 
-#include "rgbdmap/vision/vision_config.hpp"
 #include "rgbdmap/common/camera.hpp"
 #include "rgbdmap/common/rgbd_frame.hpp"
 #include "rgbdmap/common/se3.hpp"
+#include "rgbdmap/vision/vision_config.hpp"
 
 namespace rgbdmap {
 

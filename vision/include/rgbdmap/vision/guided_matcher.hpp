@@ -4,10 +4,10 @@
 // that brute-force matching against the reference keyframe already found (ORB-SLAM's local-map idea).
 #include <vector>
 
+#include "rgbdmap/common/camera.hpp"
 #include "rgbdmap/vision/features.hpp"
 #include "rgbdmap/vision/guided_match_config.hpp"
 #include "rgbdmap/vision/matcher.hpp"
-#include "rgbdmap/common/camera.hpp"
 
 namespace rgbdmap {
 

@@ -3,12 +3,12 @@
 // back from a received message to the features the server's loop closure works on.
 #include <string>
 
-#include "rgbdmap/vision/features.hpp"
-#include "rgbdmap/vision/keyframe.hpp"
 #include "rgbdmap/common/camera.hpp"
 #include "rgbdmap/common/image_codec.hpp"
 #include "rgbdmap/common/result.hpp"
 #include "rgbdmap/proto/messages.hpp"
+#include "rgbdmap/vision/features.hpp"
+#include "rgbdmap/vision/keyframe.hpp"
 
 namespace rgbdmap {
 

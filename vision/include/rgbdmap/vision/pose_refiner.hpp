@@ -2,8 +2,8 @@
 // Robust Gauss-Newton refinement of a relative pose on reprojection + depth residuals.
 #include <vector>
 
-#include "rgbdmap/vision/vision_config.hpp"
 #include "rgbdmap/vision/ransac.hpp"
+#include "rgbdmap/vision/vision_config.hpp"
 
 namespace rgbdmap {
 

@@ -2,11 +2,11 @@
 // RANSAC over 3-D <-> 3-D correspondences with a closed-form (Umeyama/SVD) minimal solver.
 #include <vector>
 
+#include "rgbdmap/common/camera.hpp"
+#include "rgbdmap/common/se3.hpp"
 #include "rgbdmap/vision/features.hpp"
 #include "rgbdmap/vision/matcher.hpp"
 #include "rgbdmap/vision/vision_config.hpp"
-#include "rgbdmap/common/camera.hpp"
-#include "rgbdmap/common/se3.hpp"
 
 namespace rgbdmap {
 

@@ -5,9 +5,9 @@
 // odometry_config_io.hpp exactly as for `rgbdmap odometry --config`.
 #include <string>
 
-#include "rgbdmap/link/robot_link.hpp"
 #include "rgbdmap/common/config_reader.hpp"
 #include "rgbdmap/common/result.hpp"
+#include "rgbdmap/link/robot_link.hpp"
 
 namespace rgbdmap {
 

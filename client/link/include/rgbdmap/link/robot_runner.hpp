@@ -12,10 +12,10 @@
 
 #include "rgbdmap/client/avoidance.hpp"
 #include "rgbdmap/client/odometry.hpp"
-#include "rgbdmap/link/robot_link.hpp"
 #include "rgbdmap/common/camera.hpp"
 #include "rgbdmap/common/trajectory.hpp"
 #include "rgbdmap/common/tum_dataset.hpp"
+#include "rgbdmap/link/robot_link.hpp"
 
 namespace rgbdmap {
 
@@ -92,7 +92,7 @@ struct RobotRunResult {
   double wall_s = 0.0;
   std::optional<AvoidanceSummary> avoidance;  ///< when RobotRunOptions::avoidance was set
 
-  std::vector<RunFrameRecord> frame_records;         ///< parallel to odometry
+  std::vector<RunFrameRecord> frame_records;          ///< parallel to odometry
   std::map<int, RunKeyframeRecord> keyframe_records;  ///< by keyframe id
 
   /// Median of a per-frame stage time (ms); 0 without frames.

@@ -29,14 +29,14 @@
 
 #include "rgbdmap/common/result.hpp"
 #include "rgbdmap/common/se3.hpp"
+#include "rgbdmap/graph/pose_graph.hpp"
+#include "rgbdmap/graph/pose_graph_optimizer.hpp"
 #include "rgbdmap/loop/loop_detector.hpp"
 #include "rgbdmap/map/occupancy_map.hpp"
 #include "rgbdmap/map/occupancy_slice.hpp"
 #include "rgbdmap/proto/envelope.hpp"
 #include "rgbdmap/proto/messages.hpp"
 #include "rgbdmap/store/map_store.hpp"
-#include "rgbdmap/graph/pose_graph.hpp"
-#include "rgbdmap/graph/pose_graph_optimizer.hpp"
 #include "rgbdmap/transport/transport.hpp"
 
 namespace rgbdmap {
@@ -46,15 +46,16 @@ struct MapServerConfig {
   /// Robots whose channels are subscribed at start. With an empty list and an LCM transport, the server
   /// subscribes "rgbdmap/*" and serves any robot the KeyStore admits (DDS needs the list).
   std::vector<std::string> robots;
-  bool store_sync = true;          ///< fdatasync each keyframe before acknowledging it
-  double status_period_s = 1.0;    ///< ServerStatus to every known robot; 0 turns it off
+  bool store_sync = true;              ///< fdatasync each keyframe before acknowledging it
+  double status_period_s = 1.0;        ///< ServerStatus to every known robot; 0 turns it off
   size_t ingest_queue_capacity = 256;  ///< keyframes waiting for the worker; beyond, they are dropped
                                        ///< unacknowledged (the robot resends)
   /// Uncertainty of an odometry edge whose keyframe carried no information matrix (1 sigma per axis).
   double default_odometry_sigma_m = 0.02;
   double default_odometry_sigma_deg = 1.0;
   /// Uncertainty added to every edge's covariance before optimisation (1 sigma per axis); see
-  /// withCovarianceFloor in map_server.cpp. 0 and 0 use the information as the robot and detector computed it.
+  /// withCovarianceFloor in map_server.cpp. 0 and 0 use the information as the robot and detector computed
+  /// it.
   double edge_sigma_floor_m = 0.01;
   double edge_sigma_floor_deg = 0.5;
   LoopDetectorConfig loop;
@@ -63,7 +64,7 @@ struct MapServerConfig {
   bool occupancy_enabled = true;
   OccupancyMapConfig occupancy;
   SliceConfig slice;
-  double slice_period_s = 0.5;       ///< at most one OccupancySlice per robot per this period (after keyframes)
+  double slice_period_s = 0.5;  ///< at most one OccupancySlice per robot per this period (after keyframes)
   double map_stream_period_s = 2.0;  ///< MapUpdate to every robot (its own map); 0 turns the stream off
 
   std::string validate() const;  ///< "" when valid, else every problem ("; "-separated)
@@ -72,11 +73,11 @@ struct MapServerConfig {
 struct ServerRobotStats {
   std::string robot_id;
   int keyframes = 0;
-  int sessions = 0;           ///< robot processes seen (a restart is a new session)
-  int chains = 0;             ///< odometry chains (segments over all sessions)
-  int loops = 0;              ///< accepted loop edges touching this robot's keyframes
-  int map_id = -1;            ///< graph component of its newest keyframe (first node id of the component)
-  bool merged = false;        ///< its newest keyframe shares a component with another robot
+  int sessions = 0;     ///< robot processes seen (a restart is a new session)
+  int chains = 0;       ///< odometry chains (segments over all sessions)
+  int loops = 0;        ///< accepted loop edges touching this robot's keyframes
+  int map_id = -1;      ///< graph component of its newest keyframe (first node id of the component)
+  bool merged = false;  ///< its newest keyframe shares a component with another robot
   uint64_t bytes_received = 0;
   uint64_t bytes_sent = 0;
   uint64_t keyframes_refused = 0;  ///< acknowledged with accepted = false
@@ -87,15 +88,15 @@ struct ServerRobotStats {
 
 struct MapServerStats {
   int keyframes = 0;
-  int loops_accepted = 0;           ///< verified by the detector and added to the graph
-  int loops_disabled = 0;           ///< currently disabled by the graph's consistency check
+  int loops_accepted = 0;  ///< verified by the detector and added to the graph
+  int loops_disabled = 0;  ///< currently disabled by the graph's consistency check
   int loop_candidates = 0;
   std::array<int, kLoopRejectionCount> loops_rejected_by_reason{};
   int optimizations = 0;
   double last_optimize_ms = 0.0;
   int64_t graph_revision = 0;
-  int maps = 0;                     ///< connected components of the graph
-  uint64_t messages_rejected = 0;   ///< RejectCounters total (auth, replay, malformed, ...)
+  int maps = 0;                    ///< connected components of the graph
+  uint64_t messages_rejected = 0;  ///< RejectCounters total (auth, replay, malformed, ...)
   uint64_t keyframes_dropped_queue_full = 0;
   uint64_t keyframes_refused = 0;
   uint64_t unknown_robot_messages = 0;
@@ -103,20 +104,20 @@ struct MapServerStats {
   /// acknowledgement, loop candidates and verification, graph insertion).
   double ingest_ms_median = 0.0, ingest_ms_p90 = 0.0, ingest_ms_max = 0.0;
   double ingest_cpu_ms_median = 0.0, ingest_cpu_ms_p90 = 0.0;  ///< the same in worker-thread CPU time
-  double decode_ms_median = 0.0;  ///< image decoding (validation) and features
-  double store_ms_median = 0.0;   ///< durable append (fdatasync when store_sync)
-  double loops_ms_median = 0.0;   ///< loop detection, graph insertion, loop edges stored
-  double verify_ms_median = 0.0;  ///< of which geometric verification of the candidates
+  double decode_ms_median = 0.0;                               ///< image decoding (validation) and features
+  double store_ms_median = 0.0;                                ///< durable append (fdatasync when store_sync)
+  double loops_ms_median = 0.0;                    ///< loop detection, graph insertion, loop edges stored
+  double verify_ms_median = 0.0;                   ///< of which geometric verification of the candidates
   int restored_keyframes = 0, restored_loops = 0;  ///< from the map directory at start
   /// Occupancy map (zero when occupancy_enabled is false).
-  size_t map_keyframes = 0;           ///< keyframes inserted into the octree (restored ones included)
-  size_t map_tree_memory_bytes = 0;   ///< OcTree::memoryUsage() over all maps
-  size_t map_clouds_memory_bytes = 0; ///< kept keyframe clouds (for rebuilds and map.ply)
+  size_t map_keyframes = 0;            ///< keyframes inserted into the octree (restored ones included)
+  size_t map_tree_memory_bytes = 0;    ///< OcTree::memoryUsage() over all maps
+  size_t map_clouds_memory_bytes = 0;  ///< kept keyframe clouds (for rebuilds and map.ply)
   size_t map_leaves = 0, map_occupied_leaves = 0;
   uint64_t map_rebuilds = 0;
   double map_last_rebuild_ms = 0.0;
   double map_insert_ms_median = 0.0;  ///< cloud + octree insertion per live keyframe (map worker CPU time)
-  double slice_ms_median = 0.0;  ///< slice extraction (map worker CPU time)
+  double slice_ms_median = 0.0;       ///< slice extraction (map worker CPU time)
   uint64_t slices_sent = 0;
   uint64_t map_updates_sent = 0, map_bytes_sent = 0;  ///< MapUpdate messages and their compressed bytes
   MapStoreRecovery recovery;

@@ -9,13 +9,13 @@
 #include <unordered_map>
 #include <vector>
 
-#include "rgbdmap/vision/features.hpp"
 #include "rgbdmap/common/camera.hpp"
 #include "rgbdmap/common/result.hpp"
 #include "rgbdmap/loop/binary_words.hpp"
 #include "rgbdmap/loop/loop_candidates.hpp"
 #include "rgbdmap/loop/loop_consistency.hpp"
 #include "rgbdmap/loop/loop_verifier.hpp"
+#include "rgbdmap/vision/features.hpp"
 
 namespace rgbdmap {
 

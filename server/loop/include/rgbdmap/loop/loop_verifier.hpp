@@ -6,12 +6,12 @@
 #include <optional>
 #include <string>
 
-#include "rgbdmap/vision/features.hpp"
-#include "rgbdmap/vision/guided_matcher.hpp"
-#include "rgbdmap/vision/guided_match_config.hpp"
-#include "rgbdmap/vision/vision_config.hpp"
 #include "rgbdmap/common/camera.hpp"
 #include "rgbdmap/common/se3.hpp"
+#include "rgbdmap/vision/features.hpp"
+#include "rgbdmap/vision/guided_match_config.hpp"
+#include "rgbdmap/vision/guided_matcher.hpp"
+#include "rgbdmap/vision/vision_config.hpp"
 
 namespace rgbdmap {
 

@@ -65,7 +65,8 @@ class MapStore {
   Status appendKeyframe(const StoredKeyframe& keyframe);
   /// Durable on return (when options.sync). Both nodes must be stored keyframes.
   Status appendLoop(const StoredLoop& loop);
-  /// Several loops in one write and one fdatasync (each is validated first; after a crash a prefix may remain).
+  /// Several loops in one write and one fdatasync (each is validated first; after a crash a prefix may
+  /// remain).
   Status appendLoops(const std::vector<StoredLoop>& loops);
 
   /// Keyframes in append order WITHOUT images (images.depth and images.color empty; width, height and
