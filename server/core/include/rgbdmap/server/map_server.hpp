@@ -36,39 +36,11 @@
 #include "rgbdmap/map/occupancy_slice.hpp"
 #include "rgbdmap/proto/envelope.hpp"
 #include "rgbdmap/proto/messages.hpp"
+#include "rgbdmap/server/map_server_config.hpp"
 #include "rgbdmap/store/map_store.hpp"
 #include "rgbdmap/transport/transport.hpp"
 
 namespace rgbdmap {
-
-struct MapServerConfig {
-  std::string map_dir = "map";  ///< durable keyframes, loop edges and robot cameras
-  /// Robots whose channels are subscribed at start. With an empty list and an LCM transport, the server
-  /// subscribes "rgbdmap/*" and serves any robot the KeyStore admits (DDS needs the list).
-  std::vector<std::string> robots;
-  bool store_sync = true;              ///< fdatasync each keyframe before acknowledging it
-  double status_period_s = 1.0;        ///< ServerStatus to every known robot; 0 turns it off
-  size_t ingest_queue_capacity = 256;  ///< keyframes waiting for the worker; beyond, they are dropped
-                                       ///< unacknowledged (the robot resends)
-  /// Uncertainty of an odometry edge whose keyframe carried no information matrix (1 sigma per axis).
-  double default_odometry_sigma_m = 0.02;
-  double default_odometry_sigma_deg = 1.0;
-  /// Uncertainty added to every edge's covariance before optimisation (1 sigma per axis); see
-  /// withCovarianceFloor in map_server.cpp. 0 and 0 use the information as the robot and detector computed
-  /// it.
-  double edge_sigma_floor_m = 0.01;
-  double edge_sigma_floor_deg = 0.5;
-  LoopDetectorConfig loop;
-  PoseGraphConfig graph;
-  /// Occupancy map (issue #5), built on its own worker thread, never on the ingest worker.
-  bool occupancy_enabled = true;
-  OccupancyMapConfig occupancy;
-  SliceConfig slice;
-  double slice_period_s = 0.5;  ///< at most one OccupancySlice per robot per this period (after keyframes)
-  double map_stream_period_s = 2.0;  ///< MapUpdate to every robot (its own map); 0 turns the stream off
-
-  std::string validate() const;  ///< "" when valid, else every problem ("; "-separated)
-};
 
 struct ServerRobotStats {
   std::string robot_id;
