@@ -20,6 +20,20 @@ json "json has bytes sent" "$tmp/out/client_alpha.json" '.bytes_sent > 0'
 check "--robot-id overrides the config" 0 "$client" --config "$tmp/client.yaml" --dataset "$tmp/seq" --fast \
   --frames :5 --robot-id beta --out "$tmp/out"
 [ -s "$tmp/out/client_beta.json" ] && echo "ok: robot id in file names" || { echo "FAIL: client_beta.json"; fail=1; }
+# A corrupt image is skipped with a warning and counted (exit 0); a robot that can read no frame exits 1.
+cp -r "$tmp/seq" "$tmp/bad"
+img="$tmp/bad/$(grep -v '^#' "$tmp/bad/rgb.txt" | awk 'NR == 5 {print $2}')"  # frame 4's colour image
+head -c 100 "$img" >"$tmp/cut.png" && mv "$tmp/cut.png" "$img"  # a truncated PNG
+check "a corrupt image is skipped" 0 "$client" --config "$tmp/client.yaml" --dataset "$tmp/bad" --fast \
+  --frames :10 --out "$tmp/bad_out"
+contains "the skipped frame is a warning naming the image" "$tmp/err.txt" "skipping frame 4: .*rgb/.*cannot read"
+contains "summary counts it" "$tmp/err.txt" "unreadable 1,"
+json "json counts it" "$tmp/bad_out/client_alpha.json" '.unreadable_frames == 1 and .frames == 9'
+rm -r "$tmp/bad/rgb"
+check "no readable frame is a data error" 1 "$client" --config "$tmp/client.yaml" --dataset "$tmp/bad" --fast \
+  --frames :10 --out "$tmp/bad_out"
+contains "no readable frame is named" "$tmp/err.txt" "none of the 10 frames could be read"
+json "json still written" "$tmp/bad_out/client_alpha.json" '.unreadable_frames == 10 and .frames == 0'
 
 # Ctrl-C during a paced run: clean stop, outputs still written.
 "$client" --config "$tmp/client.yaml" --dataset "$tmp/seq" --robot-id gamma --out "$tmp/sig" >/dev/null 2>&1 &
