@@ -76,7 +76,7 @@ for n in $scaling; do
   run "$d" --transport "$transport" --robots "$n" --dataset "$syn" --frames $((n * per_robot)) || continue
   s="$d/summary.txt"
   kf=$(get "$s" server_keyframes); cpu=$(get "$s" server_cpu_s)
-  p90=$(grep -o '"ingest_ms_p90": [0-9.e+-]*' "$d/map/server_summary.json" | awk '{print $2}')
+  p90=$(jq .ingest_ms_p90 "$d/map/server_summary.json")
   fps=$(grep -o '^robot[0-9]*_fps=.*' "$s" | cut -d= -f2 | awk '{t += $1} END {printf "%.1f", t / NR}')
   printf '%6s %8s %8s %11.1f %10.1f %12.1f %14.2f %10s %8s %9.4f %9s\n' "$n" "$(get "$s" frames)" "$kf" \
     "$(get "$s" ingest_ms_median)" "$p90" "$(awk -v c="$cpu" -v k="$kf" 'BEGIN {print (k > 0 ? 1000 * c / k : 0)}')" \

@@ -1,10 +1,16 @@
 #!/usr/bin/env bash
-# Installs the Debian 12 packages rgbdmap needs; installs only what is missing (idempotent). Run as root.
+# Installs the Debian 12 packages rgbdmap needs; installs only what is missing (idempotent, silent when
+# nothing is). Run as root.
 set -euo pipefail
 packages=(
-  cmake g++ pkg-config ninja-build libgtest-dev libbenchmark-dev
-  libeigen3-dev libopencv-dev liboctomap-dev octomap-tools libceres-dev liblcm-dev liblcm-bin
-  cyclonedds-dev cyclonedds-tools libzstd-dev libjpeg-dev zlib1g-dev libyaml-cpp-dev libssl-dev iproute2
+  # build: compilers, CMake/CTest, Ninja, lcm-gen (liblcm-bin) and idlc (cyclonedds-tools) code generators
+  cmake g++ pkg-config ninja-build liblcm-bin cyclonedds-tools
+  # libraries
+  libgtest-dev libbenchmark-dev libeigen3-dev libopencv-dev liboctomap-dev octomap-tools libceres-dev
+  liblcm-dev cyclonedds-dev libzstd-dev libjpeg-dev zlib1g-dev libyaml-cpp-dev libssl-dev nlohmann-json3-dev
+  # commands the scripts under deploy/ and tests/ call beyond coreutils, grep, sed and bash:
+  # ip (iproute2), unshare (util-linux), pgrep (procps), /usr/bin/time (time), awk (mawk), jq (JSON)
+  iproute2 util-linux procps time mawk jq
 )
 missing=()
 for p in "${packages[@]}"; do

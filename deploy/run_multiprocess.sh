@@ -109,7 +109,7 @@ cleanup() { for p in "${pids[@]}"; do kill "$p" 2>/dev/null || true; done; }
 trap cleanup EXIT
 
 echo "== $robots robot(s) over $transport ($url), dataset $dataset ($total frames), out $out"
-start_s=$(date +%s.%N)
+start_ns=$(date +%s%N)
 timed server "$bin/rgbdmap-server" --config "$out/server.yaml" --status-every 5 >"$out/logs/server.log" 2>&1
 server_wrap=$!; pids+=("$server_wrap")
 sleep 1
@@ -133,7 +133,8 @@ failed=0
 for i in "${!client_wraps[@]}"; do
   wait "${client_wraps[$i]}" || { echo "client ${ids[$i]} exited with $?" >&2; failed=1; }
 done
-clients_s=$(echo "$(date +%s.%N) - $start_s" | bc)
+elapsed_ns=$(( $(date +%s%N) - start_ns ))
+clients_s=$(printf '%d.%09d' $((elapsed_ns / 1000000000)) $((elapsed_ns % 1000000000)))
 kill -INT "$server_pid"
 wait "$server_wrap" || { echo "server exited with $?" >&2; failed=1; }
 kill -INT "$monitor_pid" 2>/dev/null || true
@@ -141,7 +142,7 @@ wait "$monitor_pid" || true
 trap - EXIT
 
 # --- evaluation -------------------------------------------------------------------------------------------
-num() { grep -o "\"$2\": [-0-9.e+a-z]*" "$1" | head -1 | awk '{print $2}'; }
+num() { jq -r --arg k "$2" 'if has($k) then .[$k] else error("no \"\($k)\"") end' "$1"; }  # top-level field
 val() { awk -v k="$2" '$1 == k {print $2}' "$1"; }
 peak_mb() { [ -s "$1" ] && awk -F': ' '/Maximum resident/ {printf "%.0f", $2 / 1024}' "$1" || echo n/a; }
 cpu_s() { [ -s "$1" ] && awk -F': ' '/User time/ {u=$2} /System time/ {s=$2} END {printf "%.1f", u + s}' "$1" || echo n/a; }
@@ -171,8 +172,8 @@ merged_ate=$(val "$out/eval_merged.txt" ate_rmse_m); merged_ate=${merged_ate:-na
 sj="$out/map/server_summary.json"
 skf=$(num "$sj" keyframes); loops=$(num "$sj" loops); maps=$(num "$sj" maps); ingest=$(num "$sj" ingest_ms_median)
 ingest_cpu=$(num "$sj" ingest_cpu_ms_median)
-groups=$(tr -d '\n ' <"$sj" | grep -o '"merged_maps":\[.*\]' | sed 's/"merged_maps"://')
-one_map=0; [ "$(echo "$groups" | grep -o '\]' | wc -l)" -eq 2 ] && one_map=1  # [[...]] = one group
+groups=$(jq -c .merged_maps "$sj")
+one_map=0; [ "$(jq '.merged_maps | length' "$sj")" -eq 1 ] && one_map=1  # [[...]] = one group
 [ "$robots" -eq 1 ] && one_map=1
 bt_kb=n/a  # the map stream as rgbdmap-monitor --save-map recorded it (needs a server that publishes maps)
 ls "$out"/maps_monitor/*.bt >/dev/null 2>&1 && bt_kb=$(du -ck "$out"/maps_monitor/*.bt | awk 'END {print $1}')

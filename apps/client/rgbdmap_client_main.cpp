@@ -181,6 +181,8 @@ int run(int argc, char** argv) {
                "%s\nwrote %s/trajectory_%s.txt, trajectory_%s_live.txt, keyframes_%s.txt, client_%s.json\n",
                clientSummary(result).c_str(), a.out.c_str(), config.robot_id.c_str(), config.robot_id.c_str(),
                config.robot_id.c_str(), config.robot_id.c_str());
+  if (result.frames == 0 && result.unreadable_frames > 0)
+    return log::error(a.dataset, ": none of the ", result.unreadable_frames, " frames could be read"), 1;
   return 0;
 }
 

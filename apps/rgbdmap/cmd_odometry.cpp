@@ -62,6 +62,10 @@ int odometry(int argc, char** argv) {
             setup.camera.cx, " cy ", setup.camera.cy, " depth_scale ", setup.camera.depth_scale);
   log::debug("configuration in effect:\n", setup.effective);
   const app::OdometryRun run = app::runOdometry(*dataset, setup, static_cast<int>(frames));
+  if (run.frames == 0) {  // unreadable frames are skipped and counted; with none readable there is no result
+    log::error(*dataset_dir, ": none of the ", run.unreadable_frames, " frames could be read");
+    return 1;
+  }
   for (const auto& [path, traj, what] :
        {std::tuple{*out, &run.trajectory, "odometry poses, one per frame (T_odom_cam)"},
         std::tuple{keyframesPath(*out), &run.keyframes, "keyframe poses in creation order (T_odom_cam)"}}) {

@@ -193,6 +193,7 @@ std::string reportJson(const RunOptions& o, const std::vector<std::string>& data
       << "      \"dataset\": " << jsonString(datasets[r.dataset]) << ",\n"
       << "      \"frame_range\": [" << r.first << ", " << r.end << "],\n"
       << "      \"frames\": " << r.result.frames << ",\n"
+      << "      \"unreadable_frames\": " << r.result.unreadable_frames << ",\n"
       << "      \"keyframes\": " << r.result.keyframes << ",\n"
       << "      \"keyframes_acked\": " << l.keyframes_acked << ",\n"
       << "      \"keyframes_stored_by_server\": " << (sr ? sr->keyframes : 0) << ",\n"
@@ -442,11 +443,14 @@ int run(int argc, char** argv) {
 
   std::fprintf(stderr, "rgbdmap run: %zu robot(s) over %s, %.1f s\n", robots.size(), url.c_str(), wall_s);
   for (const Robot& r : robots)
-    std::fprintf(stderr, "  %s frames %d-%d: %d keyframes (%llu acked), ATE %s m (odometry alone %s m), %.1f ms/frame\n",
-                 r.id.c_str(), r.first, r.end, r.result.keyframes,
-                 static_cast<unsigned long long>(r.result.link.keyframes_acked),
-                 r.ate ? num(r.ate->rmse, "%.4f").c_str() : "n/a",
-                 r.ate_odometry ? num(r.ate_odometry->rmse, "%.4f").c_str() : "n/a", r.result.medianMs());
+    std::fprintf(
+        stderr,
+        "  %s frames %d-%d (%d unreadable): %d keyframes (%llu acked), ATE %s m (odometry alone %s m), "
+        "%.1f ms/frame\n",
+        r.id.c_str(), r.first, r.end, r.result.unreadable_frames, r.result.keyframes,
+        static_cast<unsigned long long>(r.result.link.keyframes_acked),
+        r.ate ? num(r.ate->rmse, "%.4f").c_str() : "n/a",
+        r.ate_odometry ? num(r.ate_odometry->rmse, "%.4f").c_str() : "n/a", r.result.medianMs());
   std::fprintf(stderr, "  server: %d keyframes, %d loops (%d rejected by the graph), %zu map(s)%s, %.1f ms/keyframe\n",
                stats.keyframes, stats.loops_accepted, stats.loops_disabled, maps.size(),
                joint ? (", joint ATE " + num(joint->rmse, "%.4f") + " m").c_str() : "", stats.ingest_ms_median);
@@ -458,7 +462,13 @@ int run(int argc, char** argv) {
                "wrote %s/: trajectory_<robot>.txt, keyframes_<robot>.txt, report.json, map.png, map.bt, map.ot, "
                "map.ply, slice_<robot>.pgm/.yaml, map/\n",
                o.out.c_str());
-  return 0;
+  int status = 0;  // a robot skips unreadable frames; one that could read none of its frames fails the run
+  for (const Robot& r : robots)
+    if (r.result.frames == 0 && r.result.unreadable_frames > 0) {
+      log::error(r.id, ": none of its ", r.result.unreadable_frames, " frames could be read");
+      status = 1;
+    }
+  return status;
 }
 
 }  // namespace rgbdmap::cmd

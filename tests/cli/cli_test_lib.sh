@@ -16,3 +16,6 @@ check() {  # check "description" expected_exit command...
 contains() {  # contains "description" file pattern
   if grep -q -- "$3" "$2"; then echo "ok: $1"; else echo "FAIL: $1: '$3' not in $2"; fail=1; fi
 }
+json() {  # json "description" file JQ_CONDITION: the condition holds on the JSON file (false or null fails)
+  if jq -e "$3" "$2" >/dev/null; then echo "ok: $1"; else echo "FAIL: $1: '$3' does not hold in $2"; fail=1; fi
+}

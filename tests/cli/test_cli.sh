@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # Command-line contract of `rgbdmap`: outputs of synth -> odometry -> eval -> run, and clear errors with
-# the documented exit codes (2 = usage, 1 = bad data). Usage: test_cli.sh BIN_DIR
+# the documented exit codes (2 = usage, 1 = bad data; unreadable images are skipped and counted).
+# Usage: test_cli.sh BIN_DIR
 set -u
 bin="$1/rgbdmap"
 source "$(dirname "$0")/cli_test_lib.sh"
@@ -12,17 +13,33 @@ contains "odometry summary" "$tmp/err.txt" "frames 45, keyframes"
 [ "$(grep -vc '^#' "$tmp/traj.txt")" -eq 45 ] && echo "ok: one pose per frame" || { echo "FAIL: pose count"; fail=1; }
 contains "keyframe list beside the trajectory" "$tmp/traj.keyframes.txt" "keyframe poses"
 check "eval --json" 0 "$bin" eval --gt "$tmp/seq/groundtruth.txt" --est "$tmp/traj.txt" --json
-contains "eval prints ATE" "$tmp/out.txt" '"ate"'
+json "eval prints ATE" "$tmp/out.txt" '.ate | type == "object"'
 check "run on a dataset" 0 "$bin" run --dataset "$tmp/seq" --out "$tmp/run"
-contains "report has ATE" "$tmp/run/report.json" '"ate_rmse_m": 0.0'
-contains "report has timing" "$tmp/run/report.json" 'client_ms_per_frame_median'
+json "report has ATE" "$tmp/run/report.json" '.robots.robot0.ate_rmse_m | type == "number" and . < 0.1'
+json "report has timing" "$tmp/run/report.json" '.robots.robot0 | has("client_ms_per_frame_median")'
 [ -s "$tmp/run/trajectory_robot0.txt" ] && [ -s "$tmp/run/keyframes_robot0.txt" ] && echo "ok: run outputs" || { echo "FAIL: run outputs"; fail=1; }
-contains "report says the server ran" "$tmp/run/report.json" '"server_ms_per_keyframe_median"'
+json "report says the server ran" "$tmp/run/report.json" '.server | has("server_ms_per_keyframe_median")'
 check "run with two robots on one dataset" 0 "$bin" run --dataset "$tmp/seq" --robots 2 --out "$tmp/run2"
-contains "robot1 in the report" "$tmp/run2/report.json" '"robot1"'
-contains "robot1 frame range overlaps robot0's" "$tmp/run2/report.json" '"frame_range": \[20, 45\]'
+json "robot1 in the report" "$tmp/run2/report.json" '.robots | has("robot1")'
+json "robot1 frame range overlaps robot0's" "$tmp/run2/report.json" '.robots.robot1.frame_range == [20, 45]'
 [ "$(grep -vc '^#' "$tmp/run2/trajectory_robot1.txt")" -eq 25 ] && echo "ok: robot1 one pose per frame of its segment" || { echo "FAIL: robot1 pose count"; fail=1; }
 check "several datasets need matching --robots" 2 "$bin" run --dataset "$tmp/seq,$tmp/seq" --robots 3 --out "$tmp/run3"
+# An unreadable image (corrupt, missing, wrong size) is skipped with a warning and counted; exit 1 only when
+# no frame at all could be read. Malformed list lines stay errors (below).
+cp -r "$tmp/seq" "$tmp/bad"
+img="$tmp/bad/$(grep -v '^#' "$tmp/bad/rgb.txt" | awk 'NR == 10 {print $2}')"  # frame 9's colour image
+head -c 100 "$img" >"$tmp/cut.png" && mv "$tmp/cut.png" "$img"  # a truncated PNG
+check "odometry skips a corrupt image" 0 "$bin" odometry --dataset "$tmp/bad" --out "$tmp/bad.txt"
+contains "the skipped frame is a warning naming the image" "$tmp/err.txt" "skipping frame 9: .*rgb/.*cannot read"
+contains "odometry summary counts it" "$tmp/err.txt" "frames 44, .*unreadable 1"
+check "run skips a corrupt image" 0 "$bin" run --dataset "$tmp/bad" --frames 20 --out "$tmp/runbad"
+contains "run summary counts it" "$tmp/err.txt" "robot0 frames 0-20 (1 unreadable)"
+json "report counts it" "$tmp/runbad/report.json" '.robots.robot0 | .unreadable_frames == 1 and .frames == 19'
+rm -r "$tmp/bad/depth"
+check "odometry with no readable frame is a data error" 1 "$bin" odometry --dataset "$tmp/bad" --out "$tmp/bad.txt"
+contains "no readable frame is named" "$tmp/err.txt" "none of the 45 frames could be read"
+check "run with no readable frame is a data error" 1 "$bin" run --dataset "$tmp/bad" --frames 20 --out "$tmp/runbad"
+json "report still written" "$tmp/runbad/report.json" '.robots.robot0 | .unreadable_frames == 20 and .frames == 0'
 
 check "unknown option is a usage error" 2 "$bin" odometry --dataset "$tmp/seq" --out "$tmp/x.txt" --bogus 1
 contains "unknown option named" "$tmp/err.txt" "unknown option --bogus"

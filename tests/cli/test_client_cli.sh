@@ -14,12 +14,26 @@ check "runs --fast without a server" 0 "$client" --config "$tmp/client.yaml" --d
   --frames 2:30 --out "$tmp/out"
 [ "$(grep -vc '^#' "$tmp/out/trajectory_alpha.txt")" -eq 28 ] && echo "ok: one pose per frame" || { echo "FAIL: pose count"; fail=1; }
 for f in trajectory_alpha_live.txt keyframes_alpha.txt; do [ -s "$tmp/out/$f" ] && echo "ok: $f" || { echo "FAIL: $f"; fail=1; }; done
-contains "json counts frames" "$tmp/out/client_alpha.json" '"frames": 28'
-contains "json says nothing was acked" "$tmp/out/client_alpha.json" '"all_acked": false'
-contains "json has bytes sent" "$tmp/out/client_alpha.json" '"bytes_sent": [1-9]'
+json "json counts frames" "$tmp/out/client_alpha.json" '.frames == 28'
+json "json says nothing was acked" "$tmp/out/client_alpha.json" '.all_acked == false'
+json "json has bytes sent" "$tmp/out/client_alpha.json" '.bytes_sent > 0'
 check "--robot-id overrides the config" 0 "$client" --config "$tmp/client.yaml" --dataset "$tmp/seq" --fast \
   --frames :5 --robot-id beta --out "$tmp/out"
 [ -s "$tmp/out/client_beta.json" ] && echo "ok: robot id in file names" || { echo "FAIL: client_beta.json"; fail=1; }
+# A corrupt image is skipped with a warning and counted (exit 0); a robot that can read no frame exits 1.
+cp -r "$tmp/seq" "$tmp/bad"
+img="$tmp/bad/$(grep -v '^#' "$tmp/bad/rgb.txt" | awk 'NR == 5 {print $2}')"  # frame 4's colour image
+head -c 100 "$img" >"$tmp/cut.png" && mv "$tmp/cut.png" "$img"  # a truncated PNG
+check "a corrupt image is skipped" 0 "$client" --config "$tmp/client.yaml" --dataset "$tmp/bad" --fast \
+  --frames :10 --out "$tmp/bad_out"
+contains "the skipped frame is a warning naming the image" "$tmp/err.txt" "skipping frame 4: .*rgb/.*cannot read"
+contains "summary counts it" "$tmp/err.txt" "unreadable 1,"
+json "json counts it" "$tmp/bad_out/client_alpha.json" '.unreadable_frames == 1 and .frames == 9'
+rm -r "$tmp/bad/rgb"
+check "no readable frame is a data error" 1 "$client" --config "$tmp/client.yaml" --dataset "$tmp/bad" --fast \
+  --frames :10 --out "$tmp/bad_out"
+contains "no readable frame is named" "$tmp/err.txt" "none of the 10 frames could be read"
+json "json still written" "$tmp/bad_out/client_alpha.json" '.unreadable_frames == 10 and .frames == 0'
 
 # Ctrl-C during a paced run: clean stop, outputs still written.
 "$client" --config "$tmp/client.yaml" --dataset "$tmp/seq" --robot-id gamma --out "$tmp/sig" >/dev/null 2>&1 &
@@ -28,7 +42,7 @@ sleep 0.5
 kill -INT "$pid"
 wait "$pid"
 [ $? -eq 0 ] && echo "ok: SIGINT exits 0" || { echo "FAIL: SIGINT exit code"; fail=1; }
-contains "interrupted run still reports" "$tmp/sig/client_gamma.json" '"interrupted": true'
+json "interrupted run still reports" "$tmp/sig/client_gamma.json" '.interrupted == true'
 
 printf 'robot:\n  id: "bad id"\n  key_file: nokey.hex\nlink:\n  jitter: 3\n  codec:\n    color: gif\n' >"$tmp/bad.yaml"
 check "config errors are usage errors" 2 "$client" --config "$tmp/bad.yaml" --dataset "$tmp/seq"

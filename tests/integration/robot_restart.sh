@@ -28,11 +28,11 @@ kill -INT "$server"; wait "$server"; srv=$?
 fail=0
 [ "$second" -eq 0 ] && [ "$r1" -eq 0 ] && [ "$srv" -eq 0 ] || { echo "FAIL: exit codes $second $r1 $srv"; fail=1; }
 sj="$d/map/server_summary.json"
-grep -q '"robot": "robot0", "keyframes": [0-9]*, "sessions": 2' "$sj" \
+jq -e 'any(.robots[]; .robot == "robot0" and .sessions == 2)' "$sj" >/dev/null \
   && echo "ok: robot0 has two sessions" || { echo "FAIL: robot0 sessions"; fail=1; }
-grep -q '"all_acked": true' "$d/robot0/client_robot0.json" \
+jq -e '.all_acked == true' "$d/robot0/client_robot0.json" >/dev/null \
   && echo "ok: restarted robot0: every keyframe acknowledged" || { echo "FAIL: restarted robot0 acks"; fail=1; }
-tr -d ' \n' <"$sj" | grep -q '"merged_maps":\[\["robot[01]","robot[01]"\]\]' \
+jq -e '.merged_maps | length == 1 and (.[0] | sort) == ["robot0", "robot1"]' "$sj" >/dev/null \
   && echo "ok: one merged map" || { echo "FAIL: not one map"; fail=1; }
 cat "$d"/map/keyframes_robot*.txt | grep -v '^#' | sort -n >"$d/merged.txt"
 ate=$("$bin/rgbdmap" eval --gt "$ds/groundtruth.txt" --est "$d/merged.txt" | awk '$1 == "ate_rmse_m" {print $2}')

@@ -38,7 +38,7 @@ for transport in lcm dds; do
     [ -s "$tmp/$transport/$f" ] && echo "ok: $f" || { echo "FAIL: $transport: $f missing"; fail=1; }
   done
   n=$(grep -vc '^#' "$tmp/$transport/keyframes_merged.txt")
-  kf=$(grep -o '"keyframes": [0-9]*' "$tmp/$transport/map/server_summary.json" | head -1 | awk '{print $2}')
+  kf=$(jq .keyframes "$tmp/$transport/map/server_summary.json")
   [ "$n" -eq "$kf" ] && [ "$n" -ge 20 ] && echo "ok: $n keyframes in the server's files" \
     || { echo "FAIL: $transport: $n keyframes in files, summary says $kf"; fail=1; }
 done

@@ -88,7 +88,10 @@ const char* datasetOptionsHelp() {
          "  --intrinsics fx,fy,cx,cy[,k1,k2,p1,p2,k3]  camera override (default: dataset camera.yaml, else\n"
          "                          TUM freiburg1 517.3,516.5,318.6,255.3 with its distortion)\n"
          "  --depth-scale S         depth units per metre (TUM 5000, Kinect millimetres 1000)\n"
-         "  --log-level L           debug|info|warn|error (default info)\n";
+         "  --log-level L           debug|info|warn|error (default info)\n"
+         "exit status: 0 success (a missing, corrupt or wrong-size image is skipped with a warning and\n"
+         "counted as unreadable), 1 bad data (no frame readable, malformed line in rgb.txt, depth.txt or\n"
+         "groundtruth.txt, missing dataset) or run-time failure, 2 usage or configuration error\n";
 }
 
 }  // namespace rgbdmap::app
