@@ -1,5 +1,6 @@
 #pragma once
-// Channel (LCM) / topic (DDS) names. One table in proto/README.md documents them.
+// Channel names ("rgbdmap/<robot>/<suffix>"). LCM uses them as they are; the DDS adapter maps each to a
+// topic name (transport::ddsTopicName: "/" -> "__", other bytes escaped). proto/README.md lists both.
 #include <string>
 
 #include "rgbdmap/common/result.hpp"
