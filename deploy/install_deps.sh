@@ -5,6 +5,7 @@ packages=(
   cmake g++ pkg-config ninja-build libgtest-dev libbenchmark-dev
   libeigen3-dev libopencv-dev liboctomap-dev octomap-tools libceres-dev liblcm-dev liblcm-bin
   cyclonedds-dev cyclonedds-tools libzstd-dev libjpeg-dev zlib1g-dev libyaml-cpp-dev libssl-dev iproute2
+  dpkg-dev  # dpkg-shlibdeps: the .deb's Depends (deploy/package.sh)
 )
 missing=()
 for p in "${packages[@]}"; do
