@@ -3,6 +3,7 @@ find_package(Threads REQUIRED)
 find_package(Eigen3 3.3 REQUIRED NO_MODULE)
 find_package(OpenCV REQUIRED COMPONENTS core imgproc imgcodecs features2d calib3d)
 find_package(yaml-cpp REQUIRED)
+find_package(nlohmann_json 3 REQUIRED)  # header-only; the programs' JSON outputs (common/json_output)
 find_package(zstd REQUIRED)
 find_package(ZLIB REQUIRED)  # crc32 for the image blob and the map store's records
 find_package(JPEG REQUIRED)  # libjpeg-turbo, the same library OpenCV's imgcodecs links

@@ -1,56 +1,39 @@
 #include "client_outputs.hpp"
 
 #include <cstdio>
-#include <fstream>
 
-#include "rgbdmap/common/text_lines.hpp"
 namespace rgbdmap::app {
-namespace {
 
-std::string field(const char* name, const std::string& value, bool last = false) {
-  return std::string("  \"") + name + "\": " + value + (last ? "\n" : ",\n");
-}
-std::string number(double v) {
-  char buf[32];
-  std::snprintf(buf, sizeof buf, "%.6g", v);
-  return buf;
-}
-std::string flag(bool b) { return b ? "true" : "false"; }
-
-}  // namespace
-
-std::string clientJson(const ClientRunInfo& info, const RobotRunResult& r) {
+Json clientJson(const ClientRunInfo& info, const RobotRunResult& r) {
   const RobotLinkStats& l = r.link;
-  std::string s = "{\n";
-  s += field("robot_id", jsonString(info.robot_id));
-  s += field("dataset", jsonString(info.dataset));
-  s += field("transport", jsonString(info.transport_url));
-  s += field("signed", flag(info.signed_messages));
-  s += field("frames", std::to_string(r.frames));
-  s += field("keyframes", std::to_string(r.keyframes));
-  s += field("tracking_losses", std::to_string(r.losses));
-  s += field("segments", std::to_string(r.segments));
-  s += field("unreadable_frames", std::to_string(r.unreadable_frames));
-  s += field("ms_per_frame_median", number(r.medianMs()));
-  s += field("wall_s", number(r.wall_s));
-  s += field("interrupted", flag(r.interrupted));
-  s += field("keyframes_sent", std::to_string(l.keyframes_sent));
-  s += field("keyframes_not_sent", std::to_string(r.keyframes_not_sent));
-  s += field("keyframes_acked", std::to_string(l.keyframes_acked));
-  s += field("keyframes_refused", std::to_string(l.keyframes_refused));
-  s += field("keyframes_given_up", std::to_string(l.keyframes_given_up));
-  s += field("keyframes_pending", std::to_string(l.keyframes_pending));
-  s += field("retransmissions", std::to_string(l.retransmissions));
-  s += field("all_acked", flag(r.all_acked));
-  s += field("corrections_received", std::to_string(l.corrections_received));
-  s += field("graph_revision", std::to_string(l.graph_revision));
-  s += field("final_correction_received", flag(r.final_correction_received));
-  s += field("slices_received", std::to_string(l.slices_received));
-  s += field("commands_received", std::to_string(l.commands_received));
-  s += field("messages_rejected", std::to_string(l.messages_rejected));
-  s += field("bytes_sent", std::to_string(l.bytes_sent));
-  s += field("bytes_received", std::to_string(l.bytes_received), true);
-  return s + "}\n";
+  return {{"robot_id", info.robot_id},
+          {"dataset", info.dataset},
+          {"transport", info.transport_url},
+          {"signed", info.signed_messages},
+          {"frames", r.frames},
+          {"keyframes", r.keyframes},
+          {"tracking_losses", r.losses},
+          {"segments", r.segments},
+          {"unreadable_frames", r.unreadable_frames},
+          {"ms_per_frame_median", jsonNumber(r.medianMs())},
+          {"wall_s", jsonNumber(r.wall_s)},
+          {"interrupted", r.interrupted},
+          {"keyframes_sent", l.keyframes_sent},
+          {"keyframes_not_sent", r.keyframes_not_sent},
+          {"keyframes_acked", l.keyframes_acked},
+          {"keyframes_refused", l.keyframes_refused},
+          {"keyframes_given_up", l.keyframes_given_up},
+          {"keyframes_pending", l.keyframes_pending},
+          {"retransmissions", l.retransmissions},
+          {"all_acked", r.all_acked},
+          {"corrections_received", l.corrections_received},
+          {"graph_revision", l.graph_revision},
+          {"final_correction_received", r.final_correction_received},
+          {"slices_received", l.slices_received},
+          {"commands_received", l.commands_received},
+          {"messages_rejected", l.messages_rejected},
+          {"bytes_sent", l.bytes_sent},
+          {"bytes_received", l.bytes_received}};
 }
 
 std::string clientSummary(const RobotRunResult& r) {
@@ -92,11 +75,7 @@ Status writeClientOutputs(const std::string& out_dir, const ClientRunInfo& info,
   };
   for (const auto& f : files)
     if (Status s = writeTumTrajectory(f.path, *f.trajectory, f.what); !s) return s;
-  const std::string json_path = base + "client_" + R + ".json";
-  std::ofstream json(json_path);
-  json << clientJson(info, r);
-  if (!json) return Status::failure("cannot write " + json_path);
-  return Status::success();
+  return writeJsonFile(base + "client_" + R + ".json", clientJson(info, r));
 }
 
 }  // namespace rgbdmap::app

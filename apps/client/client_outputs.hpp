@@ -2,6 +2,7 @@
 // What rgbdmap-client writes into --out: trajectories (TUM format) and client_<robot>.json.
 #include <string>
 
+#include "rgbdmap/common/json_output.hpp"
 #include "rgbdmap/link/robot_runner.hpp"
 
 namespace rgbdmap::app {
@@ -15,8 +16,8 @@ struct ClientRunInfo {
 Status writeClientOutputs(const std::string& out_dir, const ClientRunInfo& info,
                           const RobotRunResult& result);
 
-/// The JSON summary (one object; numbers, counters, flags).
-std::string clientJson(const ClientRunInfo& info, const RobotRunResult& result);
+/// The JSON summary (one object; numbers, counters, flags), written atomically as client_<R>.json.
+Json clientJson(const ClientRunInfo& info, const RobotRunResult& result);
 
 /// Human summary for stderr.
 std::string clientSummary(const RobotRunResult& result);

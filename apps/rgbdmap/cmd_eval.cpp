@@ -3,10 +3,10 @@
 #include <optional>
 #include <string>
 
-#include "rgbdmap/cli/cli.hpp"
-#include "rgbdmap/common/text_lines.hpp"
 #include "commands.hpp"
+#include "rgbdmap/cli/cli.hpp"
 #include "rgbdmap/common/evaluation.hpp"
+#include "rgbdmap/common/evaluation_json.hpp"
 #include "rgbdmap/common/logging.hpp"
 #include "rgbdmap/common/trajectory.hpp"
 
@@ -67,24 +67,20 @@ std::optional<EvalConfig> parseConfig(cli::Args& args) {
   return c;
 }
 
-std::string number(double v) {
-  char buf[32];
-  std::snprintf(buf, sizeof buf, "%.9g", v);
-  return buf;
-}
-
 void printJson(const EvalConfig& c, size_t gt_poses, size_t est_poses, const Result<AteResult>& ate,
                const Result<RpeResult>& rpe) {
-  std::string out = "{\"gt\":" + jsonString(c.gt_path) + ",\"est\":" + jsonString(c.est_path) +
-                    ",\"gt_poses\":" + std::to_string(gt_poses) +
-                    ",\"est_poses\":" + std::to_string(est_poses) + ",\"max_dt_s\":" + number(c.ate.max_dt) +
-                    ",\"delta_s\":" + number(c.rpe.delta) +
-                    ",\"alignment\":" + (c.ate.with_scale ? "\"sim3\"" : "\"se3\"");
-  out += ",\"ate\":" + (ate ? ateToJson(*ate) : "null");
-  if (!ate) out += ",\"ate_error\":" + jsonString(ate.error());
-  out += ",\"rpe\":" + (rpe ? rpeToJson(*rpe) : "null");
-  if (!rpe) out += ",\"rpe_error\":" + jsonString(rpe.error());
-  std::printf("%s}\n", out.c_str());
+  Json out = {{"gt", c.gt_path},
+              {"est", c.est_path},
+              {"gt_poses", gt_poses},
+              {"est_poses", est_poses},
+              {"max_dt_s", jsonNumber(c.ate.max_dt, 9)},
+              {"delta_s", jsonNumber(c.rpe.delta, 9)},
+              {"alignment", c.ate.with_scale ? "sim3" : "se3"}};
+  out["ate"] = ate ? ateJson(*ate) : Json();
+  if (!ate) out["ate_error"] = ate.error();
+  out["rpe"] = rpe ? rpeJson(*rpe) : Json();
+  if (!rpe) out["rpe_error"] = rpe.error();
+  std::printf("%s\n", compactJson(out).c_str());
 }
 
 void printText(const EvalConfig& c, size_t gt_poses, size_t est_poses, const Result<AteResult>& ate,

@@ -1,13 +1,17 @@
 // rgbdmap-server: the mapping service as a process. Serves robots over the configured transport until
 // SIGINT/SIGTERM; the map directory holds everything acknowledged, so a restart resumes the same map.
-#include <atomic>
+#include <pthread.h>
+#include <signal.h>
+
+#include <algorithm>
+#include <cerrno>
 #include <chrono>
-#include <csignal>
+#include <cmath>
 #include <cstdio>
-#include <fstream>
-#include <thread>
+#include <ctime>
 
 #include "rgbdmap/cli/cli.hpp"
+#include "rgbdmap/common/json_output.hpp"
 #include "rgbdmap/common/logging.hpp"
 #include "rgbdmap/common/text_lines.hpp"
 #include "rgbdmap/common/trajectory.hpp"
@@ -29,42 +33,78 @@ const char* kUsage =
     "  --log-level L       debug|info|warn|error\n"
     "On SIGINT/SIGTERM it stops and writes keyframes_<robot>.txt (optimised, map frame) into the map "
     "directory,\n"
-    "server_summary.json (keyframes, loops, maps, ingest times, per-robot counters, merged_maps) and (map.enabled)\n"
+    "server_summary.json (keyframes, loops, maps, ingest times, per-robot counters, merged_maps) and "
+    "(map.enabled)\n"
     "the map files: map.bt, map.ot, map.ply, map.png, slice_<robot>.pgm/.yaml.\n";
 
-std::atomic<bool> g_stop{false};
-void onSignal(int) { g_stop = true; }
-
-std::string quoted(const std::string& text) { return "\"" + text + "\""; }  // ids are [A-Za-z0-9_-]
-
 /// server_summary.json in the map directory: what the deployment scripts and tests check after a run.
-rgbdmap::Status writeSummary(const std::string& path, const rgbdmap::MapServer& server) {
+rgbdmap::Json summaryJson(const rgbdmap::MapServer& server) {
+  using rgbdmap::Json;
+  using rgbdmap::jsonNumber;
   const rgbdmap::MapServerStats s = server.stats();
-  std::ofstream out(path);
-  out << "{\n  \"keyframes\": " << s.keyframes << ",\n  \"loops\": " << s.loops_accepted
-      << ",\n  \"loops_disabled\": " << s.loops_disabled << ",\n  \"maps\": " << s.maps
-      << ",\n  \"optimizations\": " << s.optimizations
-      << ",\n  \"messages_rejected\": " << s.messages_rejected
-      << ",\n  \"ingest_ms_median\": " << s.ingest_ms_median << ",\n  \"ingest_ms_p90\": " << s.ingest_ms_p90
-      << ",\n  \"ingest_cpu_ms_median\": " << s.ingest_cpu_ms_median << ",\n  \"robots\": [";
-  for (size_t i = 0; i < s.robots.size(); ++i) {
-    const rgbdmap::ServerRobotStats& r = s.robots[i];
-    out << (i ? "," : "") << "\n    {\"robot\": " << quoted(r.robot_id) << ", \"keyframes\": " << r.keyframes
-        << ", \"sessions\": " << r.sessions << ", \"loops\": " << r.loops << ", \"map_id\": " << r.map_id
-        << ", \"merged\": " << (r.merged ? "true" : "false") << ", \"bytes_received\": " << r.bytes_received
-        << ", \"bytes_sent\": " << r.bytes_sent << ", \"refused\": " << r.keyframes_refused << "}";
+  Json robots = Json::array();
+  for (const rgbdmap::ServerRobotStats& r : s.robots)
+    robots.push_back({{"robot", r.robot_id},
+                      {"keyframes", r.keyframes},
+                      {"sessions", r.sessions},
+                      {"loops", r.loops},
+                      {"map_id", r.map_id},
+                      {"merged", r.merged},
+                      {"bytes_received", r.bytes_received},
+                      {"bytes_sent", r.bytes_sent},
+                      {"refused", r.keyframes_refused}});
+  return {{"keyframes", s.keyframes},
+          {"loops", s.loops_accepted},
+          {"loops_disabled", s.loops_disabled},
+          {"maps", s.maps},
+          {"optimizations", s.optimizations},
+          {"messages_rejected", s.messages_rejected},
+          {"ingest_ms_median", jsonNumber(s.ingest_ms_median)},
+          {"ingest_ms_p90", jsonNumber(s.ingest_ms_p90)},
+          {"ingest_cpu_ms_median", jsonNumber(s.ingest_cpu_ms_median)},
+          {"robots", robots},
+          {"merged_maps", server.mergedMaps()}};
+}
+
+/// SIGINT and SIGTERM, blocked in every thread (call before any thread starts: threads inherit the mask)
+/// and taken synchronously by waitForStopSignal.
+sigset_t blockStopSignals() {
+  sigset_t set;
+  sigemptyset(&set);
+  sigaddset(&set, SIGINT);
+  sigaddset(&set, SIGTERM);
+  pthread_sigmask(SIG_BLOCK, &set, nullptr);
+  return set;
+}
+
+void printStatus(const rgbdmap::MapServer& server) {
+  const rgbdmap::MapServerStats s = server.stats();
+  std::fprintf(
+      stderr,
+      "[server] robots %zu keyframes %d loops %d (disabled %d) maps %d ingest %.1f ms rejected %llu\n",
+      s.robots.size(), s.keyframes, s.loops_accepted, s.loops_disabled, s.maps, s.ingest_ms_median,
+      static_cast<unsigned long long>(s.messages_rejected));
+}
+
+/// Sleeps until SIGINT or SIGTERM arrives, printing a status line every `status_every` seconds (0: never).
+void waitForStopSignal(const sigset_t& signals, double status_every, const rgbdmap::MapServer& server) {
+  using Clock = std::chrono::steady_clock;
+  const auto period =
+      std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(status_every));
+  auto next_status = Clock::now() + period;
+  for (;;) {
+    int sig = -1;
+    if (status_every <= 0) {
+      if (sigwait(&signals, &sig) == 0) break;
+      continue;
+    }
+    const double left_s = std::max(0.0, std::chrono::duration<double>(next_status - Clock::now()).count());
+    timespec timeout{static_cast<time_t>(left_s), static_cast<long>((left_s - std::floor(left_s)) * 1e9)};
+    if (sigtimedwait(&signals, nullptr, &timeout) >= 0) break;
+    if (errno != EAGAIN) continue;  // EINTR: another signal
+    printStatus(server);
+    next_status += period;
   }
-  out << "\n  ],\n  \"merged_maps\": [";
-  const auto groups = server.mergedMaps();
-  for (size_t g = 0; g < groups.size(); ++g) {
-    out << (g ? ", " : "") << "[";
-    for (size_t i = 0; i < groups[g].size(); ++i) out << (i ? ", " : "") << quoted(groups[g][i]);
-    out << "]";
-  }
-  out << "]\n}\n";
-  out.close();
-  if (!out) return rgbdmap::Status::failure("cannot write " + path);
-  return rgbdmap::Status();
 }
 
 }  // namespace
@@ -120,6 +160,7 @@ int main(int argc, char** argv) {
     return 2;
   }
 
+  const sigset_t stop_signals = blockStopSignals();
   auto transport = transport::makeTransport(config.transport_url);
   if (!transport) {
     log::error("transport ", config.transport_url, ": ", transport.error());
@@ -134,32 +175,20 @@ int main(int argc, char** argv) {
     log::error("transport start: ", s.error());
     return 1;
   }
-  std::signal(SIGINT, onSignal);
-  std::signal(SIGTERM, onSignal);
-  auto last_print = std::chrono::steady_clock::now();
-  while (!g_stop) {
-    std::this_thread::sleep_for(std::chrono::milliseconds(100));
-    if (status_every > 0 &&
-        std::chrono::steady_clock::now() - last_print > std::chrono::duration<double>(status_every)) {
-      last_print = std::chrono::steady_clock::now();
-      const MapServerStats s = server.stats();
-      std::fprintf(stderr, "[server] robots %zu keyframes %d loops %d (disabled %d) maps %d ingest %.1f ms rejected %llu\n",
-                   s.robots.size(), s.keyframes, s.loops_accepted, s.loops_disabled, s.maps, s.ingest_ms_median,
-                   static_cast<unsigned long long>(s.messages_rejected));
-    }
-  }
+  waitForStopSignal(stop_signals, status_every, server);
   log::info("stopping");
   server.waitIdle(5.0);
   (*transport)->stop();
   server.stop();
   std::map<std::string, Trajectory> by_robot;
-  for (const ServerKeyframe& k : server.keyframes()) by_robot[k.robot_id].push_back({k.timestamp, k.T_map_kf});
+  for (const ServerKeyframe& k : server.keyframes())
+    by_robot[k.robot_id].push_back({k.timestamp, k.T_map_kf});
   for (const auto& [robot, traj] : by_robot) {
     const std::string path = config.server.map_dir + "/keyframes_" + robot + ".txt";
     if (const Status s = writeTumTrajectory(path, traj, "rgbdmap-server, optimised keyframes, map frame"); !s)
       log::error(s.error());
   }
-  if (const Status w = writeSummary(config.server.map_dir + "/server_summary.json", server); !w)
+  if (const Status w = writeJsonFile(config.server.map_dir + "/server_summary.json", summaryJson(server)); !w)
     log::error(w.error());
   bool map_files = false;
   if (config.server.occupancy_enabled && !server.keyframes().empty()) {
@@ -169,7 +198,8 @@ int main(int argc, char** argv) {
       map_files = true;
   }
   const MapServerStats s = server.stats();
-  std::fprintf(stderr, "[server] final: keyframes %d loops %d maps %d; octree %zu leaves (%zu occupied), %.1f MB, "
+  std::fprintf(stderr,
+               "[server] final: keyframes %d loops %d maps %d; octree %zu leaves (%zu occupied), %.1f MB, "
                "%llu rebuilds, %llu slices sent; wrote keyframes_<robot>.txt%s to %s\n",
                s.keyframes, s.loops_accepted, s.maps, s.map_leaves, s.map_occupied_leaves,
                s.map_tree_memory_bytes / 1e6, static_cast<unsigned long long>(s.map_rebuilds),

@@ -1,4 +1,4 @@
-// Text and JSON renderings of ATE / RPE results (hand-written JSON: flat numbers only).
+// Text and JSON renderings of ATE / RPE results (the same fields, one list each).
 #include <cmath>
 #include <cstdio>
 #include <initializer_list>
@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "rgbdmap/common/evaluation.hpp"
+#include "rgbdmap/common/evaluation_json.hpp"
 
 namespace rgbdmap {
 namespace {
@@ -27,9 +28,10 @@ std::string lines(const std::string& prefix, const Fields& fields) {
   return out;
 }
 
-std::string jsonMembers(const Fields& fields) {
-  std::string out;
-  for (const auto& [key, value] : fields) out += (out.empty() ? "\"" : ",\"") + key + "\":" + number(value);
+/// The fields as JSON members, 9 significant digits (as the text lines), non-finite values as null.
+Json jsonObject(const Fields& fields) {
+  Json out = Json::object();
+  for (const auto& [key, value] : fields) out[key] = jsonNumber(value, 9);
   return out;
 }
 
@@ -61,10 +63,10 @@ Fields rpeFields(const RpeResult& r) {
           {"rot_max_deg", r.rot_max_deg}};
 }
 
-std::string jsonArray(std::initializer_list<double> values) {
-  std::string out = "[";
-  for (double v : values) out += (out.size() > 1 ? "," : "") + number(v);
-  return out + "]";
+Json jsonArray(std::initializer_list<double> values) {
+  Json out = Json::array();
+  for (double v : values) out.push_back(jsonNumber(v, 9));
+  return out;
 }
 
 }  // namespace
@@ -83,15 +85,16 @@ std::string formatAte(const AteResult& ate) {
 
 std::string formatRpe(const RpeResult& rpe) { return lines("rpe_", rpeFields(rpe)); }
 
-std::string ateToJson(const AteResult& ate) {
+Json ateJson(const AteResult& ate) {
   const Vec3 t = ate.T_gt_est.translation();
   const Eigen::Quaterniond q = se3::quat(ate.T_gt_est);
-  return "{" + jsonMembers(ateFields(ate)) +
-         ",\"alignment_unique\":" + (ate.alignment_unique ? "true" : "false") +
-         ",\"T_gt_est\":{\"t\":" + jsonArray({t.x(), t.y(), t.z()}) +
-         ",\"q_xyzw\":" + jsonArray({q.x(), q.y(), q.z(), q.w()}) + "}}";
+  Json out = jsonObject(ateFields(ate));
+  out["alignment_unique"] = ate.alignment_unique;
+  out["T_gt_est"] = {{"t", jsonArray({t.x(), t.y(), t.z()})},
+                     {"q_xyzw", jsonArray({q.x(), q.y(), q.z(), q.w()})}};
+  return out;
 }
 
-std::string rpeToJson(const RpeResult& rpe) { return "{" + jsonMembers(rpeFields(rpe)) + "}"; }
+Json rpeJson(const RpeResult& rpe) { return jsonObject(rpeFields(rpe)); }
 
 }  // namespace rgbdmap

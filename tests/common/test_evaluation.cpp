@@ -6,6 +6,7 @@
 #include <random>
 
 #include "rgbdmap/common/evaluation.hpp"
+#include "rgbdmap/common/evaluation_json.hpp"
 
 namespace rgbdmap {
 namespace {
@@ -260,7 +261,7 @@ TEST(EvaluationFormat, TextAndJson) {
   EXPECT_TRUE(contains(text, "ate_rmse_m 0.1\n"));
   EXPECT_TRUE(
       contains(text, "ate_T_gt_est 0.000000 0.000000 0.000000 0.000000 0.000000 0.000000 1.000000\n"));
-  const std::string json = ateToJson(ate);
+  const std::string json = compactJson(ateJson(ate));
   EXPECT_TRUE(contains(json, "{\"matched\":3,\"rmse_m\":0.1,")) << json;
   EXPECT_TRUE(contains(json, "\"max_m\":null")) << json;
   EXPECT_TRUE(contains(json, "\"q_xyzw\":[0,0,0,1]}}")) << json;
@@ -269,7 +270,7 @@ TEST(EvaluationFormat, TextAndJson) {
   rpe.rot_rmse_deg = 1.5;
   EXPECT_TRUE(contains(formatRpe(rpe), "rpe_pairs 7\nrpe_delta_s 1\n"));
   EXPECT_TRUE(contains(formatRpe(rpe), "rpe_rot_rmse_deg 1.5\n"));
-  EXPECT_TRUE(contains(rpeToJson(rpe), "\"rot_rmse_deg\":1.5,"));
+  EXPECT_TRUE(contains(compactJson(rpeJson(rpe)), "\"rot_rmse_deg\":1.5,"));
 }
 
 }  // namespace

@@ -253,6 +253,13 @@ bool RobotLink::Impl::waitForCorrection(int keyframe_id, double timeout_s) {
   }) && T_map_cam_.count(keyframe_id) > 0;
 }
 
+bool RobotLink::Impl::waitForGraphRevision(int64_t revision, double timeout_s) {
+  std::unique_lock<std::mutex> lock(mutex_);
+  return changed_.wait_for(lock, seconds(timeout_s), [&] {
+    return stopping_ || graph_revision_ >= revision;
+  }) && graph_revision_ >= revision;
+}
+
 void RobotLink::Impl::setTrackingState(int last_keyframe_id, int segment, TrackingState state) {
   std::lock_guard<std::mutex> lock(mutex_);
   last_keyframe_id_ = last_keyframe_id;
@@ -318,6 +325,9 @@ std::optional<msg::ServerStatus> RobotLink::latestServerStatus() const {
 bool RobotLink::waitAllAcked(double timeout_s) { return impl_->waitAllAcked(timeout_s); }
 bool RobotLink::waitForCorrection(int keyframe_id, double timeout_s) {
   return impl_->waitForCorrection(keyframe_id, timeout_s);
+}
+bool RobotLink::waitForGraphRevision(int64_t revision, double timeout_s) {
+  return impl_->waitForGraphRevision(revision, timeout_s);
 }
 RobotLinkStats RobotLink::stats() const { return impl_->stats(); }
 

@@ -38,6 +38,7 @@ class RobotLink::Impl : public std::enable_shared_from_this<RobotLink::Impl> {
   }
   bool waitAllAcked(double timeout_s);
   bool waitForCorrection(int keyframe_id, double timeout_s);
+  bool waitForGraphRevision(int64_t revision, double timeout_s);
   RobotLinkStats stats() const;
 
   std::optional<msg::OccupancySlice> slice_;

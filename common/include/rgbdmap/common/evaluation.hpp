@@ -67,8 +67,5 @@ Result<RpeResult> computeRpe(const Trajectory& gt, const Trajectory& est, const 
 std::string formatAte(const AteResult& ate);
 /// "rpe_pairs 220\nrpe_trans_rmse_m ...\nrpe_rot_rmse_deg ...\n"
 std::string formatRpe(const RpeResult& rpe);
-/// A JSON object, e.g. {"matched":250,"rmse_m":0.0123,...,"T_gt_est":{"t":[...],"q_xyzw":[...]}}.
-std::string ateToJson(const AteResult& ate);
-std::string rpeToJson(const RpeResult& rpe);
 
 }  // namespace rgbdmap

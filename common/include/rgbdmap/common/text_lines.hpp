@@ -23,11 +23,12 @@ Result<double> parseFiniteNumber(const std::string& token, const std::string& wh
 /// Shortest readable form of a number (printf %g), e.g. "0.02", "1": for messages.
 std::string formatShort(double value);
 
-/// A JSON string literal: quotes, backslash and control characters escaped.
-std::string jsonString(const std::string& text);
-
 /// The contents of a file, or "<path>: cannot open".
 Result<std::string> readTextFile(const std::string& path);
+
+/// Writes `text` to a temporary file beside `path`, syncs it, renames it over `path` and syncs the folder:
+/// readers see the old file or the whole new one, and a crash right after leaves the new one on disk.
+Status writeTextFileAtomic(const std::string& path, const std::string& text);
 
 /// "a, b,c" -> {"a", "b", "c"}: comma-separated items, blanks around them trimmed, empty items dropped.
 std::vector<std::string> splitList(const std::string& text);

@@ -100,6 +100,9 @@ class RobotLink {  // thread-safe; handlers never block the transport's receive 
   bool waitAllAcked(double timeout_s);
   /// True once a PoseCorrections covering keyframe `keyframe_id` has arrived; false on timeout or stop().
   bool waitForCorrection(int keyframe_id, double timeout_s);
+  /// True once PoseCorrections of graph revision >= `revision` (MapServerStats::graph_revision) have been
+  /// applied; false on timeout or stop().
+  bool waitForGraphRevision(int64_t revision, double timeout_s);
   RobotLinkStats stats() const;
 
  private:

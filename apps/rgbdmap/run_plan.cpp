@@ -1,0 +1,90 @@
+#include "run_plan.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <random>
+#include <sstream>
+
+namespace rgbdmap::cmd {
+namespace {
+
+std::vector<std::string> splitComma(const std::string& text) {
+  std::vector<std::string> out;
+  std::stringstream in(text);
+  std::string item;
+  while (std::getline(in, item, ','))
+    if (!item.empty()) out.push_back(item);
+  return out;
+}
+
+void checkRunOptions(const cli::Args& args, const RunOptions& o, std::vector<std::string>* errors) {
+  if (o.scene != "loop" && o.scene != "sweep") errors->push_back("--scene must be loop or sweep");
+  if (o.frames < 0 || o.frames > 100000) errors->push_back("--frames must be in [0, 100000]");
+  if (o.threads < 1 || o.threads > 256) errors->push_back("--threads must be in [1, 256]");
+  if (o.robots < 0 || o.robots > 64) errors->push_back("--robots must be in [1, 64]");
+  if (!(o.overlap >= 0.0 && o.overlap < 1.0)) errors->push_back("--overlap must be in [0, 1)");
+  if (o.datasets.size() > 1 && o.robots != 0 && o.robots != static_cast<long long>(o.datasets.size()))
+    errors->push_back("with several datasets, --robots must equal their number (one robot per dataset)");
+  if (!o.datasets.empty() && (args.has("scene") || args.has("seed")))
+    errors->push_back("--scene and --seed only apply without --dataset");
+}
+
+msg::Bytes randomKey() {
+  std::random_device rd;
+  msg::Bytes key(32);
+  for (auto& b : key) b = static_cast<uint8_t>(rd());
+  return key;
+}
+
+}  // namespace
+
+RunOptions parseRunOptions(cli::Args& args, std::vector<std::string>* errors) {
+  RunOptions o;
+  o.datasets = splitComma(args.getOr("dataset", ""));
+  o.out = args.getOr("out", o.out);
+  o.scene = args.getOr("scene", o.scene);
+  o.transport = args.getOr("transport", o.transport);
+  o.server_config = args.getOr("server-config", "");
+  o.frames = args.getInt("frames").value_or(0);
+  o.seed = args.getInt("seed").value_or(1);
+  o.threads = args.getInt("threads").value_or(1);
+  o.robots = args.getInt("robots").value_or(0);
+  o.overlap = args.getDouble("overlap").value_or(o.overlap);
+  o.realtime = args.has("realtime");
+  checkRunOptions(args, o, errors);
+  if (o.robots == 0) o.robots = std::max<long long>(1, static_cast<long long>(o.datasets.size()));
+  return o;
+}
+
+std::string transportUrl(const std::string& name) {
+  if (name == "memq") return "memq://";
+  if (name == "lcm") return "udpm://239.255.76.67:7667?ttl=0&recv_buf_size=16777216";
+  if (name == "dds") return "dds://?domain=0";
+  return name;
+}
+
+std::vector<RobotPlan> planRobots(const RunOptions& o, const std::vector<size_t>& dataset_frames,
+                                  bool synthetic) {
+  std::vector<RobotPlan> robots(static_cast<size_t>(o.robots));
+  for (size_t i = 0; i < robots.size(); ++i) {
+    RobotPlan& r = robots[i];
+    r.id = "robot" + std::to_string(i);
+    r.key = randomKey();
+    r.dataset = dataset_frames.size() > 1 ? i : 0;
+    const int total = static_cast<int>(dataset_frames[r.dataset]);
+    const int frames =
+        (!synthetic && o.frames > 0) ? std::min<int>(total, static_cast<int>(o.frames)) : total;
+    if (dataset_frames.size() > 1 || robots.size() == 1) {
+      r.first = 0;
+      r.end = frames;
+    } else {
+      const double seg = static_cast<double>(frames) / robots.size();
+      const int half_overlap = static_cast<int>(std::lround(0.5 * o.overlap * seg));
+      r.first = std::max(0, static_cast<int>(std::lround(i * seg)) - half_overlap);
+      r.end = std::min(frames, static_cast<int>(std::lround((i + 1) * seg)) + half_overlap);
+    }
+  }
+  return robots;
+}
+
+}  // namespace rgbdmap::cmd
