@@ -1,0 +1,164 @@
+#include "rgbdmap/common/config_table.hpp"
+
+#include <algorithm>
+#include <iomanip>
+#include <limits>
+#include <sstream>
+
+#include "rgbdmap/common/logging.hpp"
+#include "rgbdmap/common/text_lines.hpp"
+
+namespace rgbdmap {
+
+bool ConfigRange::within(double v, double lo, double hi) const {
+  if (!std::isfinite(v)) return false;
+  const bool above_min = min_open ? v > lo : v >= lo;
+  const bool below_max = max_open ? v < hi : v <= hi;
+  return above_min && below_max;
+}
+
+std::string ConfigRange::str() const {
+  const auto end = [](double v) {
+    if (std::isinf(v)) return std::string(v < 0 ? "-inf" : "inf");
+    return formatConfigNumber(v);
+  };
+  return std::string(min_open ? "(" : "[") + end(min) + ", " + end(max) + (max_open ? ")" : "]");
+}
+
+std::string formatConfigNumber(double v) {
+  std::ostringstream os;
+  os << std::setprecision(10) << v;
+  return os.str();
+}
+
+namespace config_detail {
+
+std::string show(double v) { return formatConfigNumber(v); }
+std::string show(float v) {
+  std::ostringstream os;
+  os << std::setprecision(std::numeric_limits<float>::digits10) << v;
+  return os.str();
+}
+std::string show(long long v) { return std::to_string(v); }
+std::string show(unsigned long long v) { return std::to_string(v); }
+
+std::string joinChoices(const std::vector<std::string>& names) {
+  std::string out;
+  for (const std::string& n : names) out += (out.empty() ? "" : " | ") + n;
+  return out;
+}
+
+std::string joinList(const std::vector<std::string>& items) {
+  std::string out;
+  for (const std::string& s : items) out += (out.empty() ? "" : ",") + s;
+  return out;
+}
+
+std::vector<std::string> splitList(const std::string& text) { return rgbdmap::splitList(text); }
+
+}  // namespace config_detail
+
+std::string joinProblems(const std::vector<std::string>& problems) {
+  std::string out;
+  for (const std::string& p : problems) out += (out.empty() ? "" : "; ") + p;
+  return out;
+}
+
+namespace {
+
+// A section of the documented file: its values and subsections in first-appearance order.
+struct Section {
+  std::string name;
+  const ConfigValue* note = nullptr;
+  const ConfigValue* value = nullptr;  // a leaf
+  std::vector<Section> children;
+
+  Section& child(const std::string& n) {
+    for (Section& c : children)
+      if (c.name == n) return c;
+    children.push_back(Section{n, nullptr, nullptr, {}});
+    return children.back();
+  }
+};
+
+constexpr size_t kCommentColumn = 26;
+
+// `line`, then the comment "allowed meaning" at the comment column, continued on aligned lines.
+void writeWithComment(std::ostringstream& out, const std::string& line, const std::string& allowed,
+                      const std::string& meaning) {
+  std::string comment = allowed;
+  if (!meaning.empty()) comment += (comment.empty() ? "" : " ") + meaning;
+  out << line;
+  if (comment.empty()) {
+    out << "\n";
+    return;
+  }
+  const size_t column = std::max(kCommentColumn, line.size() + 2);
+  std::istringstream parts(comment);
+  std::string part;
+  bool first = true;
+  while (std::getline(parts, part)) {
+    out << std::string(first ? column - line.size() : column, ' ') << "# " << part << "\n";
+    first = false;
+  }
+}
+
+void writeSection(std::ostringstream& out, const Section& s, int depth) {
+  const std::string indent(static_cast<size_t>(2 * depth), ' ');
+  if (s.value) {
+    const ConfigValue& v = *s.value;
+    const std::string text = v.quoted ? "\"" + v.value + "\"" : v.value;
+    writeWithComment(out, indent + s.name + ": " + text, v.allowed, v.meaning);
+    return;
+  }
+  writeWithComment(out, indent + s.name + ":", "", s.note ? s.note->meaning : "");
+  for (const Section& c : s.children) writeSection(out, c, depth + 1);
+}
+
+}  // namespace
+
+std::string renderConfigYaml(const std::string& header, const std::vector<ConfigValue>& values) {
+  Section root;
+  for (const ConfigValue& v : values) {
+    Section* s = &root;
+    std::istringstream parts(v.key);
+    std::string part;
+    while (std::getline(parts, part, '.')) s = &s->child(part);
+    (v.section ? s->note : s->value) = &v;
+  }
+  std::ostringstream out;
+  std::istringstream lines(header);
+  std::string line;
+  while (std::getline(lines, line)) out << (line.empty() ? "#" : "# " + line) << "\n";
+  for (const Section& top : root.children) {
+    out << "\n";
+    writeSection(out, top, 0);
+  }
+  return out.str();
+}
+
+std::string formatConfigValues(const std::vector<ConfigValue>& values) {
+  std::string out, current;
+  bool open = false;
+  for (const ConfigValue& v : values) {
+    if (v.section) continue;
+    const size_t dot = v.key.rfind('.');
+    const std::string section = dot == std::string::npos ? "" : v.key.substr(0, dot);
+    const std::string name = dot == std::string::npos ? v.key : v.key.substr(dot + 1);
+    if (!open || section != current) {
+      out += std::string(open ? "\n" : "") + "  " + (section.empty() ? "" : section + ": ");
+      current = section;
+      open = true;
+    } else {
+      out += ", ";
+    }
+    out += name + " = " + (v.quoted ? "\"" + v.value + "\"" : v.value);
+  }
+  return open ? out + "\n" : out;
+}
+
+void logConfiguration(const std::string& title, const std::vector<ConfigValue>& values) {
+  log::info(title, ":\n", formatConfigValues(values));
+}
+
+}  // namespace rgbdmap
