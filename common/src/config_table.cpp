@@ -157,6 +157,11 @@ std::string formatConfigValues(const std::vector<ConfigValue>& values) {
   return open ? out + "\n" : out;
 }
 
+std::vector<ConfigValue> concatConfigValues(std::vector<ConfigValue> a, const std::vector<ConfigValue>& b) {
+  a.insert(a.end(), b.begin(), b.end());
+  return a;
+}
+
 void logConfiguration(const std::string& title, const std::vector<ConfigValue>& values) {
   log::info(title, ":\n", formatConfigValues(values));
 }

@@ -170,12 +170,13 @@ class ConfigTable {
     f.valid = [member, name_of](const S& s) { return name_of(s.*member) != "?"; };
     return push(std::move(f));
   }
-  /// Every field of `sub` (a table of the member's type), its keys prefixed with `prefix` ("loop.").
+  /// Every field of `sub` (a table of the member's type), its keys prefixed with `prefix` ("loop."). With
+  /// in_files false they are all code-only.
   template <typename M>
-  ConfigTable& nest(const std::string& prefix, M S::*member, const ConfigTable<M>& sub) {
+  ConfigTable& nest(const std::string& prefix, M S::*member, const ConfigTable<M>& sub, bool in_files = true) {
     for (const ConfigField<M>& m : sub.fields()) {
       Field f = make(prefix + m.key, m.meaning, m.allowed, m.complaint, m.quoted);
-      f.in_files = m.in_files;
+      f.in_files = m.in_files && in_files;
       if (m.read)
         f.read = [member, read = m.read](ConfigReader& r, const std::string& k, S& s) { read(r, k, s.*member); };
       if (m.show) f.show = [member, show = m.show](const S& s) { return show(s.*member); };
@@ -196,10 +197,11 @@ class ConfigTable {
 
   const std::vector<Field>& fields() const { return fields_; }
 
-  /// Reads every file key present in the reader into *config (absent keys keep their values).
-  void read(ConfigReader& reader, S* config) const {
+  /// Reads every file key (under `prefix`, e.g. "odometry.") present in the reader into *config; absent
+  /// keys keep their values.
+  void read(ConfigReader& reader, S* config, const std::string& prefix = "") const {
     for (const Field& f : fields_)
-      if (f.in_files && f.read) f.read(reader, f.key, *config);
+      if (f.in_files && f.read) f.read(reader, prefix + f.key, *config);
   }
   /// One "key = value is outside [a, b]" per value out of its range (code-only fields included).
   std::vector<std::string> problems(const S& config) const {
@@ -249,6 +251,9 @@ std::string renderConfigYaml(const std::string& header, const std::vector<Config
 
 /// One compact block for the start-up log: a line per section, "section: key = value, key = value".
 std::string formatConfigValues(const std::vector<ConfigValue>& values);
+
+/// a followed by b.
+std::vector<ConfigValue> concatConfigValues(std::vector<ConfigValue> a, const std::vector<ConfigValue>& b);
 
 /// Logs formatConfigValues(values) once at info level under `title`.
 void logConfiguration(const std::string& title, const std::vector<ConfigValue>& values);
