@@ -3,9 +3,9 @@
 
 #include <opencv2/core.hpp>
 
-#include "rgbdmap/cli/cli.hpp"
 #include "commands.hpp"
 #include "odometry_runner.hpp"
+#include "rgbdmap/cli/cli.hpp"
 #include "rgbdmap/common/logging.hpp"
 
 namespace rgbdmap::cmd {
@@ -60,7 +60,7 @@ int odometry(int argc, char** argv) {
   }
   log::info("camera from ", setup.camera_source, ": fx ", setup.camera.fx, " fy ", setup.camera.fy, " cx ",
             setup.camera.cx, " cy ", setup.camera.cy, " depth_scale ", setup.camera.depth_scale);
-  log::debug("configuration in effect:\n", setup.effective);
+  logConfiguration("configuration in effect", setup.effective);
   const app::OdometryRun run = app::runOdometry(*dataset, setup, static_cast<int>(frames));
   for (const auto& [path, traj, what] :
        {std::tuple{*out, &run.trajectory, "odometry poses, one per frame (T_odom_cam)"},

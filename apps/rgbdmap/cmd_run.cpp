@@ -15,16 +15,16 @@
 
 #include <opencv2/core.hpp>
 
-#include "rgbdmap/cli/cli.hpp"
 #include "commands.hpp"
+#include "rgbdmap/cli/cli.hpp"
 #include "rgbdmap/cli/odometry_setup.hpp"
 #include "rgbdmap/cli/progress.hpp"
-#include "rgbdmap/link/robot_link.hpp"
-#include "rgbdmap/link/robot_runner.hpp"
 #include "rgbdmap/common/evaluation.hpp"
 #include "rgbdmap/common/logging.hpp"
 #include "rgbdmap/common/synth.hpp"
 #include "rgbdmap/common/text_lines.hpp"
+#include "rgbdmap/link/robot_link.hpp"
+#include "rgbdmap/link/robot_runner.hpp"
 #include "rgbdmap/server/map_server.hpp"
 #include "rgbdmap/server/server_config.hpp"
 #include "rgbdmap/transport/transport.hpp"
@@ -33,13 +33,17 @@ namespace rgbdmap::cmd {
 namespace {
 
 const char* kUsage =
-    "usage: rgbdmap run [--dataset DIR[,DIR...]] [--robots N] [--transport memq|lcm|dds|URL] [--out DIR] [options]\n"
+    "usage: rgbdmap run [--dataset DIR[,DIR...]] [--robots N] [--transport memq|lcm|dds|URL] [--out DIR] "
+    "[options]\n"
     "  --dataset DIR[,DIR]     TUM-layout dataset(s); one per robot, or one split into --robots overlapping\n"
-    "                          segments. Without it a synthetic sequence is generated first (exact ground truth)\n"
+    "                          segments. Without it a synthetic sequence is generated first (exact ground "
+    "truth)\n"
     "  --robots N              robots (default: one per dataset, else 1)\n"
     "  --overlap F             share of a segment the next robot's segment repeats (default 0.25)\n"
-    "  --transport T           memq (default: in-process), lcm (UDP multicast on loopback, ttl 0), dds (Cyclone\n"
-    "                          DDS with deploy/dds/cyclonedds-loopback.xml unless CYCLONEDDS_URI is set), or a URL\n"
+    "  --transport T           memq (default: in-process), lcm (UDP multicast on loopback, ttl 0), dds "
+    "(Cyclone\n"
+    "                          DDS with deploy/dds/cyclonedds-loopback.xml unless CYCLONEDDS_URI is set), or "
+    "a URL\n"
     "  --out DIR               output folder (default: out); the map directory is DIR/map (replaced)\n"
     "  --realtime              pace every robot at its dataset's frame rate (default: as fast as possible)\n"
     "  --server-config FILE    server YAML (deploy/config/server.yaml documents every key)\n"
@@ -149,8 +153,9 @@ std::string num(double v, const char* fmt = "%.6g") {
   return buf;
 }
 
-std::string reportJson(const RunOptions& o, const std::vector<std::string>& datasets, const std::vector<Robot>& robots,
-                       const MapServerStats& s, const std::vector<std::vector<std::string>>& maps,
+std::string reportJson(const RunOptions& o, const std::vector<std::string>& datasets,
+                       const std::vector<Robot>& robots, const MapServerStats& s,
+                       const std::vector<std::vector<std::string>>& maps,
                        const std::optional<AteResult>& joint, double wall_s) {
   std::ostringstream j;
   j << "{\n  \"mode\": \"slam\",\n  \"transport\": " << jsonString(o.transport) << ",\n  \"datasets\": [";
@@ -199,7 +204,8 @@ std::string reportJson(const RunOptions& o, const std::vector<std::string>& data
       << "      \"loops\": " << (sr ? sr->loops : 0) << ",\n"
       << "      \"tracking_losses\": " << r.result.losses << ",\n"
       << "      \"ate_rmse_m\": " << (r.ate ? num(r.ate->rmse) : "null") << ",\n"
-      << "      \"ate_rmse_odometry_only_m\": " << (r.ate_odometry ? num(r.ate_odometry->rmse) : "null") << ",\n"
+      << "      \"ate_rmse_odometry_only_m\": " << (r.ate_odometry ? num(r.ate_odometry->rmse) : "null")
+      << ",\n"
       << "      \"client_ms_per_frame_median\": " << num(r.result.medianMs()) << ",\n"
       << "      \"bytes_per_keyframe_mean\": " << num(bytes_per_kf) << ",\n"
       << "      \"bytes_sent\": " << l.bytes_sent << ",\n"
@@ -266,6 +272,8 @@ int run(int argc, char** argv) {
     }
     datasets.push_back(std::move(*d));
   }
+  logConfiguration("configuration in effect (camera of the first dataset)",
+                   concatConfigValues(setups.front().effective, serverConfigValues(server_config)));
   // Robots: one per dataset, or overlapping segments of the one dataset.
   std::vector<Robot> robots(static_cast<size_t>(o.robots));
   for (size_t i = 0; i < robots.size(); ++i) {
@@ -274,7 +282,8 @@ int run(int argc, char** argv) {
     r.key = randomKey();
     r.dataset = datasets.size() > 1 ? i : 0;
     const int total = static_cast<int>(datasets[r.dataset].size());
-    const int frames = (!synthetic && o.frames > 0) ? std::min<int>(total, static_cast<int>(o.frames)) : total;
+    const int frames =
+        (!synthetic && o.frames > 0) ? std::min<int>(total, static_cast<int>(o.frames)) : total;
     if (datasets.size() > 1 || robots.size() == 1) {
       r.first = 0;
       r.end = frames;
@@ -374,7 +383,8 @@ int run(int argc, char** argv) {
       ro.end_frame = r.end;
       ro.realtime = o.realtime;
       ro.final_wait_s = 60.0;
-      r.result = runRobot(datasets[r.dataset], setups[r.dataset].camera, setups[r.dataset].odometry, *r.link, ro);
+      r.result =
+          runRobot(datasets[r.dataset], setups[r.dataset].camera, setups[r.dataset].odometry, *r.link, ro);
     });
   }
   for (std::thread& t : threads) t.join();
@@ -402,8 +412,8 @@ int run(int argc, char** argv) {
     const std::string kfs = o.out + "/keyframes_" + r.id + ".txt";
     for (const auto& [path, t, what] : {std::tuple{traj, &r.result.final_map, "every frame"},
                                         std::tuple{kfs, &keyframes, "optimised keyframes"}}) {
-      if (const Status s = writeTumTrajectory(path, *t, std::string("rgbdmap run, ") + r.id + ", " + what +
-                                                            ", map frame");
+      if (const Status s =
+              writeTumTrajectory(path, *t, std::string("rgbdmap run, ") + r.id + ", " + what + ", map frame");
           !s) {
         log::error(s.error());
         return 1;
@@ -429,7 +439,8 @@ int run(int argc, char** argv) {
   }
   const MapServerStats stats = server.stats();
   const auto maps = server.mergedMaps();
-  // The occupancy map and what a person looks at first: map.bt/.ot, map.ply, slice_<robot>.pgm/.yaml, map.png.
+  // The occupancy map and what a person looks at first: map.bt/.ot, map.ply, slice_<robot>.pgm/.yaml,
+  // map.png.
   if (config.occupancy_enabled)
     if (const Status s = server.writeMapOutputs(o.out); !s) log::warn("map files: ", s.error());
   for (Robot& r : robots) {
@@ -442,22 +453,28 @@ int run(int argc, char** argv) {
 
   std::fprintf(stderr, "rgbdmap run: %zu robot(s) over %s, %.1f s\n", robots.size(), url.c_str(), wall_s);
   for (const Robot& r : robots)
-    std::fprintf(stderr, "  %s frames %d-%d: %d keyframes (%llu acked), ATE %s m (odometry alone %s m), %.1f ms/frame\n",
-                 r.id.c_str(), r.first, r.end, r.result.keyframes,
-                 static_cast<unsigned long long>(r.result.link.keyframes_acked),
-                 r.ate ? num(r.ate->rmse, "%.4f").c_str() : "n/a",
-                 r.ate_odometry ? num(r.ate_odometry->rmse, "%.4f").c_str() : "n/a", r.result.medianMs());
-  std::fprintf(stderr, "  server: %d keyframes, %d loops (%d rejected by the graph), %zu map(s)%s, %.1f ms/keyframe\n",
-               stats.keyframes, stats.loops_accepted, stats.loops_disabled, maps.size(),
-               joint ? (", joint ATE " + num(joint->rmse, "%.4f") + " m").c_str() : "", stats.ingest_ms_median);
-  std::fprintf(stderr, "  map: %zu octree leaves (%zu occupied), %.1f MB in memory, %llu rebuild(s), %llu slices sent\n",
-               static_cast<size_t>(stats.map_leaves), static_cast<size_t>(stats.map_occupied_leaves),
-               stats.map_tree_memory_bytes / 1e6, static_cast<unsigned long long>(stats.map_rebuilds),
-               static_cast<unsigned long long>(stats.slices_sent));
-  std::fprintf(stderr,
-               "wrote %s/: trajectory_<robot>.txt, keyframes_<robot>.txt, report.json, map.png, map.bt, map.ot, "
-               "map.ply, slice_<robot>.pgm/.yaml, map/\n",
-               o.out.c_str());
+    std::fprintf(
+        stderr,
+        "  %s frames %d-%d: %d keyframes (%llu acked), ATE %s m (odometry alone %s m), %.1f ms/frame\n",
+        r.id.c_str(), r.first, r.end, r.result.keyframes,
+        static_cast<unsigned long long>(r.result.link.keyframes_acked),
+        r.ate ? num(r.ate->rmse, "%.4f").c_str() : "n/a",
+        r.ate_odometry ? num(r.ate_odometry->rmse, "%.4f").c_str() : "n/a", r.result.medianMs());
+  std::fprintf(
+      stderr, "  server: %d keyframes, %d loops (%d rejected by the graph), %zu map(s)%s, %.1f ms/keyframe\n",
+      stats.keyframes, stats.loops_accepted, stats.loops_disabled, maps.size(),
+      joint ? (", joint ATE " + num(joint->rmse, "%.4f") + " m").c_str() : "", stats.ingest_ms_median);
+  std::fprintf(
+      stderr,
+      "  map: %zu octree leaves (%zu occupied), %.1f MB in memory, %llu rebuild(s), %llu slices sent\n",
+      static_cast<size_t>(stats.map_leaves), static_cast<size_t>(stats.map_occupied_leaves),
+      stats.map_tree_memory_bytes / 1e6, static_cast<unsigned long long>(stats.map_rebuilds),
+      static_cast<unsigned long long>(stats.slices_sent));
+  std::fprintf(
+      stderr,
+      "wrote %s/: trajectory_<robot>.txt, keyframes_<robot>.txt, report.json, map.png, map.bt, map.ot, "
+      "map.ply, slice_<robot>.pgm/.yaml, map/\n",
+      o.out.c_str());
   return 0;
 }
 

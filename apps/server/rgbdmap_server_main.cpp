@@ -29,7 +29,8 @@ const char* kUsage =
     "  --log-level L       debug|info|warn|error\n"
     "On SIGINT/SIGTERM it stops and writes keyframes_<robot>.txt (optimised, map frame) into the map "
     "directory,\n"
-    "server_summary.json (keyframes, loops, maps, ingest times, per-robot counters, merged_maps) and (map.enabled)\n"
+    "server_summary.json (keyframes, loops, maps, ingest times, per-robot counters, merged_maps) and "
+    "(map.enabled)\n"
     "the map files: map.bt, map.ot, map.ply, map.png, slice_<robot>.pgm/.yaml.\n";
 
 std::atomic<bool> g_stop{false};
@@ -106,6 +107,7 @@ int main(int argc, char** argv) {
   }
   if (const std::string p = config.server.validate(); !p.empty()) errors.push_back(p);
   if (!errors.empty()) return cli::usageError(errors, kUsage);
+  logConfiguration("configuration in effect", serverConfigValues(config));
 
   msg::KeyStore keys = config.open_mode ? msg::KeyStore::openMode() : msg::KeyStore();
   if (!config.keys_file.empty()) {
@@ -143,9 +145,11 @@ int main(int argc, char** argv) {
         std::chrono::steady_clock::now() - last_print > std::chrono::duration<double>(status_every)) {
       last_print = std::chrono::steady_clock::now();
       const MapServerStats s = server.stats();
-      std::fprintf(stderr, "[server] robots %zu keyframes %d loops %d (disabled %d) maps %d ingest %.1f ms rejected %llu\n",
-                   s.robots.size(), s.keyframes, s.loops_accepted, s.loops_disabled, s.maps, s.ingest_ms_median,
-                   static_cast<unsigned long long>(s.messages_rejected));
+      std::fprintf(
+          stderr,
+          "[server] robots %zu keyframes %d loops %d (disabled %d) maps %d ingest %.1f ms rejected %llu\n",
+          s.robots.size(), s.keyframes, s.loops_accepted, s.loops_disabled, s.maps, s.ingest_ms_median,
+          static_cast<unsigned long long>(s.messages_rejected));
     }
   }
   log::info("stopping");
@@ -153,7 +157,8 @@ int main(int argc, char** argv) {
   (*transport)->stop();
   server.stop();
   std::map<std::string, Trajectory> by_robot;
-  for (const ServerKeyframe& k : server.keyframes()) by_robot[k.robot_id].push_back({k.timestamp, k.T_map_kf});
+  for (const ServerKeyframe& k : server.keyframes())
+    by_robot[k.robot_id].push_back({k.timestamp, k.T_map_kf});
   for (const auto& [robot, traj] : by_robot) {
     const std::string path = config.server.map_dir + "/keyframes_" + robot + ".txt";
     if (const Status s = writeTumTrajectory(path, traj, "rgbdmap-server, optimised keyframes, map frame"); !s)
@@ -169,7 +174,8 @@ int main(int argc, char** argv) {
       map_files = true;
   }
   const MapServerStats s = server.stats();
-  std::fprintf(stderr, "[server] final: keyframes %d loops %d maps %d; octree %zu leaves (%zu occupied), %.1f MB, "
+  std::fprintf(stderr,
+               "[server] final: keyframes %d loops %d maps %d; octree %zu leaves (%zu occupied), %.1f MB, "
                "%llu rebuilds, %llu slices sent; wrote keyframes_<robot>.txt%s to %s\n",
                s.keyframes, s.loops_accepted, s.maps, s.map_leaves, s.map_occupied_leaves,
                s.map_tree_memory_bytes / 1e6, static_cast<unsigned long long>(s.map_rebuilds),

@@ -10,7 +10,8 @@ const ConfigTable<KeyframeConfig>& keyframeConfigTable() {
   using R = ConfigRange;
   static const ConfigTable<C> table =
       ConfigTable<C>()
-          .add("similarity_threshold", &C::similarity_threshold, R::closed(0.0, 1.0), "P: new keyframe when S < P")
+          .add("similarity_threshold", &C::similarity_threshold, R::closed(0.0, 1.0),
+               "P: new keyframe when S < P")
           .add("max_frame_gap", &C::max_frame_gap, R::closed(1, 100000),
                "m: at most this many frames between keyframes")
           .add("max_translation_m", &C::max_translation_m, R::closed(0.001, 100.0), "or on large motion")
@@ -38,7 +39,8 @@ const ConfigTable<OdometryConfig>& odometryConfigTable() {
                "keyframe poses refined against up to this many similar-view keyframes (1 = off)")
           .add("window_max_angle_deg", &C::window_max_angle_deg, R::closed(0.0, 180.0),
                "viewing-direction difference for a keyframe to join the window")
-          .add("window_max_distance_m", &C::window_max_distance_m, R::closed(0.0, 100.0), "and camera-centre distance")
+          .add("window_max_distance_m", &C::window_max_distance_m, R::closed(0.0, 100.0),
+               "and camera-centre distance")
           .add("window_max_correction_m", &C::window_max_correction_m, R::closed(0.0, 10.0),
                "larger window corrections are rejected (loop closure is the server's job)")
           .add("window_max_correction_deg", &C::window_max_correction_deg, R::closed(0.0, 180.0), "")
@@ -46,7 +48,8 @@ const ConfigTable<OdometryConfig>& odometryConfigTable() {
                "also refine non-keyframes in the window (more accurate per frame, slower)")
           .add("relocalization_keyframes", &C::relocalization_keyframes, R::closed(0, 100),
                "recent keyframes tried when the reference keyframe fails")
-          .add("min_tracking_inliers", &C::min_tracking_inliers, R::closed(3, 10000), "fewer is a tracking loss")
+          .add("min_tracking_inliers", &C::min_tracking_inliers, R::closed(3, 10000),
+               "fewer is a tracking loss")
           .add("max_lost_frames", &C::max_lost_frames, R::closed(0, 100000),
                "then a new segment starts (flagged discontinuity)")
           .add("min_keyframe_points", &C::min_keyframe_points, R::closed(3, 100000),
@@ -64,13 +67,15 @@ void readOdometryConfig(ConfigReader& r, OdometryConfig* c) {
     r.addError("odometry.orb.min_depth_m must be below max_depth_m");
 }
 
-void readDatasetConfig(ConfigReader& r, DatasetOptions* options) { datasetConfigTable().read(r, options, "dataset."); }
+void readDatasetConfig(ConfigReader& r, DatasetOptions* options) {
+  datasetConfigTable().read(r, options, "dataset.");
+}
 
 std::vector<ConfigValue> odometryFileValues(const CameraIntrinsics& camera, const DatasetOptions& dataset,
                                             const OdometryConfig& odometry) {
   std::vector<ConfigValue> out = {
-      {"camera", "", "", "precedence: these < dataset camera.yaml < this file < --intrinsics/--depth-scale", false,
-       true}};
+      {"camera", "", "", "precedence: these < dataset camera.yaml < this file < --intrinsics/--depth-scale",
+       false, true}};
   out = concatConfigValues(out, cameraConfigTable().values(camera, "camera."));
   out = concatConfigValues(out, datasetConfigTable().values(dataset, "dataset."));
   return concatConfigValues(out, odometryConfigTable().values(odometry, "odometry."));

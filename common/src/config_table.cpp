@@ -82,6 +82,28 @@ struct Section {
 };
 
 constexpr size_t kCommentColumn = 26;
+constexpr size_t kLineWidth = 110;
+
+// `text` split at spaces into lines of at most `first_width` (the first) and `width` characters (a longer
+// word keeps its own line); '\n' starts a new line.
+std::vector<std::string> wrap(const std::string& text, size_t first_width, size_t width) {
+  std::vector<std::string> lines;
+  std::istringstream paragraphs(text);
+  std::string paragraph;
+  while (std::getline(paragraphs, paragraph)) {
+    std::istringstream words(paragraph);
+    std::string word, line;
+    while (words >> word) {
+      if (!line.empty() && line.size() + 1 + word.size() > (lines.empty() ? first_width : width)) {
+        lines.push_back(line);
+        line.clear();
+      }
+      line += (line.empty() ? "" : " ") + word;
+    }
+    lines.push_back(line);
+  }
+  return lines;
+}
 
 // `line`, then the comment "allowed meaning" at the comment column, continued on aligned lines.
 void writeWithComment(std::ostringstream& out, const std::string& line, const std::string& allowed,
@@ -94,11 +116,10 @@ void writeWithComment(std::ostringstream& out, const std::string& line, const st
     return;
   }
   const size_t column = std::max(kCommentColumn, line.size() + 2);
-  std::istringstream parts(comment);
-  std::string part;
+  const size_t first_width = std::max<size_t>(kLineWidth, column + 32) - column - 2;
   bool first = true;
-  while (std::getline(parts, part)) {
-    out << std::string(first ? column - line.size() : column, ' ') << "# " << part << "\n";
+  for (const std::string& part : wrap(comment, first_width, kLineWidth - kCommentColumn - 2)) {
+    out << std::string(first ? column - line.size() : kCommentColumn, ' ') << "# " << part << "\n";
     first = false;
   }
 }

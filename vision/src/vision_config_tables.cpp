@@ -12,9 +12,11 @@ const ConfigTable<OrbConfig>& orbConfigTable() {
           .add("scale_factor", &C::scale_factor, R::closed(1.01, 2.0), "pyramid scale between levels")
           .add("n_levels", &C::n_levels, R::closed(1, 16), "pyramid levels")
           .add("fast_threshold", &C::fast_threshold, R::closed(1, 100), "FAST corner threshold")
-          .add("grid_cols", &C::grid_cols, R::closed(1, 64), "bucketing grid: keeps features spread over the image")
+          .add("grid_cols", &C::grid_cols, R::closed(1, 64),
+               "bucketing grid: keeps features spread over the image")
           .add("grid_rows", &C::grid_rows, R::closed(1, 64), "")
-          .add("min_depth_m", &C::min_depth_m, R::closed(0.0, 100.0), "depth outside [min, max] counts as missing")
+          .add("min_depth_m", &C::min_depth_m, R::closed(0.0, 100.0),
+               "depth outside [min, max] counts as missing")
           .add("max_depth_m", &C::max_depth_m, R::closed(0.01, 100.0), "");
   return table;
 }
@@ -64,8 +66,10 @@ const ConfigTable<RefineConfig>& refineConfigTable() {
       ConfigTable<C>()
           .add("iterations", &C::iterations, R::closed(0, 100), "Gauss-Newton iterations per round")
           .add("rounds", &C::rounds, R::closed(1, 10), "rounds of (optimise, re-classify outliers)")
-          .add("pixel_sigma", &C::pixel_sigma, R::closed(0.01, 100.0), "keypoint noise at pyramid level 0 (px)")
-          .add("depth_sigma_coeff", &C::depth_sigma_coeff, R::closed(1e-6, 1.0), "depth sigma = coeff * z^2 (m)")
+          .add("pixel_sigma", &C::pixel_sigma, R::closed(0.01, 100.0),
+               "keypoint noise at pyramid level 0 (px)")
+          .add("depth_sigma_coeff", &C::depth_sigma_coeff, R::closed(1e-6, 1.0),
+               "depth sigma = coeff * z^2 (m)")
           .add("huber_delta", &C::huber_delta, R::closed(0.01, 100.0),
                "robust kernel on whitened residual norms (sqrt(chi2_2dof 95%))")
           .add("outlier_chi2", &C::outlier_chi2, R::closed(0.1, 1000.0),

@@ -18,21 +18,24 @@ const ConfigTable<C>& ownTable() {
           .add("server.map_dir", &C::map_dir,
                "durable keyframes, loop edges and robot cameras; a restart on it resumes the map")
           .add("server.robots", &C::robots,
-               "robots to serve, comma-separated (\"robot0,robot1\"); empty: any robot the keys\n"
+               "robots to serve, comma-separated (\"robot0,robot1\"); empty: any robot the keys "
                "admit, via an \"rgbdmap/*\" subscription (LCM only; DDS needs the list)")
-          .add("server.store_sync", &C::store_sync, "fdatasync every keyframe before acknowledging it (durability)")
+          .add("server.store_sync", &C::store_sync,
+               "fdatasync every keyframe before acknowledging it (durability)")
           .add("server.status_period_s", &C::status_period_s, ConfigRange::closed(0.0, 3600.0),
                "ServerStatus to every robot (s); 0: off")
           .add("server.ingest_queue_capacity", &C::ingest_queue_capacity, R::closed(1, 100000),
                "keyframes waiting for the worker; beyond, they are left unacknowledged")
           .add("server.default_odometry_sigma_m", &C::default_odometry_sigma_m, R::closedOpen(1e-4, 10.0),
                "odometry edge uncertainty when a keyframe carries no information matrix")
-          .add("server.default_odometry_sigma_deg", &C::default_odometry_sigma_deg, R::closedOpen(1e-3, 90.0), "")
+          .add("server.default_odometry_sigma_deg", &C::default_odometry_sigma_deg, R::closedOpen(1e-3, 90.0),
+               "")
           .add("server.edge_sigma_floor_m", &C::edge_sigma_floor_m, R::closed(0.0, 10.0),
-               "added to every edge's covariance (1 sigma): the Hessian-based information")
-          .add("server.edge_sigma_floor_deg", &C::edge_sigma_floor_deg, R::closed(0.0, 90.0),
-               "of refinement is sub-millimetre and would make real drift look like outliers")
-          .add("map.enabled", &C::occupancy_enabled, "false: no octree, no slices, no map stream, no map files")
+               "added to every edge's covariance (1 sigma): the Hessian-based information of refinement is "
+               "sub-millimetre and would make real drift look like outliers")
+          .add("server.edge_sigma_floor_deg", &C::edge_sigma_floor_deg, R::closed(0.0, 90.0), "")
+          .add("map.enabled", &C::occupancy_enabled,
+               "false: no octree, no slices, no map stream, no map files")
           .add("map.stream_period_s", &C::map_stream_period_s, R::closed(0.0, 3600.0),
                "MapUpdate to every robot (its own map; full first and after rebuilds); 0: off")
           .add("slice.period_s", &C::slice_period_s, R::closed(0.0, 3600.0),
@@ -44,7 +47,13 @@ const ConfigTable<C>& ownTable() {
 
 const ConfigTable<MapServerConfig>& mapServerConfigTable() {
   static const ConfigTable<C> table =
-      ConfigTable<C>(ownTable())
+      ConfigTable<C>()
+          .section("server", "")  // the sections in this order
+          .section("loop", "")
+          .section("graph", "")
+          .section("map", "")
+          .section("slice", "")
+          .append(ownTable())
           .section("loop", "loop closure, Hu et al. 2017 section 3.2, plus nearby and appearance candidates")
           .nest("loop.", &C::loop, loopDetectorConfigTable())
           .section("graph", "Ceres pose graph on SE(3)")

@@ -8,11 +8,12 @@ const ConfigTable<ServerAppConfig>& serverAppConfigTable() {
       ConfigTable<C>()
           .nest("", &C::server, mapServerConfigTable())
           .add("server.transport", &C::transport_url,
-               "memq:// (in-process) | udpm://239.255.76.67:7667?ttl=0 | dds://?domain=0\n"
+               "memq:// (in-process) | udpm://239.255.76.67:7667?ttl=0 | dds://?domain=0 "
                "(dds:// reads CYCLONEDDS_URI, e.g. deploy/dds/cyclonedds-loopback.xml)")
           .add("server.keys_file", &C::keys_file,
                "\"robot_id hexkey\" lines (32-byte HMAC keys, 64 hex digits); empty needs open_mode")
-          .add("server.open_mode", &C::open_mode, "accept unsigned messages from robots without a key (local demos only)");
+          .add("server.open_mode", &C::open_mode,
+               "accept unsigned messages from robots without a key (local demos only)");
   return table;
 }
 

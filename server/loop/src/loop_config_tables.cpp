@@ -8,13 +8,16 @@ const ConfigTable<LoopCandidateConfig>& loopCandidateConfigTable() {
   using C = LoopCandidateConfig;
   static const ConfigTable<C> table =
       ConfigTable<C>()
-          .add("recent_k", &C::recent_k, R::closed(0, 100), "local loops: the k most recent keyframes of the same robot")
-          .add("random_l", &C::random_l, R::closed(0, 100), "random loops: l random older keyframes of the same robot")
+          .add("recent_k", &C::recent_k, R::closed(0, 100),
+               "local loops: the k most recent keyframes of the same robot")
+          .add("random_l", &C::random_l, R::closed(0, 100),
+               "random loops: l random older keyframes of the same robot")
           .add("nearby_radius_m", &C::nearby_radius_m, R::closed(0.0, 100.0),
                "nearby: camera centres within this distance in the same map ...")
           .add("nearby_angle_deg", &C::nearby_angle_deg, R::closed(0.0, 180.0),
                "... and optical axes within this angle")
-          .add("nearby_max", &C::nearby_max, R::closed(0, 100), "closest nearby keyframes kept (not already recent)")
+          .add("nearby_max", &C::nearby_max, R::closed(0, 100),
+               "closest nearby keyframes kept (not already recent)")
           .add("retrieval_top_n", &C::retrieval_top_n, R::closed(0, 100),
                "appearance retrieval over all robots' keyframes (binary words, tf-idf)")
           .add("exclude_recent", &C::exclude_recent, R::closed(0, 10000),
@@ -60,10 +63,10 @@ const ConfigTable<BinaryWordsConfig>& binaryWordsConfigTable() {
 
 const ConfigTable<LoopConsistencyConfig>& loopConsistencyConfigTable() {
   using C = LoopConsistencyConfig;
-  static const ConfigTable<C> table =
-      ConfigTable<C>()
-          .add("max_translation_m", &C::max_translation_m, R::above(0.0), "triangles closing worse are contradictions")
-          .add("max_rotation_deg", &C::max_rotation_deg, R::above(0.0), "");
+  static const ConfigTable<C> table = ConfigTable<C>()
+                                          .add("max_translation_m", &C::max_translation_m, R::above(0.0),
+                                               "triangles closing worse are contradictions")
+                                          .add("max_rotation_deg", &C::max_rotation_deg, R::above(0.0), "");
   return table;
 }
 

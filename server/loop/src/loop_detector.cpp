@@ -17,10 +17,11 @@ bool consistent(const FrameFeatures& f) {
          f.p_cam.size() == n && (n == 0 || (f.descriptors.type() == CV_8U && f.descriptors.cols == 32));
 }
 
-
 }  // namespace
 
-std::string LoopDetectorConfig::validate() const { return joinProblems(loopDetectorConfigTable().problems(*this)); }
+std::string LoopDetectorConfig::validate() const {
+  return joinProblems(loopDetectorConfigTable().problems(*this));
+}
 
 LoopDetector::LoopDetector(const CameraIntrinsics& default_camera, const LoopDetectorConfig& config)
     : config_(config),
@@ -131,11 +132,13 @@ Result<LoopDetection> LoopDetector::addKeyframe(LoopKeyframe keyframe) {
 }
 
 Status LoopDetector::restoreKeyframe(LoopKeyframe keyframe) {
-  if (slot_of_.count(keyframe.id) != 0) return Status::failure("duplicate keyframe id " + std::to_string(keyframe.id));
+  if (slot_of_.count(keyframe.id) != 0)
+    return Status::failure("duplicate keyframe id " + std::to_string(keyframe.id));
   if (!consistent(keyframe.features))
     return Status::failure("keyframe " + std::to_string(keyframe.id) + ": inconsistent features");
   const int robot_sequence = robot_count_[keyframe.robot_id]++;
-  index_.insert(keyframe.id, keyframe.robot_id, robot_sequence, hasher_.histogram(keyframe.features.descriptors));
+  index_.insert(keyframe.id, keyframe.robot_id, robot_sequence,
+                hasher_.histogram(keyframe.features.descriptors));
   slot_of_.emplace(keyframe.id, keyframes_.size());
   summaries_.push_back({keyframe.id, keyframe.robot_id, keyframe.map_id, keyframe.T_map_kf});
   keyframes_.push_back(std::move(keyframe));

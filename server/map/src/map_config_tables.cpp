@@ -10,7 +10,7 @@ const ConfigTable<OccupancyMapConfig>& occupancyMapConfigTable() {
       ConfigTable<C>()
           .add("resolution_m", &C::resolution_m, R::closed(0.005, 1.0), "octree leaf size")
           .add("max_range_m", &C::max_range_m, R::closed(0.1, 50.0),
-               "depth beyond this clears free space up to here but is not inserted as occupied\n"
+               "depth beyond this clears free space up to here but is not inserted as occupied "
                "(must be above min_range_m)")
           .add("min_range_m", &C::min_range_m, R::closed(0.0, 10.0), "closer depth is dropped")
           .add("prob_hit", &C::prob_hit, R::open(0.5, 1.0), "OctoMap sensor model")
@@ -18,9 +18,9 @@ const ConfigTable<OccupancyMapConfig>& occupancyMapConfigTable() {
           .add("clamp_min", &C::clamp_min, R::open(0.0, 0.5), "")
           .add("clamp_max", &C::clamp_max, R::open(0.5, 1.0), "")
           .add("rebuild_translation_m", &C::rebuild_translation_m, R::closed(0.0, 10.0),
-               "an optimisation moving a keyframe more than this (or the rotation below)")
-          .add("rebuild_rotation_rad", &C::rebuild_rotation_rad, R::closed(0.0, 3.15),
-               "rebuilds its map in the background from the kept keyframe clouds")
+               "an optimisation moving a keyframe more than this (or rotating it more than "
+               "rebuild_rotation_rad) rebuilds its map in the background from the kept keyframe clouds")
+          .add("rebuild_rotation_rad", &C::rebuild_rotation_rad, R::closed(0.0, 3.15), "")
           .add("pixel_stride", &C::pixel_stride, R::closed(0, 64),
                "depth pixel sampling step; 0: automatic (3 at 0.05 m, 1 at 0.02 m for fx 517)")
           .add("cloud_voxel_fraction", &C::cloud_voxel_fraction, R::closed(0.0, 1.0),

@@ -91,7 +91,8 @@ std::string SliceConfig::validate() const {
   if (!(size_m >= resolution_m && size_m / resolution_m <= msg::kMaxGridSide))
     problems.push_back("size_m must be >= resolution_m and at most kMaxGridSide cells");
   if (!(z_min_m < z_max_m)) problems.push_back("z_min_m must be < z_max_m");
-  if (!(up_in_map.allFinite() && up_in_map.norm() > 1e-9)) problems.push_back("up_in_map must be a finite non-zero vector");
+  if (!(up_in_map.allFinite() && up_in_map.norm() > 1e-9))
+    problems.push_back("up_in_map must be a finite non-zero vector");
   return joinProblems(problems);
 }
 

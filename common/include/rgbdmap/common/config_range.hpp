@@ -12,13 +12,13 @@ struct ConfigRange {
   double min = -kInf, max = kInf;
   bool min_open = false, max_open = false;
 
-  static ConfigRange closed(double lo, double hi) { return {lo, hi, false, false}; }        ///< [lo, hi]
-  static ConfigRange open(double lo, double hi) { return {lo, hi, true, true}; }            ///< (lo, hi)
-  static ConfigRange openClosed(double lo, double hi) { return {lo, hi, true, false}; }     ///< (lo, hi]
-  static ConfigRange closedOpen(double lo, double hi) { return {lo, hi, false, true}; }     ///< [lo, hi)
-  static ConfigRange atLeast(double lo) { return {lo, kInf, false, true}; }                 ///< [lo, inf)
-  static ConfigRange above(double lo) { return {lo, kInf, true, true}; }                    ///< (lo, inf)
-  static ConfigRange any() { return {-kInf, kInf, true, true}; }                            ///< finite
+  static ConfigRange closed(double lo, double hi) { return {lo, hi, false, false}; }     ///< [lo, hi]
+  static ConfigRange open(double lo, double hi) { return {lo, hi, true, true}; }         ///< (lo, hi)
+  static ConfigRange openClosed(double lo, double hi) { return {lo, hi, true, false}; }  ///< (lo, hi]
+  static ConfigRange closedOpen(double lo, double hi) { return {lo, hi, false, true}; }  ///< [lo, hi)
+  static ConfigRange atLeast(double lo) { return {lo, kInf, false, true}; }              ///< [lo, inf)
+  static ConfigRange above(double lo) { return {lo, kInf, true, true}; }                 ///< (lo, inf)
+  static ConfigRange any() { return {-kInf, kInf, true, true}; }                         ///< finite
 
   /// v is finite and within. Single precision values are compared with the ends rounded to float, so that
   /// a float member whose default is written as an end (1.01f) stays in range.

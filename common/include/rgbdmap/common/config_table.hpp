@@ -28,8 +28,8 @@ struct ConfigValue {
   std::string value;    ///< its text ("" for a section note)
   std::string allowed;  ///< "[0, 1]", "jpeg | lossless | none", or "" (any text, true | false)
   std::string meaning;
-  bool quoted = false;     ///< text value: written in double quotes in YAML
-  bool section = false;    ///< a note on the section `key`, not a value
+  bool quoted = false;   ///< text value: written in double quotes in YAML
+  bool section = false;  ///< a note on the section `key`, not a value
 };
 
 template <typename S>
@@ -38,7 +38,7 @@ struct ConfigField {
   std::string meaning;
   std::string allowed;
   std::string complaint;  ///< why an invalid value is wrong: "is outside [0, 1]"
-  bool in_files = true;  ///< false: set by code only (checked, not read, not documented)
+  bool in_files = true;   ///< false: set by code only (checked, not read, not documented)
   bool quoted = false;
   /// Empty for a section note.
   std::function<void(ConfigReader&, const std::string& key, S&)> read;
@@ -84,7 +84,8 @@ class ConfigTable {
 
   /// A number: int, unsigned, size_t, long long, float, double or a std::chrono::duration (its count).
   template <typename T>
-  ConfigTable& add(const std::string& key, T S::*member, const ConfigRange& range, const std::string& meaning) {
+  ConfigTable& add(const std::string& key, T S::*member, const ConfigRange& range,
+                   const std::string& meaning) {
     using N = config_detail::Number<T>;
     Field f = make(key, meaning, range.str(), "is outside " + range.str(), false);
     f.read = [member, range](ConfigReader& r, const std::string& k, S& s) {
@@ -108,7 +109,9 @@ class ConfigTable {
                    const std::vector<std::string>& choices = {}) {
     const std::string allowed = config_detail::joinChoices(choices);
     Field f = make(key, meaning, allowed, "is not one of " + allowed, true);
-    f.read = [member, choices](ConfigReader& r, const std::string& k, S& s) { r.read(k, &(s.*member), choices); };
+    f.read = [member, choices](ConfigReader& r, const std::string& k, S& s) {
+      r.read(k, &(s.*member), choices);
+    };
     f.show = [member](const S& s) { return s.*member; };
     f.valid = [member, choices](const S& s) {
       for (const std::string& c : choices)
@@ -132,8 +135,7 @@ class ConfigTable {
   /// A fixed-length list of finite numbers ([k1, k2, p1, p2, k3]).
   template <size_t N>
   ConfigTable& add(const std::string& key, std::array<double, N> S::*member, const std::string& meaning) {
-    const std::string allowed = std::to_string(N) + " finite numbers";
-    Field f = make(key, meaning, allowed, "is not a list of " + allowed, false);
+    Field f = make(key, meaning, "", "is not a list of " + std::to_string(N) + " finite numbers", false);
     f.read = [member](ConfigReader& r, const std::string& k, S& s) { r.readList(k, (s.*member).data(), N); };
     f.show = [member](const S& s) {
       std::string out;
@@ -149,8 +151,8 @@ class ConfigTable {
   }
   /// An enum written as one of its names.
   template <typename E>
-  ConfigTable& addChoice(const std::string& key, E S::*member, const std::vector<std::pair<E, std::string>>& names,
-                         const std::string& meaning) {
+  ConfigTable& addChoice(const std::string& key, E S::*member,
+                         const std::vector<std::pair<E, std::string>>& names, const std::string& meaning) {
     std::vector<std::string> choices;
     for (const auto& n : names) choices.push_back(n.second);
     const std::string allowed = config_detail::joinChoices(choices);
@@ -173,16 +175,24 @@ class ConfigTable {
   /// Every field of `sub` (a table of the member's type), its keys prefixed with `prefix` ("loop."). With
   /// in_files false they are all code-only.
   template <typename M>
-  ConfigTable& nest(const std::string& prefix, M S::*member, const ConfigTable<M>& sub, bool in_files = true) {
+  ConfigTable& nest(const std::string& prefix, M S::*member, const ConfigTable<M>& sub,
+                    bool in_files = true) {
     for (const ConfigField<M>& m : sub.fields()) {
       Field f = make(prefix + m.key, m.meaning, m.allowed, m.complaint, m.quoted);
       f.in_files = m.in_files && in_files;
       if (m.read)
-        f.read = [member, read = m.read](ConfigReader& r, const std::string& k, S& s) { read(r, k, s.*member); };
+        f.read = [member, read = m.read](ConfigReader& r, const std::string& k, S& s) {
+          read(r, k, s.*member);
+        };
       if (m.show) f.show = [member, show = m.show](const S& s) { return show(s.*member); };
       if (m.valid) f.valid = [member, valid = m.valid](const S& s) { return valid(s.*member); };
       fields_.push_back(std::move(f));
     }
+    return *this;
+  }
+  /// Every field of `other` (a table of the same struct), in its order.
+  ConfigTable& append(const ConfigTable& other) {
+    fields_.insert(fields_.end(), other.fields_.begin(), other.fields_.end());
     return *this;
   }
   /// A note on a section of the documented file (`key` without a value, e.g. "loop").
@@ -207,8 +217,7 @@ class ConfigTable {
   std::vector<std::string> problems(const S& config) const {
     std::vector<std::string> out;
     for (const Field& f : fields_)
-      if (f.valid && !f.valid(config))
-        out.push_back(f.key + " = " + f.show(config) + " " + f.complaint);
+      if (f.valid && !f.valid(config)) out.push_back(f.key + " = " + f.show(config) + " " + f.complaint);
     return out;
   }
   /// The file keys with their values in `config` (and the section notes), in table order.
