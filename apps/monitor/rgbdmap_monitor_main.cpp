@@ -269,8 +269,7 @@ MonitorOptions parseOptions(cli::Args& args, std::vector<std::string>* errors) {
   o.save_dir = args.getOr("save-map", "");
   o.period_s = args.getDouble("period").value_or(2.0);
   o.timeout_s = args.getDouble("timeout").value_or(0.0);
-  for (const std::string& problem : monitorOptionsTable().problems(o))
-    errors->push_back("--" + problem + " s");
+  for (const std::string& problem : monitorOptionsTable().problems(o)) errors->push_back("--" + problem);
   if (const auto level = args.get("log-level")) {
     log::Level l;
     if (log::parseLevel(*level, &l))

@@ -159,23 +159,24 @@ std::string renderConfigYaml(const std::string& header, const std::vector<Config
 }
 
 std::string formatConfigValues(const std::vector<ConfigValue>& values) {
-  std::string out, current;
-  bool open = false;
+  std::vector<std::pair<std::string, std::string>> sections;  // section -> "k = v, ..." in first-seen order
   for (const ConfigValue& v : values) {
     if (v.section) continue;
     const size_t dot = v.key.rfind('.');
     const std::string section = dot == std::string::npos ? "" : v.key.substr(0, dot);
-    const std::string name = dot == std::string::npos ? v.key : v.key.substr(dot + 1);
-    if (!open || section != current) {
-      out += std::string(open ? "\n" : "") + "  " + (section.empty() ? "" : section + ": ");
-      current = section;
-      open = true;
-    } else {
-      out += ", ";
-    }
-    out += name + " = " + (v.quoted ? "\"" + v.value + "\"" : v.value);
+    const std::string item = (dot == std::string::npos ? v.key : v.key.substr(dot + 1)) + " = " +
+                             (v.quoted ? "\"" + v.value + "\"" : v.value);
+    auto it =
+        std::find_if(sections.begin(), sections.end(), [&](const auto& s) { return s.first == section; });
+    if (it == sections.end())
+      sections.emplace_back(section, item);
+    else
+      it->second += ", " + item;
   }
-  return open ? out + "\n" : out;
+  std::string out;
+  for (const auto& [section, items] : sections)
+    out += "  " + (section.empty() ? "" : section + ": ") + items + "\n";
+  return out;
 }
 
 std::vector<ConfigValue> concatConfigValues(std::vector<ConfigValue> a, const std::vector<ConfigValue>& b) {
@@ -184,7 +185,9 @@ std::vector<ConfigValue> concatConfigValues(std::vector<ConfigValue> a, const st
 }
 
 void logConfiguration(const std::string& title, const std::vector<ConfigValue>& values) {
-  log::info(title, ":\n", formatConfigValues(values));
+  std::string block = formatConfigValues(values);
+  if (!block.empty()) block.pop_back();  // the logger ends the line
+  log::info(title, ":\n", block);
 }
 
 }  // namespace rgbdmap
