@@ -11,12 +11,12 @@
 
 #include <opencv2/core.hpp>
 
-#include "rgbdmap/cli/cli.hpp"
 #include "client_outputs.hpp"
+#include "rgbdmap/cli/cli.hpp"
 #include "rgbdmap/cli/odometry_setup.hpp"
 #include "rgbdmap/cli/progress.hpp"
-#include "rgbdmap/link/robot_client_config.hpp"
 #include "rgbdmap/common/logging.hpp"
+#include "rgbdmap/link/robot_client_config.hpp"
 
 namespace rgbdmap::app {
 namespace {
@@ -155,7 +155,8 @@ int run(int argc, char** argv) {
   auto transport = transport::makeTransport(config.transport_url);
   if (!transport) return log::error("transport ", config.transport_url, ": ", transport.error()), 1;
   log::info("robot ", config.robot_id, " on ", config.transport_url, ", camera from ", setup.camera_source);
-  log::debug("configuration in effect:\n", setup.effective);
+  logConfiguration("configuration in effect",
+                   concatConfigValues(robotClientConfigValues(config), setup.effective));
 
   RobotLink link(**transport, config.link);
   StopRequest stop;

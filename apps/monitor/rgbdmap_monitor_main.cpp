@@ -19,6 +19,7 @@
 #include <vector>
 
 #include "rgbdmap/cli/cli.hpp"
+#include "rgbdmap/common/config_table.hpp"
 #include "rgbdmap/common/logging.hpp"
 #include "rgbdmap/common/text_lines.hpp"
 #include "rgbdmap/map/map_io.hpp"
@@ -63,6 +64,21 @@ struct MonitorOptions {
   bool open = false, once = false;
   double period_s = 2.0, timeout_s = 0.0;
 };
+
+/// The options as flags (for range checks and the start-up log).
+const ConfigTable<MonitorOptions>& monitorOptionsTable() {
+  using O = MonitorOptions;
+  static const ConfigTable<O> table = ConfigTable<O>()
+                                          .add("transport", &O::transport_url, "")
+                                          .add("robots", &O::robots, "")
+                                          .add("keys-file", &O::keys_file, "")
+                                          .add("open", &O::open, "")
+                                          .add("period", &O::period_s, ConfigRange::closed(0.05, 3600.0), "")
+                                          .add("save-map", &O::save_dir, "")
+                                          .add("once", &O::once, "")
+                                          .add("timeout", &O::timeout_s, ConfigRange::closed(0.0, 1e6), "");
+  return table;
+}
 
 class Monitor {
  public:
@@ -252,9 +268,8 @@ MonitorOptions parseOptions(cli::Args& args, std::vector<std::string>* errors) {
   o.once = args.has("once");
   o.save_dir = args.getOr("save-map", "");
   o.period_s = args.getDouble("period").value_or(2.0);
-  if (!(o.period_s >= 0.05 && o.period_s <= 3600)) errors->push_back("--period must be in [0.05, 3600] s");
   o.timeout_s = args.getDouble("timeout").value_or(0.0);
-  if (!(o.timeout_s >= 0 && o.timeout_s <= 1e6)) errors->push_back("--timeout must be in [0, 1e6] s");
+  for (const std::string& problem : monitorOptionsTable().problems(o)) errors->push_back("--" + problem);
   if (const auto level = args.get("log-level")) {
     log::Level l;
     if (log::parseLevel(*level, &l))
@@ -283,6 +298,7 @@ int runMonitor(int argc, char** argv) {
   std::vector<std::string> errors(args.errors().begin(), args.errors().end());
   const MonitorOptions options = parseOptions(args, &errors);
   if (!errors.empty()) return cli::usageError(errors, kUsage);
+  logConfiguration("configuration in effect", monitorOptionsTable().values(options));
 
   msg::KeyStore server_keys;
   if (!options.keys_file.empty()) {

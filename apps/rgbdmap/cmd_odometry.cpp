@@ -3,9 +3,9 @@
 
 #include <opencv2/core.hpp>
 
-#include "rgbdmap/cli/cli.hpp"
 #include "commands.hpp"
 #include "odometry_runner.hpp"
+#include "rgbdmap/cli/cli.hpp"
 #include "rgbdmap/common/logging.hpp"
 
 namespace rgbdmap::cmd {
@@ -60,7 +60,7 @@ int odometry(int argc, char** argv) {
   }
   log::info("camera from ", setup.camera_source, ": fx ", setup.camera.fx, " fy ", setup.camera.fy, " cx ",
             setup.camera.cx, " cy ", setup.camera.cy, " depth_scale ", setup.camera.depth_scale);
-  log::debug("configuration in effect:\n", setup.effective);
+  logConfiguration("configuration in effect", setup.effective);
   const app::OdometryRun run = app::runOdometry(*dataset, setup, static_cast<int>(frames));
   if (run.frames == 0) {  // unreadable frames are skipped and counted; with none readable there is no result
     log::error(*dataset_dir, ": none of the ", run.unreadable_frames, " frames could be read");

@@ -226,6 +226,8 @@ int run(int argc, char** argv) {
   cv::setNumThreads(static_cast<int>(o.threads));
   RunInputs in;
   if (const auto failed = loadInputs(args, &o, &in)) return *failed;
+  logConfiguration("configuration in effect (camera of the first dataset)",
+                   concatConfigValues(in.setups.front().effective, serverConfigValues(server_config)));
   std::vector<size_t> dataset_frames;
   for (const TumDataset& d : in.datasets) dataset_frames.push_back(d.size());
   const std::vector<RobotPlan> plans = planRobots(o, dataset_frames, in.synthetic);

@@ -146,6 +146,7 @@ int main(int argc, char** argv) {
   }
   if (const std::string p = config.server.validate(); !p.empty()) errors.push_back(p);
   if (!errors.empty()) return cli::usageError(errors, kUsage);
+  logConfiguration("configuration in effect", serverConfigValues(config));
 
   msg::KeyStore keys = config.open_mode ? msg::KeyStore::openMode() : msg::KeyStore();
   if (!config.keys_file.empty()) {

@@ -1,6 +1,8 @@
 // Lin et al. 2017 section 3: reactive avoidance on the latest occupancy slice.
 #include "rgbdmap/client/avoidance.hpp"
 
+#include "rgbdmap/client/avoidance_config_table.hpp"
+
 #include <algorithm>
 #include <cmath>
 #include <limits>
@@ -32,8 +34,6 @@ void check(bool ok, const char* what, std::vector<std::string>* bad) {
   if (!ok) bad->emplace_back(what);
 }
 
-bool unit(double v) { return std::isfinite(v) && std::abs(v) <= 1.0; }
-
 }  // namespace
 
 const char* toString(AvoidanceState state) {
@@ -49,34 +49,12 @@ const char* toString(AvoidanceState state) {
 }
 
 std::string AvoidanceConfig::validate() const {
-  std::vector<std::string> bad;
-  check(std::isfinite(safety_distance_m) && safety_distance_m > 0.0, "safety_distance_m must be > 0", &bad);
-  check(std::isfinite(corridor_width_m) && corridor_width_m > 0.0 && corridor_width_m <= 10.0,
-        "corridor_width_m must be in (0, 10]", &bad);
-  check(std::isfinite(lookahead_m) && lookahead_m > safety_distance_m && lookahead_m <= 50.0,
-        "lookahead_m must be in (safety_distance_m, 50]", &bad);
-  check(unit(forward_throttle) && unit(forward_yaw) && unit(turn_throttle) && unit(turn_yaw) &&
-            unit(back_throttle) && unit(back_yaw),
-        "throttle and yaw values must be in [-1, 1]", &bad);
-  check(std::isfinite(turn_min_duration_s) && turn_min_duration_s >= 0.0, "turn_min_duration_s must be >= 0",
+  std::vector<std::string> bad = avoidanceConfigTable().problems(*this);
+  check(lookahead_m > safety_distance_m, "lookahead_m must be above safety_distance_m", &bad);
+  check(emergency_distance_m < safety_distance_m, "emergency_distance_m must be below safety_distance_m",
         &bad);
-  check(std::isfinite(clear_hysteresis_m) && clear_hysteresis_m >= 0.0, "clear_hysteresis_m must be >= 0",
-        &bad);
-  check(std::isfinite(emergency_distance_m) && emergency_distance_m >= 0.0 &&
-            emergency_distance_m < safety_distance_m,
-        "emergency_distance_m must be in [0, safety_distance_m)", &bad);
   check(up_in_map.allFinite() && up_in_map.norm() > 1e-6, "up_in_map must be a finite non-zero vector", &bad);
-  check(std::isfinite(max_slice_age_s) && max_slice_age_s > 0.0, "max_slice_age_s must be > 0", &bad);
-  check(std::isfinite(max_speed_mps) && max_speed_mps > 0.0 && max_speed_mps <= msg::kMaxSpeed,
-        "max_speed_mps must be in (0, 10]", &bad);
-  check(std::isfinite(max_yaw_rate_radps) && max_yaw_rate_radps > 0.0 && max_yaw_rate_radps <= msg::kMaxSpeed,
-        "max_yaw_rate_radps must be in (0, 10]", &bad);
-  check(std::isfinite(command_duration_s) && command_duration_s > 0.0 &&
-            command_duration_s <= msg::kMaxCommandDuration,
-        "command_duration_s must be in (0, 10]", &bad);
-  std::string out;
-  for (const std::string& b : bad) out += (out.empty() ? "" : "; ") + b;
-  return out;
+  return joinProblems(bad);
 }
 
 double closestObstacleInCorridor(const msg::OccupancySlice& slice, const SE3& T_map_cam, double width_m,

@@ -1,63 +1,84 @@
 #include "rgbdmap/client/odometry_config_io.hpp"
 
+#include "rgbdmap/common/common_config_tables.hpp"
+#include "rgbdmap/vision/vision_config_tables.hpp"
+
 namespace rgbdmap {
 
-void readCameraConfig(ConfigReader& r, const std::string& p, CameraIntrinsics* k) {
-  r.read(p + "fx", &k->fx, 1.0, 1e5);
-  r.read(p + "fy", &k->fy, 1.0, 1e5);
-  r.read(p + "cx", &k->cx, -1e5, 1e5);
-  r.read(p + "cy", &k->cy, -1e5, 1e5);
-  r.read(p + "width", &k->width, 1, 16384);
-  r.read(p + "height", &k->height, 1, 16384);
-  r.readList(p + "distortion", k->distortion.data(), k->distortion.size());
-  r.read(p + "depth_scale", &k->depth_scale, 1e-6, 1e9);
+const ConfigTable<KeyframeConfig>& keyframeConfigTable() {
+  using C = KeyframeConfig;
+  using R = ConfigRange;
+  static const ConfigTable<C> table =
+      ConfigTable<C>()
+          .add("similarity_threshold", &C::similarity_threshold, R::closed(0.0, 1.0),
+               "P: new keyframe when S < P")
+          .add("max_frame_gap", &C::max_frame_gap, R::closed(1, 100000),
+               "m: at most this many frames between keyframes")
+          .add("max_translation_m", &C::max_translation_m, R::closed(0.001, 100.0), "or on large motion")
+          .add("max_rotation_deg", &C::max_rotation_deg, R::closed(0.1, 180.0), "");
+  return table;
+}
+
+const ConfigTable<OdometryConfig>& odometryConfigTable() {
+  using C = OdometryConfig;
+  using R = ConfigRange;
+  static const ConfigTable<C> table =
+      ConfigTable<C>()
+          .nest("orb.", &C::orb, orbConfigTable())
+          .section("matcher", "brute-force Hamming, then filters")
+          .nest("matcher.", &C::matcher, matcherConfigTable())
+          .section("guided", "matching by projection for the keyframe window")
+          .nest("guided.", &C::guided, guidedMatchConfigTable())
+          .section("ransac", "3-D <-> 3-D, closed-form minimal solver")
+          .nest("ransac.", &C::ransac, ransacConfigTable())
+          .section("refine", "robust Gauss-Newton on reprojection + depth residuals")
+          .nest("refine.", &C::refine, refineConfigTable())
+          .section("keyframe", "Hu et al. 2017: S = 2N / (N_t + N_k)")
+          .nest("keyframe.", &C::keyframe, keyframeConfigTable())
+          .add("window_keyframes", &C::window_keyframes, R::closed(1, 200),
+               "keyframe poses refined against up to this many similar-view keyframes (1 = off)")
+          .add("window_max_angle_deg", &C::window_max_angle_deg, R::closed(0.0, 180.0),
+               "viewing-direction difference for a keyframe to join the window")
+          .add("window_max_distance_m", &C::window_max_distance_m, R::closed(0.0, 100.0),
+               "and camera-centre distance")
+          .add("window_max_correction_m", &C::window_max_correction_m, R::closed(0.0, 10.0),
+               "larger window corrections are rejected (loop closure is the server's job)")
+          .add("window_max_correction_deg", &C::window_max_correction_deg, R::closed(0.0, 180.0), "")
+          .add("window_every_frame", &C::window_every_frame,
+               "also refine non-keyframes in the window (more accurate per frame, slower)")
+          .add("relocalization_keyframes", &C::relocalization_keyframes, R::closed(0, 100),
+               "recent keyframes tried when the reference keyframe fails")
+          .add("min_tracking_inliers", &C::min_tracking_inliers, R::closed(3, 10000),
+               "fewer is a tracking loss")
+          .add("max_lost_frames", &C::max_lost_frames, R::closed(0, 100000),
+               "then a new segment starts (flagged discontinuity)")
+          .add("min_keyframe_points", &C::min_keyframe_points, R::closed(3, 100000),
+               "features with depth needed for a keyframe");
+  return table;
+}
+
+void readCameraConfig(ConfigReader& r, const std::string& prefix, CameraIntrinsics* k) {
+  cameraConfigTable().read(r, k, prefix);
 }
 
 void readOdometryConfig(ConfigReader& r, OdometryConfig* c) {
-  const std::string o = "odometry.";
-  r.read(o + "orb.n_features", &c->orb.n_features, 50, 20000);
-  r.read(o + "orb.scale_factor", &c->orb.scale_factor, 1.01f, 2.0f);
-  r.read(o + "orb.n_levels", &c->orb.n_levels, 1, 16);
-  r.read(o + "orb.fast_threshold", &c->orb.fast_threshold, 1, 100);
-  r.read(o + "orb.grid_cols", &c->orb.grid_cols, 1, 64);
-  r.read(o + "orb.grid_rows", &c->orb.grid_rows, 1, 64);
-  r.read(o + "orb.min_depth_m", &c->orb.min_depth_m, 0.0, 100.0);
-  r.read(o + "orb.max_depth_m", &c->orb.max_depth_m, 0.01, 100.0);
-  r.read(o + "matcher.k_min_distance", &c->matcher.k_min_distance, 1.0, 100.0);
-  r.read(o + "matcher.min_distance_floor", &c->matcher.min_distance_floor, 0, 256);
-  r.read(o + "matcher.max_distance", &c->matcher.max_distance, 1, 256);
-  r.read(o + "matcher.ratio", &c->matcher.ratio, 0.1, 1.0);
-  r.read(o + "ransac.max_iterations", &c->ransac.max_iterations, 1, 100000);
-  r.read(o + "ransac.confidence", &c->ransac.confidence, 0.5, 0.999999);
-  r.read(o + "ransac.reprojection_threshold_px", &c->ransac.reprojection_threshold_px, 0.1, 100.0);
-  r.read(o + "ransac.depth_threshold_rel", &c->ransac.depth_threshold_rel, 0.001, 1.0);
-  r.read(o + "ransac.min_inliers", &c->ransac.min_inliers, 3, 10000);
-  r.read(o + "ransac.seed", &c->ransac.seed, 0u, 4294967295u);
-  r.read(o + "refine.iterations", &c->refine.iterations, 0, 100);
-  r.read(o + "refine.rounds", &c->refine.rounds, 1, 10);
-  r.read(o + "refine.pixel_sigma", &c->refine.pixel_sigma, 0.01, 100.0);
-  r.read(o + "refine.depth_sigma_coeff", &c->refine.depth_sigma_coeff, 1e-6, 1.0);
-  r.read(o + "refine.huber_delta", &c->refine.huber_delta, 0.01, 100.0);
-  r.read(o + "refine.outlier_chi2", &c->refine.outlier_chi2, 0.1, 1000.0);
-  r.read(o + "keyframe.similarity_threshold", &c->keyframe.similarity_threshold, 0.0, 1.0);
-  r.read(o + "keyframe.max_frame_gap", &c->keyframe.max_frame_gap, 1, 100000);
-  r.read(o + "keyframe.max_translation_m", &c->keyframe.max_translation_m, 0.001, 100.0);
-  r.read(o + "keyframe.max_rotation_deg", &c->keyframe.max_rotation_deg, 0.1, 180.0);
-  r.read(o + "window_keyframes", &c->window_keyframes, 1, 200);
-  r.read(o + "window_max_angle_deg", &c->window_max_angle_deg, 0.0, 180.0);
-  r.read(o + "window_max_distance_m", &c->window_max_distance_m, 0.0, 100.0);
-  r.read(o + "window_max_correction_m", &c->window_max_correction_m, 0.0, 10.0);
-  r.read(o + "window_max_correction_deg", &c->window_max_correction_deg, 0.0, 180.0);
-  r.read(o + "window_every_frame", &c->window_every_frame);
-  r.read(o + "guided.radius_px", &c->guided.radius_px, 0.5, 200.0);
-  r.read(o + "guided.max_distance", &c->guided.max_distance, 1, 256);
-  r.read(o + "guided.ratio", &c->guided.ratio, 0.1, 1.0);
-  r.read(o + "relocalization_keyframes", &c->relocalization_keyframes, 0, 100);
-  r.read(o + "min_tracking_inliers", &c->min_tracking_inliers, 3, 10000);
-  r.read(o + "max_lost_frames", &c->max_lost_frames, 0, 100000);
-  r.read(o + "min_keyframe_points", &c->min_keyframe_points, 3, 100000);
+  odometryConfigTable().read(r, c, "odometry.");
   if (c->orb.min_depth_m >= c->orb.max_depth_m)
     r.addError("odometry.orb.min_depth_m must be below max_depth_m");
+}
+
+void readDatasetConfig(ConfigReader& r, DatasetOptions* options) {
+  datasetConfigTable().read(r, options, "dataset.");
+}
+
+std::vector<ConfigValue> odometryFileValues(const CameraIntrinsics& camera, const DatasetOptions& dataset,
+                                            const OdometryConfig& odometry) {
+  std::vector<ConfigValue> out = {
+      {"camera", "", "", "precedence: these < dataset camera.yaml < this file < --intrinsics/--depth-scale",
+       false, true}};
+  out = concatConfigValues(out, cameraConfigTable().values(camera, "camera."));
+  out = concatConfigValues(out, datasetConfigTable().values(dataset, "dataset."));
+  return concatConfigValues(out, odometryConfigTable().values(odometry, "odometry."));
 }
 
 }  // namespace rgbdmap

@@ -1,21 +1,13 @@
 #include "rgbdmap/common/camera.hpp"
 
+#include "rgbdmap/common/common_config_tables.hpp"
+
 #include <cmath>
 #include <sstream>
 
 namespace rgbdmap {
 
-std::string CameraIntrinsics::validate() const {
-  std::ostringstream err;
-  auto finite_pos = [](double v) { return std::isfinite(v) && v > 0; };
-  if (!finite_pos(fx) || !finite_pos(fy)) err << "focal lengths must be finite and > 0; ";
-  if (!std::isfinite(cx) || !std::isfinite(cy)) err << "principal point must be finite; ";
-  if (width <= 0 || height <= 0 || width > 16384 || height > 16384) err << "image size out of range; ";
-  for (double d : distortion)
-    if (!std::isfinite(d)) err << "distortion coefficients must be finite; ";
-  if (!finite_pos(depth_scale)) err << "depth_scale must be finite and > 0; ";
-  return err.str();
-}
+std::string CameraIntrinsics::validate() const { return joinProblems(cameraConfigTable().problems(*this)); }
 
 bool CameraIntrinsics::hasDistortion() const {
   for (double d : distortion)

@@ -84,7 +84,7 @@ bool ConfigReader::has(const std::string& key) const {
 }
 
 template <typename T>
-void ConfigReader::readNumber(const std::string& key, T* value, T min, T max) {
+void ConfigReader::read(const std::string& key, T* value, const ConfigRange& range) {
   read_keys_.push_back(key);
   YAML::Node n;
   if (lookup(key, &n)) {
@@ -93,9 +93,8 @@ void ConfigReader::readNumber(const std::string& key, T* value, T min, T max) {
       if constexpr (std::is_floating_point_v<T>) {
         if (!std::isfinite(v)) throw YAML::Exception(YAML::Mark(), "not finite");
       }
-      if (v < min || v > max)
-        errors_.push_back(source_ + ": " + key + " = " + show(v) + " is outside [" + show(min) + ", " +
-                          show(max) + "]");
+      if (!range.contains(v))
+        errors_.push_back(source_ + ": " + key + " = " + show(v) + " is outside " + range.str());
       else
         *value = v;
     } catch (const YAML::Exception&) {
@@ -105,15 +104,24 @@ void ConfigReader::readNumber(const std::string& key, T* value, T min, T max) {
   effective_.push_back(key + " = " + show(*value));
 }
 
-void ConfigReader::read(const std::string& key, int* v, int min, int max) { readNumber(key, v, min, max); }
+template void ConfigReader::read(const std::string&, int*, const ConfigRange&);
+template void ConfigReader::read(const std::string&, unsigned*, const ConfigRange&);
+template void ConfigReader::read(const std::string&, unsigned long*, const ConfigRange&);
+template void ConfigReader::read(const std::string&, long long*, const ConfigRange&);
+template void ConfigReader::read(const std::string&, float*, const ConfigRange&);
+template void ConfigReader::read(const std::string&, double*, const ConfigRange&);
+
+void ConfigReader::read(const std::string& key, int* v, int min, int max) {
+  read(key, v, ConfigRange::closed(min, max));
+}
 void ConfigReader::read(const std::string& key, unsigned* v, unsigned min, unsigned max) {
-  readNumber(key, v, min, max);
+  read(key, v, ConfigRange::closed(min, max));
 }
 void ConfigReader::read(const std::string& key, double* v, double min, double max) {
-  readNumber(key, v, min, max);
+  read(key, v, ConfigRange::closed(min, max));
 }
 void ConfigReader::read(const std::string& key, float* v, float min, float max) {
-  readNumber(key, v, min, max);
+  read(key, v, ConfigRange::closed(min, max));
 }
 
 void ConfigReader::read(const std::string& key, bool* value) {

@@ -12,6 +12,7 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include "rgbdmap/common/association.hpp"
+#include "rgbdmap/common/common_config_tables.hpp"
 #include "rgbdmap/common/logging.hpp"
 
 namespace rgbdmap {
@@ -70,13 +71,7 @@ Result<cv::Mat> readDepth(const std::string& path, const DatasetOptions& options
 
 }  // namespace
 
-std::string DatasetOptions::validate() const {
-  std::string err;
-  if (!(std::isfinite(max_time_diff) && max_time_diff > 0)) err += "max_time_diff must be finite and > 0; ";
-  if (!(std::isfinite(depth_scale) && depth_scale > 0)) err += "depth_scale must be finite and > 0; ";
-  if (expected_width < 0 || expected_height < 0) err += "expected image size must be >= 0 (0 = any); ";
-  return err;
-}
+std::string DatasetOptions::validate() const { return joinProblems(datasetConfigTable().problems(*this)); }
 
 Result<std::vector<ImageListEntry>> parseImageList(const std::string& text, const std::string& source_name) {
   using R = Result<std::vector<ImageListEntry>>;

@@ -234,7 +234,7 @@ TEST(Avoidance, ConfigValidationReportsEveryProblem) {
   bad.max_slice_age_s = NAN;
   bad.up_in_map = Vec3::Zero();
   const std::string reasons = bad.validate();
-  for (const char* key : {"safety_distance_m", "throttle and yaw", "max_slice_age_s", "up_in_map"})
+  for (const char* key : {"safety_distance_m", "turn_yaw", "max_slice_age_s", "up_in_map"})
     EXPECT_NE(reasons.find(key), std::string::npos) << key << " in: " << reasons;
   AvoidanceController c(bad);
   const AvoidanceDecision d = c.update(sliceWithWall(0.0), kCam, kNow);

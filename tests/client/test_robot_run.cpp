@@ -2,6 +2,7 @@
 #include <gtest/gtest.h>
 
 #include "common/temp_dir.hpp"
+#include "config_file_check.hpp"
 #include "fake_map_server.hpp"
 #include "link_test_util.hpp"
 #include "rgbdmap/client/odometry_config_io.hpp"
@@ -135,8 +136,8 @@ void readEverything(ConfigReader& reader, RobotClientConfig* client, CameraIntri
   readRobotClientConfig(reader, client);
   readCameraConfig(reader, "camera.", camera);
   readOdometryConfig(reader, odometry);
-  double max_time_diff = 0.02;
-  reader.read("dataset.max_time_diff", &max_time_diff, 0.0, 10.0);
+  DatasetOptions dataset;
+  readDatasetConfig(reader, &dataset);
 }
 
 TEST(ClientConfig, ExampleLoadsWithoutErrorsAndStatesTheDefaults) {
@@ -150,6 +151,20 @@ TEST(ClientConfig, ExampleLoadsWithoutErrorsAndStatesTheDefaults) {
   readEverything(defaults, &c2, &k2, &o2);
   for (const auto& e : from_file->errors()) ADD_FAILURE() << e;
   EXPECT_EQ(from_file->effectiveValues(), defaults.effectiveValues());
+}
+
+TEST(ClientConfig, ExampleIsTheTablesRendering) {
+  const char* header =
+      "rgbdmap-client configuration: every key of the robot program with its default value, [range] and\n"
+      "meaning. Any key may be left out (the default applies); unknown keys and out-of-range values are\n"
+      "reported together at start-up (exit 2). Used by `build/bin/rgbdmap-client --config FILE`. The "
+      "odometry\n"
+      "is configured exactly as for `rgbdmap odometry --config`: the camera:, dataset: and odometry: "
+      "sections\n"
+      "of deploy/config/odometry.yaml may be added to this file unchanged. Rendered from the config tables\n"
+      "(robotClientConfigValues); tests/client/test_robot_run.cpp checks that this file is exactly their\n"
+      "rendering.";
+  testing::expectFileEqualsRendering(kClientExample, renderConfigYaml(header, robotClientConfigValues({})));
 }
 
 TEST(ClientConfig, BadValuesAreAllReported) {

@@ -54,7 +54,7 @@ TEST(Camera, ValidateReportsBadValues) {
   k.fx = -1;
   k.depth_scale = std::nan("");
   const std::string err = k.validate();
-  EXPECT_NE(err.find("focal"), std::string::npos);
+  EXPECT_NE(err.find("fx = -1 is outside [1, 100000]"), std::string::npos) << err;
   EXPECT_NE(err.find("depth_scale"), std::string::npos);
 }
 

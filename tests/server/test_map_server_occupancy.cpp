@@ -246,7 +246,7 @@ TEST(MapServerOccupancy, InvalidOccupancyConfigurationIsRefusedAtStart) {
   ASSERT_FALSE(s);
   EXPECT_NE(s.error().find("occupancy"), std::string::npos) << s.error();
   EXPECT_NE(s.error().find("slice"), std::string::npos) << s.error();
-  EXPECT_NE(s.error().find("map_stream_period_s"), std::string::npos) << s.error();
+  EXPECT_NE(s.error().find("map.stream_period_s"), std::string::npos) << s.error();
 }
 
 /// A real robot (RobotLink + runRobot with avoidance on) against the real server on the synthetic loop: it

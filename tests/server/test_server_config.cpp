@@ -3,6 +3,7 @@
 
 #include <gtest/gtest.h>
 
+#include "config_file_check.hpp"
 #include "rgbdmap/server/server_config.hpp"
 
 namespace rgbdmap {
@@ -21,6 +22,34 @@ TEST(ServerConfig, ExampleLoadsWithoutErrorsAndStatesTheDefaults) {
   readServerConfig(defaults, &c);
   EXPECT_EQ(reader->effectiveValues(), defaults.effectiveValues());
   EXPECT_EQ(from_file.server.validate(), "");
+}
+
+TEST(ServerConfig, ExampleIsTheTablesRendering) {
+  const char* header =
+      "rgbdmap-server configuration: every key with its default value, [range] and meaning. Any key may be\n"
+      "left out (the default applies); unknown keys and out-of-range values are reported together at\n"
+      "start-up. Used by `rgbdmap-server --config FILE` and `rgbdmap run --server-config FILE`. Rendered "
+      "from\n"
+      "the config tables (serverConfigValues); tests/server/test_server_config.cpp checks that this file is\n"
+      "exactly their rendering.";
+  testing::expectFileEqualsRendering(kExample, renderConfigYaml(header, serverConfigValues({})));
+}
+
+TEST(ServerConfig, OccupancyRangesAreTheSameInTheFileAndInValidate) {
+  // The voxel fraction and the sensor model: one range each, used by the reader and by validate().
+  auto reader = ConfigReader::fromString("map:\n  cloud_voxel_fraction: 1.5\n  prob_hit: 0.5\n", "x.yaml");
+  ASSERT_TRUE(reader);
+  ServerAppConfig c;
+  readServerConfig(*reader, &c);
+  const auto errors = reader->errors();
+  ASSERT_EQ(errors.size(), 2u);
+  EXPECT_NE(errors[0].find("map.prob_hit = 0.5 is outside (0.5, 1)"), std::string::npos) << errors[0];
+  EXPECT_NE(errors[1].find("map.cloud_voxel_fraction = 1.5 is outside [0, 1]"), std::string::npos)
+      << errors[1];
+  c.server.occupancy.cloud_voxel_fraction = 1.5;
+  c.server.occupancy.prob_hit = 0.5;
+  EXPECT_NE(c.server.validate().find("cloud_voxel_fraction = 1.5 is outside [0, 1]"), std::string::npos);
+  EXPECT_NE(c.server.validate().find("prob_hit = 0.5 is outside (0.5, 1)"), std::string::npos);
 }
 
 TEST(ServerConfig, BadValuesAndUnknownKeysAreAllReported) {

@@ -58,7 +58,7 @@ OdometrySetup loadOdometrySetup(cli::Args& args, const std::string& dataset_dir,
   }
   readCameraConfig(reader, "camera.", &s.camera);
   readOdometryConfig(reader, &s.odometry);
-  reader.read("dataset.max_time_diff", &s.dataset.max_time_diff, 0.0, 10.0);
+  readDatasetConfig(reader, &s.dataset);
   if (read_more) read_more(reader);
   for (const auto& e : reader.errors()) errors->push_back(e);
   applyOverrides(args, &s, errors);
@@ -67,7 +67,7 @@ OdometrySetup loadOdometrySetup(cli::Args& args, const std::string& dataset_dir,
   s.dataset.depth_scale = s.camera.depth_scale;
   s.dataset.expected_width = s.camera.width;
   s.dataset.expected_height = s.camera.height;
-  s.effective = reader.effectiveValues();
+  s.effective = odometryFileValues(s.camera, s.dataset, s.odometry);
   return s;
 }
 

@@ -8,6 +8,7 @@
 #include <functional>
 #include <string_view>
 #include "rgbdmap/common/logging.hpp"
+#include "rgbdmap/link/link_config_tables.hpp"
 #include "rgbdmap/proto/channels.hpp"
 #include "rgbdmap/vision/keyframe_message.hpp"
 
@@ -43,12 +44,7 @@ std::string RobotLinkOptions::validate() const {
   if (!key.empty() && key.size() < msg::kMinKeyBytes)
     fail("key must be empty (unsigned) or at least " + std::to_string(msg::kMinKeyBytes) + " bytes");
   if (const std::string e = camera.validate(); !e.empty()) fail("camera: " + e);
-  for (const auto& [name, value] :
-       {std::pair{"heartbeat_period_s", heartbeat_period_s}, std::pair{"hello_period_s", hello_period_s}})
-    if (!(value >= 0.01 && value <= 3600.0)) fail(std::string(name) + " must be in [0.01, 3600]");
-  if (!(send_timeout_s >= 0.0 && send_timeout_s <= 3600.0)) fail("send_timeout_s must be in [0, 3600]");
-  if (reliable.max_pending < 1) fail("reliable.max_pending must be >= 1");
-  if (reliable.max_attempts < 1) fail("reliable.max_attempts must be >= 1");
+  for (const std::string& problem : robotLinkConfigTable().problems(*this)) fail(problem);
   return out;
 }
 

@@ -1,34 +1,83 @@
 #include "rgbdmap/server/map_server_config.hpp"
 
+#include "rgbdmap/graph/pose_graph_config_table.hpp"
+#include "rgbdmap/loop/loop_config_tables.hpp"
+#include "rgbdmap/map/map_config_tables.hpp"
 #include "rgbdmap/proto/channels.hpp"
 
 namespace rgbdmap {
+namespace {
+
+using C = MapServerConfig;
+
+// The server's own values (its parts have tables of their own).
+const ConfigTable<C>& ownTable() {
+  using R = ConfigRange;
+  static const ConfigTable<C> table =
+      ConfigTable<C>()
+          .add("server.map_dir", &C::map_dir,
+               "durable keyframes, loop edges and robot cameras; a restart on it resumes the map")
+          .add("server.robots", &C::robots,
+               "robots to serve, comma-separated (\"robot0,robot1\"); empty: any robot the keys "
+               "admit, via an \"rgbdmap/*\" subscription (LCM only; DDS needs the list)")
+          .add("server.store_sync", &C::store_sync,
+               "fdatasync every keyframe before acknowledging it (durability)")
+          .add("server.status_period_s", &C::status_period_s, ConfigRange::closed(0.0, 3600.0),
+               "ServerStatus to every robot (s); 0: off")
+          .add("server.ingest_queue_capacity", &C::ingest_queue_capacity, R::closed(1, 100000),
+               "keyframes waiting for the worker; beyond, they are left unacknowledged")
+          .add("server.default_odometry_sigma_m", &C::default_odometry_sigma_m, R::closedOpen(1e-4, 10.0),
+               "odometry edge uncertainty when a keyframe carries no information matrix")
+          .add("server.default_odometry_sigma_deg", &C::default_odometry_sigma_deg, R::closedOpen(1e-3, 90.0),
+               "")
+          .add("server.edge_sigma_floor_m", &C::edge_sigma_floor_m, R::closed(0.0, 10.0),
+               "added to every edge's covariance (1 sigma): the Hessian-based information of refinement is "
+               "sub-millimetre and would make real drift look like outliers")
+          .add("server.edge_sigma_floor_deg", &C::edge_sigma_floor_deg, R::closed(0.0, 90.0), "")
+          .add("map.enabled", &C::occupancy_enabled,
+               "false: no octree, no slices, no map stream, no map files")
+          .add("map.stream_period_s", &C::map_stream_period_s, R::closed(0.0, 3600.0),
+               "MapUpdate to every robot (its own map; full first and after rebuilds); 0: off")
+          .add("slice.period_s", &C::slice_period_s, R::closed(0.0, 3600.0),
+               "at most one slice per robot per this period");
+  return table;
+}
+
+}  // namespace
+
+const ConfigTable<MapServerConfig>& mapServerConfigTable() {
+  static const ConfigTable<C> table =
+      ConfigTable<C>()
+          .section("server", "")  // the sections in this order
+          .section("loop", "")
+          .section("graph", "")
+          .section("map", "")
+          .section("slice", "")
+          .append(ownTable())
+          .section("loop", "loop closure, Hu et al. 2017 section 3.2, plus nearby and appearance candidates")
+          .nest("loop.", &C::loop, loopDetectorConfigTable())
+          .section("graph", "Ceres pose graph on SE(3)")
+          .nest("graph.", &C::graph, poseGraphConfigTable())
+          .section("map", "occupancy octree (issue #5), built on the server's map worker thread")
+          .nest("map.", &C::occupancy, occupancyMapConfigTable())
+          .section("slice", "OccupancySlice to each robot after its keyframes (ROS OccupancyGrid values)")
+          .nest("slice.", &C::slice, sliceConfigTable());
+  return table;
+}
 
 std::string MapServerConfig::validate() const {
-  std::vector<std::string> problems;
+  std::vector<std::string> problems = ownTable().problems(*this);
   if (map_dir.empty()) problems.push_back("map_dir is empty");
   for (const std::string& r : robots)
     if (!msg::channelFor(msg::MessageType::kHello, r)) problems.push_back("invalid robot id '" + r + "'");
-  if (!(status_period_s >= 0.0 && status_period_s <= 3600.0))
-    problems.push_back("status_period_s not in [0, 3600]");
-  if (ingest_queue_capacity < 1 || ingest_queue_capacity > 100000)
-    problems.push_back("ingest_queue_capacity not in [1, 100000]");
-  if (!(default_odometry_sigma_m > 0.0 && default_odometry_sigma_m < 10.0))
-    problems.push_back("default_odometry_sigma_m not in (0, 10)");
-  if (!(default_odometry_sigma_deg > 0.0 && default_odometry_sigma_deg < 90.0))
-    problems.push_back("default_odometry_sigma_deg not in (0, 90)");
   if (const std::string l = loop.validate(); !l.empty()) problems.push_back(l);
+  if (const std::string g = joinProblems(poseGraphConfigTable().problems(graph)); !g.empty())
+    problems.push_back("graph: " + g);
   if (occupancy_enabled) {
     if (const std::string o = occupancy.validate(); !o.empty()) problems.push_back("occupancy: " + o);
     if (const std::string sl = slice.validate(); !sl.empty()) problems.push_back("slice: " + sl);
   }
-  if (!(slice_period_s >= 0.0 && slice_period_s <= 3600.0))
-    problems.push_back("slice_period_s not in [0, 3600]");
-  if (!(map_stream_period_s >= 0.0 && map_stream_period_s <= 3600.0))
-    problems.push_back("map_stream_period_s not in [0, 3600]");
-  std::string out;
-  for (const std::string& p : problems) out += (out.empty() ? "" : "; ") + p;
-  return out;
+  return joinProblems(problems);
 }
 
 }  // namespace rgbdmap

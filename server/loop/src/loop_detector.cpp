@@ -2,6 +2,8 @@
 
 #include <chrono>
 
+#include "rgbdmap/loop/loop_config_tables.hpp"
+
 namespace rgbdmap {
 namespace {
 
@@ -15,41 +17,10 @@ bool consistent(const FrameFeatures& f) {
          f.p_cam.size() == n && (n == 0 || (f.descriptors.type() == CV_8U && f.descriptors.cols == 32));
 }
 
-void require(bool ok, const char* what, std::string* reasons) {
-  if (ok) return;
-  if (!reasons->empty()) *reasons += "; ";
-  *reasons += what;
-}
-
 }  // namespace
 
 std::string LoopDetectorConfig::validate() const {
-  std::string r;
-  const LoopCandidateConfig& c = candidates;
-  require(c.recent_k >= 0 && c.random_l >= 0 && c.nearby_max >= 0, "candidate counts must be >= 0", &r);
-  require(c.retrieval_top_n >= 0 && c.exclude_recent >= 0, "retrieval_top_n, exclude_recent must be >= 0",
-          &r);
-  require(c.max_candidates >= 1, "max_candidates must be >= 1", &r);
-  require(c.nearby_radius_m >= 0.0, "nearby_radius_m must be >= 0", &r);
-  require(c.nearby_angle_deg >= 0.0 && c.nearby_angle_deg <= 180.0, "nearby_angle_deg must be in [0, 180]",
-          &r);
-  require(verify.min_matches >= 3 && verify.min_inliers >= 3 && verify.min_inliers_retrieval >= 3,
-          "min_matches, min_inliers, min_inliers_retrieval must be >= 3", &r);
-  require(verify.k1 >= 0.0 && verify.k2 >= 0.0, "k1, k2 must be >= 0", &r);
-  require(verify.max_motion_measure > 0.0 && verify.max_motion_measure_retrieval > 0.0 &&
-              verify.max_prior_disagreement > 0.0,
-          "E thresholds must be > 0", &r);
-  require(verify.min_refined_fraction >= 0.0 && verify.min_refined_fraction <= 1.0,
-          "min_refined_fraction must be in [0, 1]", &r);
-  require(words.tables >= 1 && words.bits_per_word >= 1 && words.bits_per_word <= 20,
-          "words: tables >= 1, bits_per_word in [1, 20]", &r);
-  require(words.stop_word_fraction > 0.0 && words.stop_word_fraction <= 1.0,
-          "stop_word_fraction must be in (0, 1]", &r);
-  require(consistency.max_translation_m > 0.0 && consistency.max_rotation_deg > 0.0,
-          "consistency thresholds must be > 0", &r);
-  require(min_retrieval_score >= 0.0 && min_retrieval_score <= 1.0, "min_retrieval_score must be in [0, 1]",
-          &r);
-  return r;
+  return joinProblems(loopDetectorConfigTable().problems(*this));
 }
 
 LoopDetector::LoopDetector(const CameraIntrinsics& default_camera, const LoopDetectorConfig& config)
@@ -161,11 +132,13 @@ Result<LoopDetection> LoopDetector::addKeyframe(LoopKeyframe keyframe) {
 }
 
 Status LoopDetector::restoreKeyframe(LoopKeyframe keyframe) {
-  if (slot_of_.count(keyframe.id) != 0) return Status::failure("duplicate keyframe id " + std::to_string(keyframe.id));
+  if (slot_of_.count(keyframe.id) != 0)
+    return Status::failure("duplicate keyframe id " + std::to_string(keyframe.id));
   if (!consistent(keyframe.features))
     return Status::failure("keyframe " + std::to_string(keyframe.id) + ": inconsistent features");
   const int robot_sequence = robot_count_[keyframe.robot_id]++;
-  index_.insert(keyframe.id, keyframe.robot_id, robot_sequence, hasher_.histogram(keyframe.features.descriptors));
+  index_.insert(keyframe.id, keyframe.robot_id, robot_sequence,
+                hasher_.histogram(keyframe.features.descriptors));
   slot_of_.emplace(keyframe.id, keyframes_.size());
   summaries_.push_back({keyframe.id, keyframe.robot_id, keyframe.map_id, keyframe.T_map_kf});
   keyframes_.push_back(std::move(keyframe));

@@ -6,6 +6,7 @@
 
 #include <opencv2/imgproc.hpp>
 
+#include "rgbdmap/map/map_config_tables.hpp"
 #include "rgbdmap/map/occupancy_map.hpp"
 
 namespace rgbdmap {
@@ -124,27 +125,9 @@ Result<KeyframeCloud> makeKeyframeCloud(int64_t keyframe_id, const cv::Mat& dept
 }
 
 std::string OccupancyMapConfig::validate() const {
-  std::ostringstream why;
-  const auto check = [&](bool ok, const char* what) {
-    if (!ok) why << (why.tellp() > 0 ? "; " : "") << what;
-  };
-  check(std::isfinite(resolution_m) && resolution_m >= 0.005 && resolution_m <= 1.0,
-        "resolution_m must be in [0.005, 1]");
-  check(std::isfinite(min_range_m) && min_range_m >= 0.0, "min_range_m must be >= 0");
-  check(std::isfinite(max_range_m) && max_range_m > min_range_m && max_range_m <= 50.0,
-        "max_range_m must be in (min_range_m, 50]");
-  check(prob_hit > 0.5 && prob_hit < 1.0, "prob_hit must be in (0.5, 1)");
-  check(prob_miss > 0.0 && prob_miss < 0.5, "prob_miss must be in (0, 0.5)");
-  check(clamp_min > 0.0 && clamp_min < 0.5, "clamp_min must be in (0, 0.5)");
-  check(clamp_max > 0.5 && clamp_max < 1.0, "clamp_max must be in (0.5, 1)");
-  check(std::isfinite(rebuild_translation_m) && rebuild_translation_m >= 0.0,
-        "rebuild_translation_m must be >= 0");
-  check(std::isfinite(rebuild_rotation_rad) && rebuild_rotation_rad >= 0.0,
-        "rebuild_rotation_rad must be >= 0");
-  check(pixel_stride >= 0 && pixel_stride <= 64, "pixel_stride must be in [0, 64] (0 = automatic)");
-  check(std::isfinite(cloud_voxel_fraction) && cloud_voxel_fraction >= 0.0 && cloud_voxel_fraction <= 1.0,
-        "cloud_voxel_fraction must be in [0, 1]");
-  return why.str();
+  std::vector<std::string> problems = occupancyMapConfigTable().problems(*this);
+  if (!(max_range_m > min_range_m)) problems.push_back("max_range_m must be above min_range_m");
+  return joinProblems(problems);
 }
 
 }  // namespace rgbdmap

@@ -7,6 +7,8 @@
 
 #include <octomap/OcTree.h>
 
+#include "rgbdmap/map/map_config_tables.hpp"
+
 namespace rgbdmap {
 namespace {
 
@@ -85,18 +87,13 @@ std::vector<uint8_t> fillColumns(const octomap::OcTree& tree, float occupied_log
 }  // namespace
 
 std::string SliceConfig::validate() const {
-  std::ostringstream why;
-  const auto check = [&](bool ok, const char* what) {
-    if (!ok) why << (why.tellp() > 0 ? "; " : "") << what;
-  };
-  check(std::isfinite(resolution_m) && resolution_m >= 0.001 && resolution_m <= 10.0,
-        "resolution_m must be in [0.001, 10]");
-  check(std::isfinite(size_m) && size_m >= resolution_m && size_m / resolution_m <= msg::kMaxGridSide,
-        "size_m must be >= resolution_m and at most kMaxGridSide cells");
-  check(std::isfinite(z_min_m) && std::isfinite(z_max_m) && z_min_m < z_max_m, "z_min_m must be < z_max_m");
-  check(up_in_map.allFinite() && up_in_map.norm() > 1e-9, "up_in_map must be a finite non-zero vector");
-  check(occupied_threshold > 0.0 && occupied_threshold < 1.0, "occupied_threshold must be in (0, 1)");
-  return why.str();
+  std::vector<std::string> problems = sliceConfigTable().problems(*this);
+  if (!(size_m >= resolution_m && size_m / resolution_m <= msg::kMaxGridSide))
+    problems.push_back("size_m must be >= resolution_m and at most kMaxGridSide cells");
+  if (!(z_min_m < z_max_m)) problems.push_back("z_min_m must be < z_max_m");
+  if (!(up_in_map.allFinite() && up_in_map.norm() > 1e-9))
+    problems.push_back("up_in_map must be a finite non-zero vector");
+  return joinProblems(problems);
 }
 
 Result<msg::OccupancySlice> extractSlice(const octomap::OcTree& tree, const SE3& T_map_cam,

@@ -6,6 +6,7 @@
 #include <string>
 #include <vector>
 
+#include "rgbdmap/common/config_range.hpp"
 #include "rgbdmap/common/result.hpp"
 
 namespace YAML {
@@ -28,6 +29,10 @@ class ConfigReader {
   void read(const std::string& key, unsigned* value, unsigned min, unsigned max);
   void read(const std::string& key, double* value, double min, double max);
   void read(const std::string& key, float* value, float min, float max);
+  /// The same with a range that may have open or absent ends (config_range.hpp). T is int, unsigned,
+  /// unsigned long, long long, float or double.
+  template <typename T>
+  void read(const std::string& key, T* value, const ConfigRange& range);
   void read(const std::string& key, bool* value);
   void read(const std::string& key, std::string* value, const std::vector<std::string>& allowed = {});
   /// A fixed-length list of finite numbers, e.g. distortion [k1, k2, p1, p2, k3].
@@ -42,8 +47,6 @@ class ConfigReader {
 
  private:
   bool lookup(const std::string& key, YAML::Node* out) const;
-  template <typename T>
-  void readNumber(const std::string& key, T* value, T min, T max);
 
   std::shared_ptr<YAML::Node> root_;
   std::string source_;

@@ -18,7 +18,7 @@ struct OdometrySetup {
   OdometryConfig odometry;
   DatasetOptions dataset;
   std::string camera_source = "defaults (TUM freiburg1)";
-  std::string effective;  ///< "key = value" lines of the configuration in effect
+  std::vector<ConfigValue> effective;  ///< the camera:, dataset: and odometry: values in effect
 };
 
 /// Builds the setup for `dataset_dir` from --config, --intrinsics and --depth-scale in `args`.

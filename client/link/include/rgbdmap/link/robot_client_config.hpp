@@ -1,11 +1,13 @@
 #pragma once
 // The robot program's configuration (deploy/config/client.yaml): robot id, key file, transport URL, link,
-// reliable-sender and keyframe-codec settings. Read through ConfigReader (every key optional, ranges
+// reliable-sender and keyframe-codec settings. Read through its config table (every key optional, ranges
 // checked, all errors collected); the camera:, dataset: and odometry: sections are read by
 // odometry_config_io.hpp exactly as for `rgbdmap odometry --config`.
 #include <string>
+#include <vector>
 
 #include "rgbdmap/common/config_reader.hpp"
+#include "rgbdmap/common/config_table.hpp"
 #include "rgbdmap/common/result.hpp"
 #include "rgbdmap/link/robot_link.hpp"
 
@@ -21,8 +23,14 @@ struct RobotClientConfig {
   RobotLinkOptions link;
 };
 
+/// robot.*, transport.*, link.* (incl. link.reliable.*, link.codec.*).
+const ConfigTable<RobotClientConfig>& robotClientConfigTable();
+
 /// Reads robot.*, transport.*, link.* (incl. link.reliable.*, link.codec.*) into *config.
 void readRobotClientConfig(ConfigReader& reader, RobotClientConfig* config);
+
+/// The file's keys with these values, as documented and logged.
+std::vector<ConfigValue> robotClientConfigValues(const RobotClientConfig& config);
 
 /// Reads a key file: hex digits (whitespace ignored; '#' starts a comment line). Relative paths are taken
 /// relative to `base_dir` (the configuration file's folder) when it is not empty.

@@ -5,6 +5,7 @@
 #include <string>
 #include <vector>
 
+#include "rgbdmap/common/config_table.hpp"
 #include "rgbdmap/graph/pose_graph.hpp"
 #include "rgbdmap/loop/loop_detector.hpp"
 #include "rgbdmap/map/occupancy_map.hpp"
@@ -40,5 +41,9 @@ struct MapServerConfig {
 
   std::string validate() const;  ///< "" when valid, else every problem ("; "-separated)
 };
+
+/// Every key of the server's file but server.transport, keys_file and open_mode (server_config.hpp): its own
+/// (server.*, map.enabled, map.stream_period_s, slice.period_s), then loop.*, graph.*, map.*, slice.*.
+const ConfigTable<MapServerConfig>& mapServerConfigTable();
 
 }  // namespace rgbdmap

@@ -1,9 +1,11 @@
 #pragma once
 // What the rgbdmap-server program (and `rgbdmap run`) reads from its YAML configuration. Every key is
-// documented in deploy/config/server.yaml; a test keeps that file equal to these defaults.
+// documented in deploy/config/server.yaml; a test renders the table below and compares it with that file.
 #include <string>
+#include <vector>
 
 #include "rgbdmap/common/config_reader.hpp"
+#include "rgbdmap/common/config_table.hpp"
 #include "rgbdmap/server/map_server.hpp"
 
 namespace rgbdmap {
@@ -15,7 +17,13 @@ struct ServerAppConfig {
   bool open_mode = false;                 ///< accept unsigned messages from robots without a key (demos)
 };
 
-/// Reads every key (server.*, loop.*, graph.*); problems are recorded in the reader.
+/// Every key of the file: mapServerConfigTable() plus server.transport, server.keys_file, server.open_mode.
+const ConfigTable<ServerAppConfig>& serverAppConfigTable();
+
+/// Reads every key (server.*, loop.*, graph.*, map.*, slice.*); problems are recorded in the reader.
 void readServerConfig(ConfigReader& reader, ServerAppConfig* config);
+
+/// The file's keys with these values, as documented and logged.
+std::vector<ConfigValue> serverConfigValues(const ServerAppConfig& config);
 
 }  // namespace rgbdmap

@@ -1,0 +1,65 @@
+#include "rgbdmap/link/link_config_tables.hpp"
+
+#include "rgbdmap/proto/envelope.hpp"
+
+namespace rgbdmap {
+
+using R = ConfigRange;
+
+const ConfigTable<transport::ReliableSenderOptions>& reliableSenderConfigTable() {
+  using C = transport::ReliableSenderOptions;
+  static const ConfigTable<C> table =
+      ConfigTable<C>()
+          .add("max_pending", &C::max_pending, R::closed(1, 100000),
+               "keyframes in flight (unacknowledged); the send window")
+          .add("initial_backoff_ms", &C::initial_backoff, R::closed(1, 600000),
+               "first retransmission after this long ...")
+          .add("max_backoff_ms", &C::max_backoff, R::closed(1, 600000),
+               "... growing by backoff_factor per attempt up to this (>= initial_backoff_ms)")
+          .add("backoff_factor", &C::backoff_factor, R::closed(1.0, 10.0), "")
+          .add("jitter", &C::jitter, R::closed(0.0, 0.9), "each delay scaled by 1 + U(-jitter, +jitter)")
+          .add("max_attempts", &C::max_attempts, R::closed(1, 100000),
+               "transmissions per keyframe (first included) before it is given up");
+  return table;
+}
+
+const ConfigTable<ImageCodecOptions>& imageCodecConfigTable() {
+  using C = ImageCodecOptions;
+  static const ConfigTable<C> table =
+      ConfigTable<C>()
+          .addChoice(
+              "color", &C::color,
+              {{ColorCodec::kJpeg, "jpeg"}, {ColorCodec::kLossless, "lossless"}, {ColorCodec::kNone, "none"}},
+              "")
+          .add("jpeg_quality", &C::jpeg_quality, R::closed(1, 100), "")
+          .add("max_keyframe_bytes", &C::max_keyframe_bytes, R::closed(0, msg::kMaxEnvelopeBytes),
+               "depth + JPEG above this: colour re-encoded at lower quality; 0 = no budget")
+          .add("min_jpeg_quality", &C::min_jpeg_quality, R::closed(1, 100),
+               "lowest quality the budget may step down to")
+          .addChoice("depth_filter", &C::depth_filter,
+                     {{DepthFilter::kRankMed, "rank-med"},
+                      {DepthFilter::kRowDelta, "row-delta"},
+                      {DepthFilter::kNone, "none"}},
+                     "(rank-med is the smallest; depth is always lossless)")
+          .add("zstd_level", &C::zstd_level, R::closed(1, 19), "depth and lossless colour");
+  return table;
+}
+
+const ConfigTable<RobotLinkOptions>& robotLinkConfigTable() {
+  using C = RobotLinkOptions;
+  static const ConfigTable<C> table =
+      ConfigTable<C>()
+          .add("heartbeat_period_s", &C::heartbeat_period_s, R::closed(0.01, 3600.0),
+               "Heartbeat (last keyframe, segment, tracking state, uptime) every this many seconds")
+          .add("hello_period_s", &C::hello_period_s, R::closed(0.01, 3600.0),
+               "Hello again every this many seconds until the server has answered anything")
+          .add("send_timeout_s", &C::send_timeout_s, R::closed(0.0, 3600.0),
+               "a keyframe waits at most this long for room in the send window, then is skipped")
+          .section("reliable", "keyframe delivery (resent until acknowledged)")
+          .nest("reliable.", &C::reliable, reliableSenderConfigTable())
+          .section("codec", "keyframe images (common/image_codec.hpp)")
+          .nest("codec.", &C::codec, imageCodecConfigTable());
+  return table;
+}
+
+}  // namespace rgbdmap

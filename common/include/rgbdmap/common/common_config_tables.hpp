@@ -1,0 +1,15 @@
+#pragma once
+// Config tables (config_table.hpp) of the camera and the dataset reader: keys, ranges, meanings.
+#include "rgbdmap/common/camera.hpp"
+#include "rgbdmap/common/config_table.hpp"
+#include "rgbdmap/common/tum_dataset.hpp"
+
+namespace rgbdmap {
+
+/// fx, fy, cx, cy, width, height, distortion, depth_scale (the `camera:` section).
+const ConfigTable<CameraIntrinsics>& cameraConfigTable();
+
+/// max_time_diff (the `dataset:` section); depth_scale and the expected image size are set by code.
+const ConfigTable<DatasetOptions>& datasetConfigTable();
+
+}  // namespace rgbdmap

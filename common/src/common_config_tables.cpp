@@ -1,0 +1,38 @@
+#include "rgbdmap/common/common_config_tables.hpp"
+
+namespace rgbdmap {
+
+const ConfigTable<CameraIntrinsics>& cameraConfigTable() {
+  using C = CameraIntrinsics;
+  using R = ConfigRange;
+  static const ConfigTable<C> table =
+      ConfigTable<C>()
+          .add("fx", &C::fx, R::closed(1.0, 1e5), "focal length (px); default: TUM freiburg1 colour camera")
+          .add("fy", &C::fy, R::closed(1.0, 1e5), "")
+          .add("cx", &C::cx, R::closed(-1e5, 1e5), "principal point (px)")
+          .add("cy", &C::cy, R::closed(-1e5, 1e5), "")
+          .add("width", &C::width, R::closed(1, 16384), "image size (px)")
+          .add("height", &C::height, R::closed(1, 16384), "")
+          .add("distortion", &C::distortion, "k1 k2 p1 p2 k3 (OpenCV order); zeros = pinhole")
+          .add("depth_scale", &C::depth_scale, R::closed(1e-6, 1e9),
+               "depth image units per metre (TUM 5000, Kinect/RealSense millimetres 1000)");
+  return table;
+}
+
+const ConfigTable<DatasetOptions>& datasetConfigTable() {
+  using D = DatasetOptions;
+  using R = ConfigRange;
+  static const ConfigTable<D> table =
+      ConfigTable<D>()
+          .add("max_time_diff", &D::max_time_diff, R::openClosed(0.0, 10.0),
+               "colour <-> depth association tolerance (s)")
+          .add("depth_scale", &D::depth_scale, R::above(0.0), "depth units per metre (from the camera)")
+          .codeOnly()
+          .add("expected_width", &D::expected_width, R::atLeast(0), "0 accepts any width")
+          .codeOnly()
+          .add("expected_height", &D::expected_height, R::atLeast(0), "0 accepts any height")
+          .codeOnly();
+  return table;
+}
+
+}  // namespace rgbdmap

@@ -1,0 +1,25 @@
+#include "rgbdmap/graph/pose_graph_config_table.hpp"
+
+namespace rgbdmap {
+
+const ConfigTable<PoseGraphConfig>& poseGraphConfigTable() {
+  using C = PoseGraphConfig;
+  using R = ConfigRange;
+  static const ConfigTable<C> table =
+      ConfigTable<C>()
+          .add("loop_loss_scale", &C::loop_loss_scale, R::closed(0.01, 1000.0),
+               "robust loss scale on loop edges, in sigmas")
+          .add("use_cauchy", &C::use_cauchy, "Cauchy (true) or Huber (false)")
+          .add("max_iterations", &C::max_iterations, R::closed(1, 10000),
+               "Levenberg-Marquardt iterations per solve")
+          .add("max_solver_time_s", &C::max_solver_time_s, R::closed(0.001, 3600.0),
+               "wall-clock limit per solve")
+          .add("outlier_chi2", &C::outlier_chi2, R::closed(0.1, 1e6),
+               "loop edges above this whitened chi2 (6 dof, 99.9%) are disabled after a solve")
+          .add("max_outlier_rounds", &C::max_outlier_rounds, R::closed(0, 100),
+               "re-solves after disabling or re-admitting loop edges; 0 turns the check off")
+          .add("num_threads", &C::num_threads, R::closed(1, 256), "Ceres threads");
+  return table;
+}
+
+}  // namespace rgbdmap
