@@ -1,16 +1,36 @@
 #!/usr/bin/env bash
-# Builds and runs the whole test suite (CTest), then the GoogleTest suites again under AddressSanitizer +
-# UBSan (build-asan/). Tests needing ../shared/data skip when it is absent.
-# The multi-process integration test runs in the first pass only (timing-sensitive under ASan on 2 cores).
-# Environment: RGBDMAP_SKIP_SANITIZERS=1 skips the sanitizer pass (quicker local runs).
+# Builds rgbdmap and runs its tests through CTest. Every test carries tier labels (tests/CMakeLists.txt):
+#   unit   fast, no I/O beyond temporary files, no network
+#   e2e    end-to-end runs on synthetic or real data (odometry, loop closure, the server, the programs)
+#   slow   more than ~20 s in Release (always e2e too)
+#   netns  network tests in a private loopback-only namespace (skipped without root)
+#   cli    the programs driven by shell scripts (cli.*, run.transports.netns, integration.netns)
+# Usage:
+#   bash deploy/test.sh           the full suite (CI): every test in Release (build/), then every test but the
+#                                 cli tier again under AddressSanitizer + UBSan (build-asan/, RelWithDebInfo;
+#                                 the cli tier's multi-process runs are timing-sensitive under ASan)
+#   bash deploy/test.sh --quick   the unit tier only, Release, no sanitizers (about half a minute after the
+#                                 build)
+#   Further arguments go to ctest, e.g. `bash deploy/test.sh -L e2e` or `-R '^server\.'`.
+# Tests needing ../shared/data skip when it is absent. By hand: `ctest --test-dir build -L unit` (or e2e,
+# slow, netns, cli; -LE to exclude).
+# Environment: BUILD_DIR (Release tree, default build), RGBDMAP_SKIP_SANITIZERS=1 skips the sanitizer pass.
 set -euo pipefail
 root=$(cd "$(dirname "$0")/.." && pwd)
+quick=0
+if [ "${1:-}" = "--quick" ]; then
+  quick=1
+  shift
+fi
 "$root/deploy/build.sh"
+if [ "$quick" = 1 ]; then
+  exec ctest --test-dir "${BUILD_DIR:-$root/build}" --output-on-failure -j "$(nproc)" -L '^unit$' "$@"
+fi
 ctest --test-dir "${BUILD_DIR:-$root/build}" --output-on-failure -j "$(nproc)" "$@"
 if [ "${RGBDMAP_SKIP_SANITIZERS:-0}" != "1" ]; then
-  echo "== sanitizer pass (ASan + UBSan)"
+  echo "== sanitizer pass (ASan + UBSan): every tier but cli"
   BUILD_DIR="$root/build-asan" BUILD_TYPE=RelWithDebInfo \
     CMAKE_EXTRA_ARGS="-DRGBDMAP_SANITIZE=ON -DRGBDMAP_BUILD_BENCHMARKS=OFF" "$root/deploy/build.sh"
   UBSAN_OPTIONS=halt_on_error=1:print_stacktrace=1 ASAN_OPTIONS=detect_leaks=1 \
-    ctest --test-dir "$root/build-asan" --output-on-failure -j "$(nproc)" -E '^(cli|integration)\.' "$@"
+    ctest --test-dir "$root/build-asan" --output-on-failure -j "$(nproc)" -LE '^cli$' "$@"
 fi

@@ -1,7 +1,10 @@
 #pragma once
-// Shared by the server tests: odometry keyframes of synthetic sequences (computed once per process), and a
-// scripted robot that speaks the real protocol (signed Hello and Keyframes, acks and corrections back).
+// Shared by the server tests: the recorded odometry keyframes of the synthetic loop, a scripted robot that
+// speaks the real protocol (signed Hello and Keyframes, acks and corrections back), and the server harness.
+#include <unistd.h>
+
 #include <condition_variable>
+#include <filesystem>
 #include <functional>
 #include <map>
 #include <memory>
@@ -20,17 +23,19 @@
 #include "rgbdmap/server/map_server.hpp"
 #include "rgbdmap/transport/transport.hpp"
 #include "rgbdmap/vision/keyframe_message.hpp"
+#include "server/keyframe_fixture.hpp"
 
 namespace rgbdmap::testing {
 
 struct OdometrySegment {
   CameraIntrinsics camera;
-  Trajectory gt;  ///< every frame of the whole sequence, world frame
-  std::vector<std::shared_ptr<const Keyframe>> keyframes;
-  std::vector<EncodedImages> images;  ///< parallel to keyframes
+  Trajectory gt;                         ///< every frame of the whole sequence, world frame
+  std::vector<msg::Keyframe> keyframes;  ///< as the robot's odometry sent them (robot id "robot0")
 };
 
-/// Odometry over frames [first, end) of the synthetic "loop" scene with `frames` frames in all. Cached.
+/// Keyframes of the odometry over frames [first, end) of the synthetic "loop" scene with `frames` frames in
+/// all, from the recorded stream (keyframe_fixture.hpp: real odometry and codec, run once at build time;
+/// [first, end) is the prefix before frame `end` of the run from `first`). Cached per process.
 inline const OdometrySegment& loopSegment(int frames, int first, int end) {
   static std::mutex mutex;
   static std::map<std::tuple<int, int, int>, std::unique_ptr<OdometrySegment>> cache;
@@ -38,6 +43,7 @@ inline const OdometrySegment& loopSegment(int frames, int first, int end) {
   auto& slot = cache[{frames, first, end}];
   if (slot) return *slot;
   slot = std::make_unique<OdometrySegment>();
+  EXPECT_EQ(frames, kLoopFrames) << "the recorded stream is of the " << kLoopFrames << "-frame loop";
   SynthConfig cfg;
   cfg.scene = "loop";
   cfg.frames = frames;
@@ -46,16 +52,12 @@ inline const OdometrySegment& loopSegment(int frames, int first, int end) {
   if (!scene) return *slot;
   slot->camera = cfg.camera;
   slot->gt = scene->trajectory();
-  VisualOdometry vo(cfg.camera, OdometryConfig{});
-  for (int i = first; i < end; ++i) {
-    const RgbdFrame frame = scene->renderFrame(i);
-    const TrackingResult r = vo.track(frame);
-    if (!r.new_keyframe) continue;
-    auto images = encodeImages(frame);
-    EXPECT_TRUE(images) << images.error();
-    slot->keyframes.push_back(r.new_keyframe);
-    slot->images.push_back(images ? *images : EncodedImages{});
-  }
+  auto recorded = readKeyframeFixture(keyframeFixturePath(RGBDMAP_KEYFRAME_FIXTURE_DIR, first));
+  EXPECT_TRUE(recorded) << recorded.error();
+  if (!recorded || end < 1 || end > frames) return *slot;
+  const double end_stamp = slot->gt[static_cast<size_t>(end - 1)].timestamp + 1e-6;
+  for (msg::Keyframe& kf : *recorded)
+    if (kf.timestamp < end_stamp) slot->keyframes.push_back(std::move(kf));
   return *slot;
 }
 
@@ -99,6 +101,11 @@ class ScriptedRobot {
     auto m = keyframeToMessage(kf, id_, images);
     ASSERT_TRUE(m) << m.error();
     publish(*m);
+  }
+  /// A recorded keyframe message, sent as this robot's.
+  void send(msg::Keyframe kf) {
+    kf.robot_id = id_;
+    publish(kf);
   }
   template <typename T>
   void publish(const T& message) {
@@ -208,6 +215,49 @@ class ScriptedRobot {
   std::shared_ptr<State> state_;
 };
 
+/// A directory of that name under the test temp dir, unique per process, removed if present.
+inline std::string freshDir(const std::string& name) {
+  const std::string dir = ::testing::TempDir() + "rgbdmap_server_" + name + "_" + std::to_string(::getpid());
+  std::filesystem::remove_all(dir);
+  return dir;
+}
+
+/// The end-to-end tests' server configuration: map in `dir`, no fsync (durability is the store's own test),
+/// no status messages.
+inline MapServerConfig serverTestConfig(const std::string& dir,
+                                        std::vector<std::string> robots = {"robot0", "robot1"}) {
+  MapServerConfig config;
+  config.map_dir = dir;
+  config.robots = std::move(robots);
+  config.store_sync = false;
+  config.status_period_s = 0.0;
+  return config;
+}
+
+/// The real MapServer over memq://, knowing robot0 (testKey(1)) and robot1 (testKey(2)). A restart: stop
+/// and reset `server`, then start() again.
+struct ServerHarness {
+  std::unique_ptr<transport::Transport> transport = std::move(transport::makeTransport("memq://").value());
+  std::unique_ptr<MapServer> server;
+
+  explicit ServerHarness(const MapServerConfig& config) {
+    start(config);
+    EXPECT_TRUE(transport->start());
+  }
+  void start(const MapServerConfig& config) {
+    msg::KeyStore keys;
+    EXPECT_TRUE(keys.add("robot0", testKey(1)));
+    EXPECT_TRUE(keys.add("robot1", testKey(2)));
+    server = std::make_unique<MapServer>(config, *transport, std::move(keys));
+    const Status s = server->start();
+    EXPECT_TRUE(s) << s.error();
+  }
+  ~ServerHarness() {
+    transport->stop();
+    if (server) server->stop();
+  }
+};
+
 /// Sends keyframes [from, to) of `seg` (Hello first), then waits for all their acks and for the server to
 /// settle.
 inline void driveRobot(MapServer& server, ScriptedRobot& robot, const OdometrySegment& seg, size_t from = 0,
@@ -215,8 +265,8 @@ inline void driveRobot(MapServer& server, ScriptedRobot& robot, const OdometrySe
   robot.hello(seg.camera);
   std::set<int> ids;
   for (size_t i = from; i < std::min(to, seg.keyframes.size()); ++i) {
-    robot.send(*seg.keyframes[i], seg.images[i]);
-    ids.insert(seg.keyframes[i]->id);
+    robot.send(seg.keyframes[i]);
+    ids.insert(seg.keyframes[i].keyframe_id);
   }
   EXPECT_TRUE(robot.waitAcked(ids, 120.0)) << "not every keyframe was acknowledged";
   EXPECT_TRUE(server.waitIdle(120.0));
@@ -232,7 +282,7 @@ inline Trajectory serverTrajectory(const MapServer& server, const std::string& r
 
 inline Trajectory odometryTrajectory(const OdometrySegment& seg) {
   Trajectory t;
-  for (const auto& k : seg.keyframes) t.push_back({k->timestamp, k->T_odom_cam});
+  for (const msg::Keyframe& k : seg.keyframes) t.push_back({k.timestamp, k.T_odom_cam});
   return t;
 }
 

@@ -11,44 +11,16 @@
 namespace rgbdmap {
 namespace {
 
+using testing::freshDir;
+using testing::kLoopFrames;
 using testing::loopSegment;
 using testing::OdometrySegment;
 using testing::ScriptedRobot;
+using testing::serverTestConfig;
 
-constexpr int kFrames = 300;  // the default synthetic loop of `rgbdmap run`
-
-std::string freshDir(const std::string& name) {
-  const std::string dir = ::testing::TempDir() + "rgbdmap_server_" + name + "_" + std::to_string(::getpid());
-  std::filesystem::remove_all(dir);
-  return dir;
-}
-
-struct Harness {
-  std::unique_ptr<transport::Transport> transport;
-  std::unique_ptr<MapServer> server;
-
-  explicit Harness(const std::string& dir, std::vector<std::string> robots = {"robot0", "robot1"}) {
-    transport = std::move(transport::makeTransport("memq://").value());
-    startServer(dir, std::move(robots));
-    EXPECT_TRUE(transport->start());
-  }
-  void startServer(const std::string& dir, std::vector<std::string> robots = {"robot0", "robot1"}) {
-    MapServerConfig config;
-    config.map_dir = dir;
-    config.robots = std::move(robots);
-    config.store_sync = false;  // durability is the store's own test; keep this one fast
-    config.status_period_s = 0.0;
-    msg::KeyStore keys;
-    EXPECT_TRUE(keys.add("robot0", rgbdmap::testing::testKey(1)));
-    EXPECT_TRUE(keys.add("robot1", rgbdmap::testing::testKey(2)));
-    server = std::make_unique<MapServer>(config, *transport, std::move(keys));
-    const Status s = server->start();
-    EXPECT_TRUE(s) << s.error();
-  }
-  ~Harness() {
-    transport->stop();
-    if (server) server->stop();
-  }
+/// The real server over memq:// with robot0 and robot1.
+struct Harness : testing::ServerHarness {
+  explicit Harness(const std::string& dir) : ServerHarness(serverTestConfig(dir)) {}
 };
 
 double ateOf(const Trajectory& gt, const Trajectory& est) {
@@ -58,7 +30,7 @@ double ateOf(const Trajectory& gt, const Trajectory& est) {
 }
 
 TEST(MapServer, LoopClosureReducesTheOdometryErrorOnTheSyntheticLoop) {
-  const OdometrySegment& seg = loopSegment(kFrames, 0, kFrames);
+  const OdometrySegment& seg = loopSegment(kLoopFrames, 0, kLoopFrames);
   ASSERT_GT(seg.keyframes.size(), 20u);
   Harness h(freshDir("loop"));
   ScriptedRobot robot(*h.transport, "robot0", rgbdmap::testing::testKey(1), 100);
@@ -69,9 +41,10 @@ TEST(MapServer, LoopClosureReducesTheOdometryErrorOnTheSyntheticLoop) {
   EXPECT_GE(s.optimizations, 1);
   const double odo = ateOf(seg.gt, testing::odometryTrajectory(seg));
   const double slam = ateOf(seg.gt, testing::serverTrajectory(*h.server, "robot0"));
-  std::printf("[ measured ] synthetic loop, %zu keyframes: odometry ATE %.4f m, with loop closure %.4f m, "
-              "%d loops, ingest median %.1f ms\n",
-              seg.keyframes.size(), odo, slam, s.loops_accepted, s.ingest_ms_median);
+  std::printf(
+      "[ measured ] synthetic loop, %zu keyframes: odometry ATE %.4f m, with loop closure %.4f m, "
+      "%d loops, ingest median %.1f ms\n",
+      seg.keyframes.size(), odo, slam, s.loops_accepted, s.ingest_ms_median);
   EXPECT_LE(slam, 0.65 * odo) << "loop closure must clearly reduce the drift (measured 0.0045 vs 0.0084 m)";
   // The robot got corrections for every keyframe it sent.
   const auto c = robot.corrections();
@@ -80,8 +53,8 @@ TEST(MapServer, LoopClosureReducesTheOdometryErrorOnTheSyntheticLoop) {
 }
 
 TEST(MapServer, TwoRobotsWithOverlappingSegmentsEndInOneMergedMap) {
-  const OdometrySegment& a = loopSegment(kFrames, 0, 120);
-  const OdometrySegment& b = loopSegment(kFrames, 80, kFrames);
+  const OdometrySegment& a = loopSegment(kLoopFrames, 0, 120);
+  const OdometrySegment& b = loopSegment(kLoopFrames, 80, kLoopFrames);
   Harness h(freshDir("merge"));
   ScriptedRobot r0(*h.transport, "robot0", rgbdmap::testing::testKey(1), 100);
   ScriptedRobot r1(*h.transport, "robot1", rgbdmap::testing::testKey(2), 100);
@@ -94,7 +67,8 @@ TEST(MapServer, TwoRobotsWithOverlappingSegmentsEndInOneMergedMap) {
   Trajectory both = testing::serverTrajectory(*h.server, "robot0");
   const Trajectory t1 = testing::serverTrajectory(*h.server, "robot1");
   both.insert(both.end(), t1.begin(), t1.end());
-  std::sort(both.begin(), both.end(), [](const StampedPose& x, const StampedPose& y) { return x.timestamp < y.timestamp; });
+  std::sort(both.begin(), both.end(),
+            [](const StampedPose& x, const StampedPose& y) { return x.timestamp < y.timestamp; });
   // Overlapping stamps appear twice (once per robot); computeAte associates by stamp, so evaluate jointly by
   // aligning on robot0 + robot1 poses with distinct stamps.
   Trajectory distinct;
@@ -103,8 +77,9 @@ TEST(MapServer, TwoRobotsWithOverlappingSegmentsEndInOneMergedMap) {
   const double joint = ateOf(a.gt, distinct);
   const double ate0 = ateOf(a.gt, testing::serverTrajectory(*h.server, "robot0"));
   const double ate1 = ateOf(a.gt, t1);
-  std::printf("[ measured ] two robots: ATE robot0 %.4f m, robot1 %.4f m, joint (one alignment) %.4f m, %d loops\n",
-              ate0, ate1, joint, h.server->stats().loops_accepted);
+  std::printf(
+      "[ measured ] two robots: ATE robot0 %.4f m, robot1 %.4f m, joint (one alignment) %.4f m, %d loops\n",
+      ate0, ate1, joint, h.server->stats().loops_accepted);
   EXPECT_LT(ate0, 0.008) << "measured 0.0021 m";
   EXPECT_LT(ate1, 0.008) << "measured 0.0038 m";
   EXPECT_LT(joint, 0.008) << "measured 0.0042 m; odometry alone on the whole loop is 0.0084 m";
@@ -122,13 +97,14 @@ TEST(MapServer, TwoRobotsWithOverlappingSegmentsEndInOneMergedMap) {
   std::vector<std::string> files;
   for (const auto& entry : std::filesystem::directory_iterator(out)) files.push_back(entry.path().filename());
   std::sort(files.begin(), files.end());
-  const std::vector<std::string> expected = {"map.bt", "map.ot", "map.ply", "map.png", "slice_robot0.pgm",
-                                             "slice_robot0.yaml", "slice_robot1.pgm", "slice_robot1.yaml"};
+  const std::vector<std::string> expected = {"map.bt",           "map.ot",           "map.ply",
+                                             "map.png",          "slice_robot0.pgm", "slice_robot0.yaml",
+                                             "slice_robot1.pgm", "slice_robot1.yaml"};
   EXPECT_EQ(files, expected);
 }
 
 TEST(MapServer, RestartOnTheSameMapDirectoryLosesNoAcknowledgedKeyframe) {
-  const OdometrySegment& seg = loopSegment(kFrames, 0, kFrames);
+  const OdometrySegment& seg = loopSegment(kLoopFrames, 0, kLoopFrames);
   const std::string dir = freshDir("restart");
   const size_t half = seg.keyframes.size() / 2;
   Harness h(dir);
@@ -139,7 +115,7 @@ TEST(MapServer, RestartOnTheSameMapDirectoryLosesNoAcknowledgedKeyframe) {
   }
   h.server->stop();
   h.server.reset();  // "killed": everything acknowledged is on disk
-  h.startServer(dir);
+  h.start(serverTestConfig(dir));
   EXPECT_EQ(h.server->stats().restored_keyframes, static_cast<int>(half));
   // The same robot process goes on: it re-sends its last three keyframes (acks it never saw) and the rest.
   ScriptedRobot robot(*h.transport, "robot0", rgbdmap::testing::testKey(1), 100);
@@ -157,8 +133,8 @@ TEST(MapServer, RestartOnTheSameMapDirectoryLosesNoAcknowledgedKeyframe) {
 
 TEST(MapServer, ARestartedRobotContinuesAsANewChainAndIsReAnchoredByLoopClosure) {
   // The robot process restarts half way: a new session, odometry from scratch in a new frame.
-  const OdometrySegment& first = loopSegment(kFrames, 0, 170);
-  const OdometrySegment& second = loopSegment(kFrames, 130, kFrames);
+  const OdometrySegment& first = loopSegment(kLoopFrames, 0, 170);
+  const OdometrySegment& second = loopSegment(kLoopFrames, 130, kLoopFrames);
   Harness h(freshDir("robot_restart"));
   {
     ScriptedRobot before(*h.transport, "robot0", rgbdmap::testing::testKey(1), 100);
@@ -174,7 +150,8 @@ TEST(MapServer, ARestartedRobotContinuesAsANewChainAndIsReAnchoredByLoopClosure)
   EXPECT_EQ(s.maps, 1) << "the second chain was not joined to the first";
   // Both chains in one alignment: only a correct re-anchoring puts them in one frame.
   Trajectory all = testing::serverTrajectory(*h.server, "robot0");
-  std::sort(all.begin(), all.end(), [](const StampedPose& a, const StampedPose& b) { return a.timestamp < b.timestamp; });
+  std::sort(all.begin(), all.end(),
+            [](const StampedPose& a, const StampedPose& b) { return a.timestamp < b.timestamp; });
   Trajectory distinct;
   for (const StampedPose& p : all)
     if (distinct.empty() || p.timestamp > distinct.back().timestamp + 1e-6) distinct.push_back(p);
@@ -189,7 +166,7 @@ TEST(MapServer, ARestartedRobotContinuesAsANewChainAndIsReAnchoredByLoopClosure)
 }
 
 TEST(MapServer, InjectedFalseLoopsDoNotMoveTheOptimisedTrajectory) {
-  const OdometrySegment& seg = loopSegment(kFrames, 0, kFrames);
+  const OdometrySegment& seg = loopSegment(kLoopFrames, 0, kLoopFrames);
   const std::string dir = freshDir("false_loops");
   std::vector<ServerKeyframe> clean;
   {
@@ -234,20 +211,20 @@ TEST(MapServer, InjectedFalseLoopsDoNotMoveTheOptimisedTrajectory) {
 }
 
 TEST(MapServer, BadInputIsCountedRefusedOrIgnoredAndNothingStoredIsLost) {
-  const OdometrySegment& seg = loopSegment(kFrames, 0, 60);
+  const OdometrySegment& seg = loopSegment(kLoopFrames, 0, 60);
   ASSERT_GE(seg.keyframes.size(), 3u);
   Harness h(freshDir("bad_input"));
   ScriptedRobot robot(*h.transport, "robot0", rgbdmap::testing::testKey(1), 100);
   // A keyframe before the Hello is not acknowledged (the robot sends it again later).
-  robot.send(*seg.keyframes[0], seg.images[0]);
+  robot.send(seg.keyframes[0]);
   ASSERT_TRUE(h.server->waitIdle(30.0));
   EXPECT_TRUE(robot.acks().empty());
   testing::driveRobot(*h.server, robot, seg, 0, 1);
-  EXPECT_EQ(robot.acks().at(seg.keyframes[0]->id), true);
+  EXPECT_EQ(robot.acks().at(seg.keyframes[0].keyframe_id), true);
   const uint64_t rejected_before = h.server->stats().messages_rejected;
   // Garbage, truncated and forged envelopes on the keyframe channel.
   robot.publishRaw("keyframe", msg::Bytes(100, 0xAB));
-  auto good = robot.signer().seal(keyframeToMessage(*seg.keyframes[1], "robot0", seg.images[1]).value(), 1);
+  auto good = robot.signer().seal(seg.keyframes[1], 1);
   ASSERT_TRUE(good);
   msg::Bytes truncated(good->begin(), good->begin() + good->size() / 2);
   robot.publishRaw("keyframe", truncated);
@@ -256,13 +233,13 @@ TEST(MapServer, BadInputIsCountedRefusedOrIgnoredAndNothingStoredIsLost) {
   robot.publishRaw("keyframe", forged);
   // Signed with another robot's key.
   ScriptedRobot impostor(*h.transport, "robot0", rgbdmap::testing::testKey(2), 200);
-  impostor.send(*seg.keyframes[1], seg.images[1]);
+  impostor.send(seg.keyframes[1]);
   // Corrupt images: refused for good, with a reason.
-  EncodedImages broken = seg.images[1];
-  broken.depth[broken.depth.size() / 2] ^= 0xFF;
-  robot.send(*seg.keyframes[1], broken);
-  ASSERT_TRUE(robot.waitAcked({seg.keyframes[1]->id}, 30.0));
-  EXPECT_EQ(robot.acks().at(seg.keyframes[1]->id), false);
+  msg::Keyframe broken = seg.keyframes[1];
+  broken.images.depth[broken.images.depth.size() / 2] ^= 0xFF;
+  robot.send(broken);
+  ASSERT_TRUE(robot.waitAcked({seg.keyframes[1].keyframe_id}, 30.0));
+  EXPECT_EQ(robot.acks().at(seg.keyframes[1].keyframe_id), false);
   // An unknown robot.
   ScriptedRobot stranger(*h.transport, "robot9", rgbdmap::testing::testKey(9), 300);
   stranger.hello(seg.camera);

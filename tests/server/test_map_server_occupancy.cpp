@@ -14,25 +14,15 @@
 namespace rgbdmap {
 namespace {
 
+using testing::kLoopFrames;
 using testing::loopSegment;
 using testing::OdometrySegment;
 using testing::ScriptedRobot;
 
-constexpr int kFrames = 300;
-
-std::string freshDir(const std::string& name) {
-  const std::string dir =
-      ::testing::TempDir() + "rgbdmap_occserver_" + name + "_" + std::to_string(::getpid());
-  std::filesystem::remove_all(dir);
-  return dir;
-}
+std::string freshDir(const std::string& name) { return testing::freshDir("occ_" + name); }
 
 MapServerConfig testConfig(const std::string& dir) {
-  MapServerConfig config;
-  config.map_dir = dir;
-  config.robots = {"robot0"};
-  config.store_sync = false;
-  config.status_period_s = 0.0;
+  MapServerConfig config = testing::serverTestConfig(dir, {"robot0"});
   config.map_stream_period_s = 0.2;  // several stream messages within the test
   config.slice_period_s = 0.0;       // a slice after every keyframe
   // The synthetic loop's odometry drifts ~1 cm, so its loop closure moves keyframes by less than the default
@@ -42,25 +32,7 @@ MapServerConfig testConfig(const std::string& dir) {
   return config;
 }
 
-struct Harness {
-  std::unique_ptr<transport::Transport> transport = std::move(transport::makeTransport("memq://").value());
-  std::unique_ptr<MapServer> server;
-  explicit Harness(const MapServerConfig& config) {
-    start(config);
-    EXPECT_TRUE(transport->start());
-  }
-  void start(const MapServerConfig& config) {
-    msg::KeyStore keys;
-    EXPECT_TRUE(keys.add("robot0", rgbdmap::testing::testKey(1)));
-    server = std::make_unique<MapServer>(config, *transport, std::move(keys));
-    const Status s = server->start();
-    EXPECT_TRUE(s) << s.error();
-  }
-  ~Harness() {
-    transport->stop();
-    if (server) server->stop();
-  }
-};
+using Harness = testing::ServerHarness;
 
 /// The synthetic world pose of the map frame: the map frame is the first keyframe's odometry frame, which
 /// the server keeps fixed, so world <- map = gt(first keyframe) * (T_map_kf of node 0)^-1.
@@ -93,7 +65,7 @@ const SyntheticScene& loopScene() {
   static const SyntheticScene scene = [] {
     SynthConfig cfg;
     cfg.scene = "loop";
-    cfg.frames = kFrames;
+    cfg.frames = kLoopFrames;
     return std::move(SyntheticScene::build(cfg).value());
   }();
   return scene;
@@ -115,7 +87,7 @@ double occupiedCells(const octomap::OcTree& tree) {
 }
 
 TEST(MapServerOccupancy, SyntheticLoopBuildsTheRoomSendsSlicesAndStreamsAndWritesFiles) {
-  const OdometrySegment& seg = loopSegment(kFrames, 0, kFrames);
+  const OdometrySegment& seg = loopSegment(kLoopFrames, 0, kLoopFrames);
   ASSERT_GT(seg.keyframes.size(), 20u);
   Harness h(testConfig(freshDir("loop")));
   ScriptedRobot robot(*h.transport, "robot0", rgbdmap::testing::testKey(1), 100);
@@ -187,7 +159,7 @@ TEST(MapServerOccupancy, SyntheticLoopBuildsTheRoomSendsSlicesAndStreamsAndWrite
 }
 
 TEST(MapServerOccupancy, RestartReinsertsTheStoredKeyframes) {
-  const OdometrySegment& seg = loopSegment(kFrames, 0, kFrames);
+  const OdometrySegment& seg = loopSegment(kLoopFrames, 0, kLoopFrames);
   const std::string dir = freshDir("restart");
   const size_t half = seg.keyframes.size() / 2;
   Harness h(testConfig(dir));
@@ -220,7 +192,7 @@ TEST(MapServerOccupancy, RestartReinsertsTheStoredKeyframes) {
 }
 
 TEST(MapServerOccupancy, OffMeansNoOctreeNoSlicesAndAClearErrorForFiles) {
-  const OdometrySegment& seg = loopSegment(kFrames, 0, 60);
+  const OdometrySegment& seg = loopSegment(kLoopFrames, 0, 60);
   MapServerConfig config = testConfig(freshDir("off"));
   config.occupancy_enabled = false;
   Harness h(config);

@@ -18,19 +18,9 @@ TEST(MapServerReal, Fr1RpyFullSystemIsNoWorseThanOdometry) {
   CameraIntrinsics camera;  // TUM freiburg1 defaults
   if (auto from_file = readDatasetCamera(dir); from_file && *from_file) camera = **from_file;
 
-  auto transport = std::move(transport::makeTransport("memq://").value());
-  MapServerConfig config;
-  config.map_dir = ::testing::TempDir() + "rgbdmap_server_fr1_" + std::to_string(::getpid());
-  std::filesystem::remove_all(config.map_dir);
-  config.robots = {"robot0"};
-  config.store_sync = false;
-  config.status_period_s = 0.0;
-  msg::KeyStore keys;
-  ASSERT_TRUE(keys.add("robot0", rgbdmap::testing::testKey(1)));
-  MapServer server(config, *transport, std::move(keys));
-  ASSERT_TRUE(server.start());
-  ASSERT_TRUE(transport->start());
-  testing::ScriptedRobot robot(*transport, "robot0", rgbdmap::testing::testKey(1), 100);
+  testing::ServerHarness h(testing::serverTestConfig(testing::freshDir("fr1"), {"robot0"}));
+  MapServer& server = *h.server;
+  testing::ScriptedRobot robot(*h.transport, "robot0", rgbdmap::testing::testKey(1), 100);
   robot.hello(camera);
 
   VisualOdometry vo(camera, OdometryConfig{});
@@ -75,15 +65,14 @@ TEST(MapServerReal, Fr1RpyFullSystemIsNoWorseThanOdometry) {
   const auto a_odo = computeAte(gt, odometry), a_slam = computeAte(gt, slam_all);
   const auto k_odo = computeAte(gt, odo_kf), k_slam = computeAte(gt, slam_kf);
   ASSERT_TRUE(a_odo && a_slam && k_odo && k_slam);
-  std::printf("[ measured ] fr1_rpy: every frame ATE odometry %.4f m, full system %.4f m; keyframes %.4f -> %.4f m; "
-              "%d keyframes, %d loops (%d disabled), ingest median %.1f ms\n",
-              a_odo->rmse, a_slam->rmse, k_odo->rmse, k_slam->rmse, stats.keyframes, stats.loops_accepted,
-              stats.loops_disabled, stats.ingest_ms_median);
+  std::printf(
+      "[ measured ] fr1_rpy: every frame ATE odometry %.4f m, full system %.4f m; keyframes %.4f -> %.4f m; "
+      "%d keyframes, %d loops (%d disabled), ingest median %.1f ms\n",
+      a_odo->rmse, a_slam->rmse, k_odo->rmse, k_slam->rmse, stats.keyframes, stats.loops_accepted,
+      stats.loops_disabled, stats.ingest_ms_median);
   EXPECT_LE(a_slam->rmse, a_odo->rmse * 1.05 + 0.001) << "the full system must not be worse than odometry";
   EXPECT_LT(a_slam->rmse, 0.035);
   EXPECT_GE(stats.loops_accepted, 10);
-  transport->stop();
-  server.stop();
 }
 
 }  // namespace
