@@ -23,14 +23,17 @@ if [ "${1:-}" = "--quick" ]; then
   shift
 fi
 "$root/deploy/build.sh"
+build_dir=$(cd "${BUILD_DIR:-$root/build}" && pwd)
 if [ "$quick" = 1 ]; then
-  exec ctest --test-dir "${BUILD_DIR:-$root/build}" --output-on-failure -j "$(nproc)" -L '^unit$' "$@"
+  exec ctest --test-dir "$build_dir" --output-on-failure -j "$(nproc)" -L '^unit$' "$@"
 fi
-ctest --test-dir "${BUILD_DIR:-$root/build}" --output-on-failure -j "$(nproc)" "$@"
+ctest --test-dir "$build_dir" --output-on-failure -j "$(nproc)" "$@"
 if [ "${RGBDMAP_SKIP_SANITIZERS:-0}" != "1" ]; then
   echo "== sanitizer pass (ASan + UBSan): every tier but cli"
-  BUILD_DIR="$root/build-asan" BUILD_TYPE=RelWithDebInfo \
-    CMAKE_EXTRA_ARGS="-DRGBDMAP_SANITIZE=ON -DRGBDMAP_BUILD_BENCHMARKS=OFF" "$root/deploy/build.sh"
+  # The server tests' recorded keyframe stream is copied from the Release tree (byte-identical).
+  BUILD_DIR="$root/build-asan" BUILD_TYPE=RelWithDebInfo CMAKE_EXTRA_ARGS="-DRGBDMAP_SANITIZE=ON \
+-DRGBDMAP_BUILD_BENCHMARKS=OFF -DRGBDMAP_KEYFRAME_FIXTURE_FROM=$build_dir/tests/fixtures" \
+    "$root/deploy/build.sh"
   UBSAN_OPTIONS=halt_on_error=1:print_stacktrace=1 ASAN_OPTIONS=detect_leaks=1 \
     ctest --test-dir "$root/build-asan" --output-on-failure -j "$(nproc)" -LE '^cli$' "$@"
 fi
