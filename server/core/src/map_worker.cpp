@@ -75,22 +75,25 @@ const KeyframeCloudMaker& MapWorker::makerFor(const std::string& robot_id, const
   return *slot.second;
 }
 
+bool MapWorker::readBackImages(MapKeyframeJob& job) const {
+  const auto stored = store_.readKeyframe(job.node_id);
+  if (!stored) {
+    log::error("map: keyframe ", job.node_id, " not re-inserted: ", stored.error());
+    return false;
+  }
+  const auto images = msg::decodeKeyframeImages(stored->keyframe);
+  if (!images) {
+    log::error("map: keyframe ", job.node_id, " not re-inserted: images: ", images.error());
+    return false;
+  }
+  job.depth = images->depth;
+  job.color = images->color;
+  return true;
+}
+
 void MapWorker::insertKeyframe(MapKeyframeJob& job) {
   const double cpu0 = threadCpuMs();
-  if (job.depth.empty()) {  // restored: read the images back from the store
-    const auto stored = store_.readKeyframe(job.node_id);
-    if (!stored) {
-      log::error("map: keyframe ", job.node_id, " not re-inserted: ", stored.error());
-      return;
-    }
-    const auto images = msg::decodeKeyframeImages(stored->keyframe);
-    if (!images) {
-      log::error("map: keyframe ", job.node_id, " not re-inserted: images: ", images.error());
-      return;
-    }
-    job.depth = images->depth;
-    job.color = images->color;
-  }
+  if (job.depth.empty() && !readBackImages(job)) return;  // restored: read the images back from the store
   auto cloud =
       makerFor(job.robot_id, job.camera).make(job.node_id, job.depth, job.camera.depth_scale, job.color);
   if (!cloud) {

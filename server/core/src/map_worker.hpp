@@ -79,6 +79,7 @@ class MapWorker {
     uint64_t revision = 0;
   };
 
+  bool readBackImages(MapKeyframeJob& job) const;  ///< a restored keyframe's images, from the store
   void insertKeyframe(MapKeyframeJob& job);
   void applyPoses(const std::vector<MapNodePose>& poses);
   void publishSlice(const std::string& robot_id);
