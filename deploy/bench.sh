@@ -34,7 +34,7 @@ get() { awk -F= -v k="$2" '$1 == k {print $2}' "$1"; }
 run() {  # run OUTDIR ARGS...: one multi-process run, its log kept in OUTDIR.log
   local dir="$1"; shift
   if ! bash "$repo/deploy/run_multiprocess.sh" --out "$dir" "$@" >"$dir.log" 2>&1; then
-    echo "run failed ($*); see $dir.log" >&2; tail -5 "$dir.log" >&2; return 1
+    echo "run failed ($*); see $dir.log" >&2; tail -n 5 "$dir.log" >&2; return 1
   fi
 }
 

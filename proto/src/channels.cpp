@@ -46,4 +46,14 @@ Result<std::string> channelFor(MessageType type, const std::string& robot_id) {
   return "rgbdmap/" + robot_id + "/" + suffix;
 }
 
+bool splitChannel(const std::string& channel, std::string* robot, std::string* suffix) {
+  static const std::string kPrefix = "rgbdmap/";
+  if (channel.compare(0, kPrefix.size(), kPrefix) != 0) return false;
+  const size_t slash = channel.find('/', kPrefix.size());
+  if (slash == std::string::npos) return false;
+  *robot = channel.substr(kPrefix.size(), slash - kPrefix.size());
+  *suffix = channel.substr(slash + 1);
+  return !robot->empty() && !suffix->empty();
+}
+
 }  // namespace rgbdmap::msg

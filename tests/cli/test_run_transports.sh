@@ -14,7 +14,7 @@ metres() { jq "$1" "$r" | awk '{printf "%.4f", ($1 == "null" ? 1 : $1)}'; }  # n
 for transport in lcm dds; do
   out="$tmp/$transport"
   if ! "$bin/rgbdmap" run --robots 2 --transport "$transport" --frames 150 --out "$out" >"$tmp/log" 2>&1; then
-    echo "FAIL: run over $transport exited non-zero"; tail -20 "$tmp/log"; fail=1; continue
+    echo "FAIL: run over $transport exited non-zero"; tail -n 20 "$tmp/log"; fail=1; continue
   fi
   r="$out/report.json"
   ok "one merged map $(jq -c .server.maps "$r")" '.server.merged and (.server.maps | length) == 1'

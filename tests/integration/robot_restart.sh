@@ -38,5 +38,5 @@ cat "$d"/map/keyframes_robot*.txt | grep -v '^#' | sort -n >"$d/merged.txt"
 ate=$("$bin/rgbdmap" eval --gt "$ds/groundtruth.txt" --est "$d/merged.txt" | awk '$1 == "ate_rmse_m" {print $2}')
 awk -v a="$ate" -v m="$max_ate" 'BEGIN {exit !(a == a + 0 && a < m)}' \
   && echo "ok: merged ATE after restart $ate m" || { echo "FAIL: merged ATE '$ate' not below $max_ate"; fail=1; }
-[ "$fail" -eq 0 ] || { tail -5 "$d"/*.log; }
+[ "$fail" -eq 0 ] || { tail -n 5 "$d"/*.log; }
 exit "$fail"

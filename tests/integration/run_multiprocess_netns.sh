@@ -31,7 +31,7 @@ for transport in lcm dds; do
   if ! RGBDMAP_BIN="$bin" bash "$repo/deploy/run_multiprocess.sh" --transport "$transport" --robots 2 \
       --dataset "$tmp/seq" --out "$tmp/$transport" --check 0.02; then
     fail=1
-    for f in "$tmp/$transport"/logs/*; do echo "--- $f"; tail -15 "$f"; done
+    for f in "$tmp/$transport"/logs/*; do echo "--- $f"; tail -n 15 "$f"; done
     continue
   fi
   for f in map/keyframes_robot0.txt map/keyframes_robot1.txt map/server_summary.json map/MANIFEST; do

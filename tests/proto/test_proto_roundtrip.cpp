@@ -166,5 +166,16 @@ TEST(ProtoChannels, NamesAndDirections) {
     EXPECT_NE(std::string(channelSuffix(static_cast<MessageType>(t))), "unknown");
 }
 
+TEST(ProtoChannels, SplitChannel) {
+  std::string robot, suffix;
+  ASSERT_TRUE(splitChannel("rgbdmap/robot_1/keyframe", &robot, &suffix));
+  EXPECT_EQ(robot, "robot_1");
+  EXPECT_EQ(suffix, "keyframe");
+  ASSERT_TRUE(splitChannel("rgbdmap/r/a/b", &robot, &suffix));
+  EXPECT_EQ(suffix, "a/b");
+  for (const char* bad : {"", "rgbdmap/", "rgbdmap/r", "rgbdmap//keyframe", "rgbdmap/r/", "other/r/keyframe"})
+    EXPECT_FALSE(splitChannel(bad, &robot, &suffix)) << bad;
+}
+
 }  // namespace
 }  // namespace rgbdmap::msg

@@ -4,8 +4,8 @@
 
 #include <algorithm>
 #include <chrono>
+#include <condition_variable>
 #include <mutex>
-#include <thread>
 #include <vector>
 
 #include "rgbdmap/graph/pose_graph_optimizer.hpp"
@@ -89,15 +89,27 @@ TEST(PoseGraphOptimizer, StopIsPrompt) {
   ASSERT_TRUE(timed.optimize(PoseGraphConfig{}).ok());
   const double solve_ms = msSince(t_solve);
 
-  PoseGraphOptimizer optimizer(PoseGraphConfig{});
+  // The optimiser tells when the solve starts: stop() is called on a running solve, not before it.
+  std::mutex mutex;
+  std::condition_variable cv;
+  bool solving = false;
+  PoseGraphOptimizer optimizer(PoseGraphConfig{}, {}, [&](uint64_t) {
+    std::lock_guard<std::mutex> lock(mutex);
+    solving = true;
+    cv.notify_all();
+  });
   optimizer.submit(synth.graph);
-  std::this_thread::sleep_for(std::chrono::milliseconds(50));  // let the worker start the solve
+  {
+    std::unique_lock<std::mutex> lock(mutex);
+    ASSERT_TRUE(cv.wait_for(lock, std::chrono::seconds(60), [&] { return solving; }));
+  }
   const auto t0 = Clock::now();
   optimizer.stop();
   const double stop_ms = msSince(t0);
   ::testing::Test::RecordProperty("solve_ms", std::to_string(solve_ms));
   ::testing::Test::RecordProperty("stop_ms", std::to_string(stop_ms));
   EXPECT_LT(stop_ms, std::max(200.0, 0.5 * solve_ms)) << "full solve " << solve_ms << " ms";
+  EXPECT_EQ(optimizer.latestResult(), nullptr) << "the running solve was cancelled, not finished";
   EXPECT_EQ(optimizer.submit(synth.graph), 0u) << "submit after stop";
   EXPECT_FALSE(optimizer.waitForRevision(1, 0.1));
 }

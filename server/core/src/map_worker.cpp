@@ -1,6 +1,5 @@
 #include "map_worker.hpp"
 
-#include <pthread.h>
 #include <algorithm>
 #include <chrono>
 #include <ctime>
@@ -29,103 +28,42 @@ bool sameCamera(const CameraIntrinsics& a, const CameraIntrinsics& b) {
          a.height == b.height && a.distortion == b.distortion && a.depth_scale == b.depth_scale;
 }
 
-double median(std::vector<double> v) {
-  if (v.empty()) return 0.0;
-  const auto mid = v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2);
-  std::nth_element(v.begin(), mid, v.end());
-  return *mid;
+SerialWorkerOptions workerOptions(const MapServerConfig& config, std::function<void()> stream) {
+  SerialWorkerOptions options;
+  options.name = "rgbdmap-map";
+  options.period_s = config.map_stream_period_s;  // 0: no map stream
+  options.on_period = std::move(stream);
+  return options;
 }
 
 }  // namespace
 
 MapWorker::MapWorker(const MapServerConfig& config, const MapStore& store, MapWorkerPublishers publishers)
-    : config_(config), store_(store), publishers_(std::move(publishers)), occupancy_(config.occupancy) {}
+    : config_(config),
+      store_(store),
+      publishers_(std::move(publishers)),
+      occupancy_(config.occupancy),
+      worker_(workerOptions(config, [this] { publishStreams(); })) {}
 
 MapWorker::~MapWorker() { stop(); }
 
-void MapWorker::start() {
-  if (!thread_.joinable()) thread_ = std::thread([this] { run(); });
-}
+void MapWorker::start() { worker_.start(); }
 
-void MapWorker::stop() {
-  {
-    std::lock_guard<std::mutex> lock(queue_mutex_);
-    stopping_ = true;
-  }
-  queue_cv_.notify_all();
-  idle_cv_.notify_all();
-  if (thread_.joinable()) thread_.join();
-}
+void MapWorker::stop() { worker_.stop(); }
 
 void MapWorker::addKeyframe(MapKeyframeJob job) {
-  {
-    std::lock_guard<std::mutex> lock(queue_mutex_);
-    if (stopping_) return;
-    Job j;
-    j.keyframe = std::move(job);
-    queue_.push_back(std::move(j));
-  }
-  queue_cv_.notify_one();
+  worker_.post([this, job = std::move(job)]() mutable { insertKeyframe(job); });
 }
 
 void MapWorker::updatePoses(std::vector<MapNodePose> poses) {
-  {
-    std::lock_guard<std::mutex> lock(queue_mutex_);
-    if (stopping_) return;
-    Job j;
-    j.is_keyframe = false;
-    j.poses = std::move(poses);
-    queue_.push_back(std::move(j));
-  }
-  queue_cv_.notify_one();
+  worker_.post([this, poses = std::move(poses)] { applyPoses(poses); });
 }
 
 bool MapWorker::waitIdle(double timeout_s) const {
   const auto deadline =
       Clock::now() + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(timeout_s));
-  {
-    std::unique_lock<std::mutex> lock(queue_mutex_);
-    if (!idle_cv_.wait_until(lock, deadline, [&] { return stopping_ || (queue_.empty() && !busy_); }) ||
-        stopping_)
-      return false;
-  }
+  if (!worker_.waitIdleUntil(deadline)) return false;
   return occupancy_.waitIdle(std::max(0.0, std::chrono::duration<double>(deadline - Clock::now()).count()));
-}
-
-void MapWorker::run() {
-  pthread_setname_np(pthread_self(), "rgbdmap-map");
-  const bool streaming = config_.map_stream_period_s > 0.0;
-  const auto period = std::chrono::duration_cast<Clock::duration>(
-      std::chrono::duration<double>(streaming ? config_.map_stream_period_s : 3600.0));
-  auto next_stream = Clock::now() + period;
-  for (;;) {
-    Job job;
-    bool have_job = false;
-    {
-      std::unique_lock<std::mutex> lock(queue_mutex_);
-      idle_cv_.notify_all();
-      queue_cv_.wait_until(lock, next_stream, [&] { return stopping_ || !queue_.empty(); });
-      if (stopping_) return;
-      if (!queue_.empty()) {
-        job = std::move(queue_.front());
-        queue_.pop_front();
-        busy_ = true;
-        have_job = true;
-      }
-    }
-    if (have_job) {
-      if (job.is_keyframe)
-        insertKeyframe(job.keyframe);
-      else
-        applyPoses(job.poses);
-    }
-    if (streaming && Clock::now() >= next_stream) {
-      publishStreams();
-      next_stream = Clock::now() + period;
-    }
-    std::lock_guard<std::mutex> lock(queue_mutex_);
-    busy_ = false;
-  }
 }
 
 const KeyframeCloudMaker& MapWorker::makerFor(const std::string& robot_id, const CameraIntrinsics& camera) {
@@ -137,22 +75,25 @@ const KeyframeCloudMaker& MapWorker::makerFor(const std::string& robot_id, const
   return *slot.second;
 }
 
+bool MapWorker::readBackImages(MapKeyframeJob& job) const {
+  const auto stored = store_.readKeyframe(job.node_id);
+  if (!stored) {
+    log::error("map: keyframe ", job.node_id, " not re-inserted: ", stored.error());
+    return false;
+  }
+  const auto images = msg::decodeKeyframeImages(stored->keyframe);
+  if (!images) {
+    log::error("map: keyframe ", job.node_id, " not re-inserted: images: ", images.error());
+    return false;
+  }
+  job.depth = images->depth;
+  job.color = images->color;
+  return true;
+}
+
 void MapWorker::insertKeyframe(MapKeyframeJob& job) {
   const double cpu0 = threadCpuMs();
-  if (job.depth.empty()) {  // restored: read the images back from the store
-    const auto stored = store_.readKeyframe(job.node_id);
-    if (!stored) {
-      log::error("map: keyframe ", job.node_id, " not re-inserted: ", stored.error());
-      return;
-    }
-    const auto images = msg::decodeKeyframeImages(stored->keyframe);
-    if (!images) {
-      log::error("map: keyframe ", job.node_id, " not re-inserted: images: ", images.error());
-      return;
-    }
-    job.depth = images->depth;
-    job.color = images->color;
-  }
+  if (job.depth.empty() && !readBackImages(job)) return;  // restored: read the images back from the store
   auto cloud =
       makerFor(job.robot_id, job.camera).make(job.node_id, job.depth, job.camera.depth_scale, job.color);
   if (!cloud) {
@@ -169,7 +110,7 @@ void MapWorker::insertKeyframe(MapKeyframeJob& job) {
     nodes_[job.node_id] = {job.robot_id, job.map_id, job.T_map_kf};
     auto& newest = newest_[job.robot_id];
     newest = std::max(newest, job.node_id);
-    if (job.live) insert_ms_.push_back(ms);
+    if (job.live) insert_ms_.add(ms);
     ++inserted_;
   }
   if (!job.live) return;
@@ -217,7 +158,7 @@ void MapWorker::publishSlice(const std::string& robot_id) {
   slice->robot_id = robot_id;
   if (publishers_.slice) publishers_.slice(robot_id, *slice);
   std::lock_guard<std::mutex> lock(state_mutex_);
-  slice_ms_.push_back(cpu_ms);
+  slice_ms_.add(cpu_ms);
   last_slices_[robot_id] = std::move(*slice);
   ++slices_sent_;
 }
@@ -261,8 +202,8 @@ void MapWorker::fillStats(MapServerStats* s) const {
   s->map_last_rebuild_ms = o.last_rebuild_ms;
   std::lock_guard<std::mutex> lock(state_mutex_);
   s->map_keyframes = inserted_;
-  s->map_insert_ms_median = median(insert_ms_);
-  s->slice_ms_median = median(slice_ms_);
+  s->map_insert_ms_median = insert_ms_.median();
+  s->slice_ms_median = slice_ms_.median();
   s->slices_sent = slices_sent_;
   s->map_updates_sent = map_updates_sent_;
   s->map_bytes_sent = map_bytes_sent_;

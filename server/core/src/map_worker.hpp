@@ -1,6 +1,7 @@
 #pragma once
-// The MapServer's map worker: its own thread and queue, fed by the ingest worker, so that octree work
-// (cloud reduction ~2 ms, insertion ~8 ms CPU per keyframe) never delays ingestion and acknowledgements.
+// The MapServer's map worker: its own thread and queue (a SerialWorker), fed by the ingest worker, so that
+// octree work (cloud reduction ~2 ms, insertion ~8 ms CPU per keyframe) never delays ingestion and
+// acknowledgements.
 //   - keyframes (decoded images, or read back from the store on restart) -> KeyframeCloud -> OccupancyMap;
 //   - optimised poses, in queue order after the keyframes they move -> OccupancyMap::updatePoses (the
 //     rebuild itself runs on OccupancyMap's own background worker);
@@ -8,18 +9,17 @@
 //     published to R;
 //   - every map_stream_period_s: a MapUpdate of each robot's map to that robot (full on first send and
 //     after a rebuild or a change of map, the changed leaves otherwise).
-#include <condition_variable>
-#include <deque>
 #include <functional>
 #include <map>
 #include <memory>
 #include <mutex>
 #include <string>
-#include <thread>
 #include <vector>
 
 #include <opencv2/core.hpp>
 
+#include "rgbdmap/common/sample_reservoir.hpp"
+#include "rgbdmap/common/serial_worker.hpp"
 #include "rgbdmap/map/occupancy_map.hpp"
 #include "rgbdmap/server/map_server.hpp"
 #include "rgbdmap/store/map_store.hpp"
@@ -69,11 +69,6 @@ class MapWorker {
   Status writeOutputs(const std::string& out_dir, const std::vector<ServerKeyframe>& keyframes) const;
 
  private:
-  struct Job {
-    bool is_keyframe = true;
-    MapKeyframeJob keyframe;
-    std::vector<MapNodePose> poses;
-  };
   struct NodeState {
     std::string robot_id;
     int map_id = 0;
@@ -84,7 +79,7 @@ class MapWorker {
     uint64_t revision = 0;
   };
 
-  void run();
+  bool readBackImages(MapKeyframeJob& job) const;  ///< a restored keyframe's images, from the store
   void insertKeyframe(MapKeyframeJob& job);
   void applyPoses(const std::vector<MapNodePose>& poses);
   void publishSlice(const std::string& robot_id);
@@ -96,14 +91,6 @@ class MapWorker {
   const MapWorkerPublishers publishers_;
   OccupancyMap occupancy_;
 
-  // queue
-  mutable std::mutex queue_mutex_;
-  mutable std::condition_variable queue_cv_, idle_cv_;
-  std::deque<Job> queue_;
-  bool busy_ = false;
-  bool stopping_ = false;
-  std::thread thread_;
-
   // worker-only state
   std::map<std::string, std::pair<CameraIntrinsics, std::unique_ptr<KeyframeCloudMaker>>> makers_;
   std::map<std::string, StreamState> streams_;
@@ -114,10 +101,12 @@ class MapWorker {
   std::map<int64_t, NodeState> nodes_;
   std::map<std::string, int64_t> newest_;  ///< robot -> its newest inserted node
   std::map<std::string, msg::OccupancySlice> last_slices_;
-  std::vector<double> insert_ms_;
-  std::vector<double> slice_ms_;
+  SampleReservoir insert_ms_;
+  SampleReservoir slice_ms_;
   size_t inserted_ = 0;
   uint64_t slices_sent_ = 0, map_updates_sent_ = 0, map_bytes_sent_ = 0;
+
+  SerialWorker worker_;  ///< keyframes and pose updates in order, the map stream as its period; last member
 };
 
 }  // namespace rgbdmap

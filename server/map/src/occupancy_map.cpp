@@ -18,18 +18,12 @@ bool finitePoints(const KeyframeCloud& cloud) {
 }  // namespace
 
 OccupancyMap::OccupancyMap(OccupancyMapConfig config) : config_(std::move(config)) {
-  worker_ = std::thread([this] { worker(); });
+  rebuild_worker_.start();
 }
 
 OccupancyMap::~OccupancyMap() {
-  {
-    std::lock_guard<std::mutex> lock(mutex_);
-    stopping_ = true;
-  }
   stop_ = true;
-  wake_.notify_all();
-  idle_.notify_all();
-  if (worker_.joinable()) worker_.join();
+  rebuild_worker_.stop();
 }
 
 Status OccupancyMap::insert(KeyframeCloud cloud, int map_id, const SE3& T_map_cam) {
@@ -128,7 +122,7 @@ bool OccupancyMap::isDirtyLocked(int map_id) const {
 }
 
 void OccupancyMap::markDirtyLocked(int map_id) {
-  if (dirty_.insert(map_id).second) wake_.notify_one();
+  if (dirty_.insert(map_id).second) rebuild_worker_.post([this] { rebuildNext(); });
 }
 
 bool OccupancyMap::updatePoses(const std::map<int64_t, std::pair<int, SE3>>& map_id_and_T_map_cam) {
@@ -152,10 +146,7 @@ bool OccupancyMap::updatePoses(const std::map<int64_t, std::pair<int, SE3>>& map
 }
 
 bool OccupancyMap::waitIdle(double timeout_s) const {
-  std::unique_lock<std::mutex> lock(mutex_);
-  return idle_.wait_for(lock, std::chrono::duration<double>(timeout_s),
-                        [this] { return stopping_ || (dirty_.empty() && !busy_); }) &&
-         dirty_.empty() && !busy_;
+  return rebuild_worker_.waitIdle(timeout_s);  // idle: no task queued, so no map id dirty, none rebuilding
 }
 
 bool OccupancyMap::read(int map_id, const std::function<void(const octomap::OcTree&)>& fn) const {

@@ -27,24 +27,18 @@ struct Job {
 
 }  // namespace
 
-void OccupancyMap::worker() {
-  for (;;) {
-    int map_id = 0;
-    {
-      std::unique_lock<std::mutex> lock(mutex_);
-      wake_.wait(lock, [this] { return stopping_ || !dirty_.empty(); });
-      if (stopping_) return;
-      map_id = *dirty_.begin();
-      dirty_.erase(dirty_.begin());
-      busy_ = true;
-    }
-    rebuild(map_id);
-    {
-      std::lock_guard<std::mutex> lock(mutex_);
-      busy_ = false;
-    }
-    idle_.notify_all();
+void OccupancyMap::rebuildNext() {
+  int map_id = 0;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (dirty_.empty()) return;  // its map id was rebuilt (and found clean) by an earlier task
+    map_id = *dirty_.begin();
+    dirty_.erase(dirty_.begin());
+    busy_ = true;
   }
+  rebuild(map_id);
+  std::lock_guard<std::mutex> lock(mutex_);
+  busy_ = false;
 }
 
 void OccupancyMap::rebuild(int map_id) {
@@ -110,7 +104,7 @@ void OccupancyMap::rebuild(int map_id) {
   last_rebuild_ms_ = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
   last_rebuild_cpu_ms_ = threadCpuMs() - cpu0;
   if (isDirtyLocked(map_id))
-    dirty_.insert(map_id);  // moved again meanwhile: one more rebuild (coalesced)
+    markDirtyLocked(map_id);  // moved again meanwhile: one more rebuild (coalesced)
   else
     dirty_.erase(map_id);
 }

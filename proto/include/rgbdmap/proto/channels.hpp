@@ -18,4 +18,7 @@ Result<std::string> channelFor(MessageType type, const std::string& robot_id);
 /// Short name used in channels: "hello", "keyframe", "pose_corrections", ...
 const char* channelSuffix(MessageType type);
 
+/// "rgbdmap/<robot>/<suffix>" -> (robot, suffix), both non-empty; false for anything else.
+bool splitChannel(const std::string& channel, std::string* robot, std::string* suffix);
+
 }  // namespace rgbdmap::msg

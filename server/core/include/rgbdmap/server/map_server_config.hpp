@@ -26,8 +26,8 @@ struct MapServerConfig {
   double default_odometry_sigma_m = 0.02;
   double default_odometry_sigma_deg = 1.0;
   /// Uncertainty added to every edge's covariance before optimisation (1 sigma per axis); see
-  /// withCovarianceFloor in map_server.cpp. 0 and 0 use the information as the robot and detector computed
-  /// it.
+  /// withCovarianceFloor in server/core/src/edge_information.hpp. 0 and 0 use the information as the robot
+  /// and detector computed it.
   double edge_sigma_floor_m = 0.01;
   double edge_sigma_floor_deg = 0.5;
   LoopDetectorConfig loop;

@@ -13,6 +13,7 @@
 #include <thread>
 #include <vector>
 
+#include "rgbdmap/common/serial_worker.hpp"
 #include "rgbdmap/graph/pose_graph.hpp"
 
 namespace rgbdmap {
@@ -31,8 +32,11 @@ class PoseGraphOptimizer {
  public:
   /// Called on the worker thread after each solve; keep it short (copy or post the result).
   using Callback = std::function<void(const std::shared_ptr<const OptimizedPoses>&)>;
+  /// Called on the worker thread when a solve of snapshot `revision` starts (tests use it to act on a
+  /// running solve); keep it short.
+  using SolveStarted = std::function<void(uint64_t revision)>;
 
-  explicit PoseGraphOptimizer(PoseGraphConfig config, Callback callback = {});
+  explicit PoseGraphOptimizer(PoseGraphConfig config, Callback callback = {}, SolveStarted on_solve = {});
   ~PoseGraphOptimizer();  ///< stop()
   PoseGraphOptimizer(const PoseGraphOptimizer&) = delete;
   PoseGraphOptimizer& operator=(const PoseGraphOptimizer&) = delete;
@@ -48,12 +52,12 @@ class PoseGraphOptimizer {
   void stop();
 
  private:
-  void run();
+  void solvePending();  ///< a task on worker_: solves the newest pending snapshot, if any
 
   PoseGraphConfig config_;
   Callback callback_;
+  SolveStarted on_solve_;
   mutable std::mutex mutex_;
-  mutable std::condition_variable wake_;  ///< new work or stop (worker waits)
   mutable std::condition_variable done_;  ///< new result or stop (waitForRevision waits)
   std::optional<PoseGraph> pending_;
   uint64_t pending_revision_ = 0;
@@ -61,7 +65,7 @@ class PoseGraphOptimizer {
   bool stopping_ = false;
   std::atomic<bool> cancel_{false};
   std::shared_ptr<const OptimizedPoses> latest_;
-  std::thread worker_;
+  SerialWorker worker_;  ///< last: stopped before the state above goes away
 };
 
 }  // namespace rgbdmap

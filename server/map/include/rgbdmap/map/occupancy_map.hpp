@@ -24,6 +24,7 @@
 #include "rgbdmap/common/camera.hpp"
 #include "rgbdmap/common/result.hpp"
 #include "rgbdmap/common/se3.hpp"
+#include "rgbdmap/common/serial_worker.hpp"
 
 namespace octomap {
 class OcTree;
@@ -158,24 +159,22 @@ class OccupancyMap {
   void integrateInserted(int64_t keyframe_id, const std::shared_ptr<Slot>& slot);
   bool isDirtyLocked(int map_id) const;
   void markDirtyLocked(int map_id);
-  void worker();
+  void rebuildNext();  ///< a task on rebuild_worker_: one per map id that became dirty
   void rebuild(int map_id);
 
   const OccupancyMapConfig config_;
   mutable std::mutex mutex_;  ///< entries_, slots_, slots' integrated poses, dirty_, counters
-  mutable std::condition_variable wake_, idle_;
   std::map<int64_t, Entry> entries_;
   std::map<int, std::shared_ptr<Slot>> slots_;
-  std::set<int> dirty_;
-  bool busy_ = false;
-  bool stopping_ = false;
+  std::set<int> dirty_;            ///< every map id in it has a rebuildNext() task queued
+  bool busy_ = false;              ///< a rebuild runs
   std::atomic<bool> stop_{false};  ///< abandons a running rebuild
   uint64_t next_order_ = 0;
   uint64_t next_revision_ = 1;
   uint64_t rebuilds_ = 0;
   double last_rebuild_ms_ = 0.0;
   double last_rebuild_cpu_ms_ = 0.0;
-  std::thread worker_;
+  SerialWorker rebuild_worker_;  ///< last: stopped before the state above goes away
 };
 
 }  // namespace rgbdmap

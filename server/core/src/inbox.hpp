@@ -1,0 +1,42 @@
+#pragma once
+// The server's inbox, on the transport's receive thread: channel -> authenticate (signature, replay) ->
+// decode -> check the sender -> queue for the ingest worker. Never blocks on the worker: a full keyframe
+// queue drops (the robot resends). Rejections are counted (and logged, rate-limited) by RejectCounters.
+#include <atomic>
+#include <cstdint>
+#include <string>
+
+#include "ingest_queue.hpp"
+#include "rgbdmap/proto/envelope.hpp"
+#include "rgbdmap/server/map_server_config.hpp"
+#include "robot_registry.hpp"
+
+namespace rgbdmap {
+
+class Inbox {
+ public:
+  /// References must outlive the inbox.
+  Inbox(const MapServerConfig& config, const msg::KeyStore& keys, RobotRegistry& registry,
+        IngestQueue& queue);
+
+  /// A transport handler (one call at a time, on the receive thread).
+  void onMessage(const std::string& channel, const uint8_t* data, size_t size);
+
+  uint64_t rejected() const { return rejects_.total(); }
+  uint64_t unknownRobot() const { return unknown_robot_.load(); }
+
+ private:
+  bool admitted(const std::string& robot) const;  ///< in config.robots (or the list is empty)
+  void onHello(const msg::OpenedEnvelope& opened, const std::string& robot);
+  void onKeyframe(const msg::OpenedEnvelope& opened, const std::string& robot);
+
+  const MapServerConfig& config_;
+  const msg::KeyStore& keys_;
+  RobotRegistry& registry_;
+  IngestQueue& queue_;
+  msg::ReplayGuard guard_;
+  msg::RejectCounters rejects_;
+  std::atomic<uint64_t> unknown_robot_{0};
+};
+
+}  // namespace rgbdmap

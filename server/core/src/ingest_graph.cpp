@@ -1,0 +1,146 @@
+// The ingest pipeline's graph side: a stored keyframe into the index, the pose graph and the loop detector;
+// loop edges; an optimisation result applied and turned into PoseCorrections and map worker pose updates.
+#include <utility>
+
+#include "edge_information.hpp"
+#include "ingest_pipeline.hpp"
+#include "pose_corrections.hpp"
+#include "rgbdmap/common/logging.hpp"
+
+namespace rgbdmap {
+
+std::vector<LoopEdge> IngestPipeline::integrateLocked(const StoredKeyframe& stored,
+                                                      const FrameFeatures& features, bool detect,
+                                                      LoopStats* loop_stats) {
+  const msg::Keyframe& kf = stored.keyframe;
+  const int robot = registry_.index(kf.robot_id);
+  std::optional<int64_t> prev;
+  if (kf.previous_keyframe_id >= 0)
+    prev = index_.find({robot, stored.session, kf.segment_id, kf.previous_keyframe_id});
+  const IndexedNode node = makeNodeLocked(stored, robot, prev);
+  index_.add(node);
+  addToGraphLocked(node, kf, prev);
+  LoopKeyframe lk;
+  lk.id = static_cast<int>(stored.node_id);
+  lk.robot_id = robot;
+  lk.map_id = node.kf.map_id;
+  lk.T_map_kf = node.kf.T_map_kf;
+  lk.features = features;
+  if (!detect) {
+    if (const Status s = detector_.restoreKeyframe(std::move(lk)); !s)
+      log::error("server: restore: ", s.error());
+    return {};
+  }
+  auto detection = detector_.addKeyframe(std::move(lk));
+  if (!detection) {
+    log::error("server: loop detection for keyframe ", stored.node_id, ": ", detection.error());
+    return {};
+  }
+  if (loop_stats) *loop_stats = detection->stats;
+  return detection->edges;
+}
+
+/// The node of a stored keyframe: chained to its predecessor's optimised pose, or a map of its own.
+IndexedNode IngestPipeline::makeNodeLocked(const StoredKeyframe& stored, int robot,
+                                           std::optional<int64_t> prev) {
+  const msg::Keyframe& kf = stored.keyframe;
+  IndexedNode node;
+  node.valid = true;
+  node.robot = robot;
+  node.chain = index_.chainFor(robot, stored.session, kf.segment_id);
+  node.kf.node_id = stored.node_id;
+  node.kf.robot_id = kf.robot_id;
+  node.kf.session = stored.session;
+  node.kf.segment = kf.segment_id;
+  node.kf.keyframe_id = kf.keyframe_id;
+  node.kf.timestamp = kf.timestamp;
+  node.kf.T_odom_kf = kf.T_odom_cam;
+  if (prev) {
+    const IndexedNode& p = index_.node(*prev);
+    node.kf.T_map_kf = se3::normalized(p.kf.T_map_kf * kf.T_prev_cur);
+    node.kf.map_id = p.kf.map_id;
+  } else {
+    node.kf.T_map_kf = kf.T_odom_cam;  // a new chain starts a map of its own until a loop joins it
+    node.kf.map_id = static_cast<int>(stored.node_id);
+  }
+  return node;
+}
+
+void IngestPipeline::addToGraphLocked(const IndexedNode& node, const msg::Keyframe& kf,
+                                      std::optional<int64_t> prev) {
+  const int64_t id = node.kf.node_id;
+  if (const Status s = graph_.addNode(id, node.chain, node.kf.T_map_kf); !s)
+    log::error("server: graph node ", id, ": ", s.error());
+  if (graph_.nodes().size() == 1) graph_.setFixed(id);  // the first keyframe of the first robot
+  if (!prev) return;
+  PoseGraphEdge e;
+  e.id = next_edge_id_++;
+  e.from = id;
+  e.to = *prev;
+  e.T_from_to = kf.T_prev_cur.inverse();
+  e.information = odometryInformation(kf.information, config_);
+  e.kind = EdgeKind::kOdometry;
+  if (const Status s = graph_.addEdge(e); !s) log::error("server: odometry edge: ", s.error());
+}
+
+Status IngestPipeline::addLoopEdgeLocked(const LoopEdge& edge) {
+  PoseGraphEdge e;
+  e.id = next_edge_id_++;
+  e.from = edge.from_id;
+  e.to = edge.to_id;
+  e.T_from_to = edge.T_from_to;
+  e.information = loopInformation(edge.information, config_);
+  e.kind = index_.node(edge.from_id).chain != index_.node(edge.to_id).chain ? EdgeKind::kInterRobot
+                                                                            : EdgeKind::kLoop;
+  return graph_.addEdge(e);
+}
+
+void IngestPipeline::onOptimized(const OptimizedPoses& result) {
+  Lock lock(mutex_);
+  if (!result.ok) {
+    log::warn("server: optimisation ", result.revision, " failed: ", result.error);
+    return;
+  }
+  applyOptimizedLocked(result);
+  // Corrections for each robot's current process: its keyframes and T_map_odom of its newest segment.
+  const auto corrections =
+      buildCorrections(index_.nodes(), currentSessionsLocked(), counters_.graph_revision);
+  std::vector<MapNodePose> map_poses = mapPosesLocked();
+  lock.unlock();
+  if (map_worker_) map_worker_->updatePoses(std::move(map_poses));
+  for (const auto& [robot, c] : corrections) {
+    log::debug("server: corrections to ", robot, ": ", c.keyframes.size(), " keyframes");
+    publisher_.publish(robot, c);
+  }
+}
+
+void IngestPipeline::applyOptimizedLocked(const OptimizedPoses& result) {
+  graph_.applyOptimized(result.T_map_kf, result.disabled_edges);
+  for (const auto& [id, pose] : graph_.poses()) index_.node(id).kf.T_map_kf = pose;
+  index_.setComponents(graph_.components());
+  for (const IndexedNode& n : index_.nodes())
+    if (n.valid) detector_.updatePose(static_cast<int>(n.kf.node_id), n.kf.map_id, n.kf.T_map_kf);
+  ++counters_.optimizations;
+  counters_.last_optimize_ms = result.report.time_ms;
+  counters_.loops_disabled = static_cast<int>(graph_.disabledEdges().size());
+  counters_.graph_revision = revision_base_ + static_cast<int64_t>(result.revision);
+}
+
+std::map<std::string, int64_t> IngestPipeline::currentSessionsLocked() const {
+  std::map<std::string, int64_t> sessions;
+  for (const IndexedNode& n : index_.nodes())
+    if (n.valid && !sessions.count(n.kf.robot_id))
+      sessions[n.kf.robot_id] = registry_.currentSession(n.kf.robot_id);
+  return sessions;
+}
+
+std::vector<MapNodePose> IngestPipeline::mapPosesLocked() const {
+  std::vector<MapNodePose> map_poses;
+  if (!map_worker_) return map_poses;
+  map_poses.reserve(index_.nodes().size());
+  for (const IndexedNode& n : index_.nodes())
+    if (n.valid) map_poses.push_back({n.kf.node_id, n.kf.map_id, n.kf.T_map_kf});
+  return map_poses;
+}
+
+}  // namespace rgbdmap

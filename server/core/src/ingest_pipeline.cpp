@@ -1,0 +1,198 @@
+// The ingest pipeline: Hello, the keyframe path (admission, decoding, durable store, acknowledgement, loop
+// edges) and the readers. Graph insertion and optimisation results are in ingest_graph.cpp.
+#include "ingest_pipeline.hpp"
+
+#include <utility>
+
+#include "rgbdmap/common/logging.hpp"
+#include "rgbdmap/vision/keyframe_message.hpp"
+
+namespace rgbdmap {
+
+using Clock = std::chrono::steady_clock;
+
+IngestPipeline::IngestPipeline(const MapServerConfig& config, RobotRegistry& registry,
+                               RobotPublisher& publisher, int64_t revision_base)
+    : config_(config),
+      registry_(registry),
+      publisher_(publisher),
+      revision_base_(revision_base),
+      detector_(CameraIntrinsics{}, config.loop) {}
+
+void IngestPipeline::attach(MapStore* store, SubmitGraph submit) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  store_ = store;
+  submit_ = std::move(submit);
+  counters_.recovery = store_->recovery();
+}
+
+void IngestPipeline::onHello(const msg::Hello& hello) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  const auto registered = registry_.hello(hello.robot_id, hello.header.session, hello.camera);
+  if (!registered) {
+    log::warn("server: hello from ", hello.robot_id, ": ", registered.error());
+    return;
+  }
+  if (*registered) {
+    if (const Status s = registry_.save(store_->directory()); !s) log::error("server: ", s.error());
+    detector_.setRobotCamera(registry_.index(hello.robot_id), hello.camera);
+    log::info("server: robot ", hello.robot_id, " (", hello.software_version, ") joined, session ",
+              hello.header.session);
+  }
+}
+
+void IngestPipeline::onKeyframe(const msg::Keyframe& kf) {
+  const auto t0 = Clock::now();
+  const double cpu0 = threadCpuMs();
+  Lock lock(mutex_);
+  const int robot = registry_.index(kf.robot_id);
+  const std::optional<CameraIntrinsics> camera = registry_.camera(kf.robot_id);
+  if (robot < 0 || !camera) {
+    // No Hello yet (lost or reordered): not acknowledged, so the robot sends it again after its Hello.
+    registry_.countWaitingForHello(kf.robot_id);
+    return;
+  }
+  const KeyframeKey key{robot, kf.header.session, kf.segment_id, kf.keyframe_id};
+  if (!admitLocked(kf, key, lock)) return;
+  KeyframeTiming timing;
+  const auto t_decode = Clock::now();
+  const Result<Decoded> decoded = decode(kf, *camera);
+  if (!decoded) return refuseLocked(kf, key, decoded.error(), lock);
+  StoredKeyframe stored;
+  stored.node_id = index_.size();
+  stored.session = kf.header.session;
+  stored.keyframe = kf;
+  timing.decode_ms = msSince(t_decode);
+  const auto t_store = Clock::now();
+  if (const Status s = store_->appendKeyframe(stored); !s) {
+    log::error("server: cannot store keyframe ", kf.keyframe_id, " of ", kf.robot_id, ": ", s.error());
+    return;  // not acknowledged: the robot sends it again
+  }
+  stored.keyframe.images = {};
+  timing.store_ms = msSince(t_store);
+  publisher_.acknowledge(kf.robot_id, kf.keyframe_id, true, "");
+  const auto t_loops = Clock::now();
+  addLiveLocked(stored, *decoded, *camera);
+  timing.loops_ms = msSince(t_loops);
+  timing.total_ms = msSince(t0);
+  timing.cpu_ms = threadCpuMs() - cpu0;
+  timings_.add(timing);
+}
+
+bool IngestPipeline::admitLocked(const msg::Keyframe& kf, const KeyframeKey& key, Lock& lock) {
+  if (index_.contains(key) || index_.refused(key)) {
+    const bool accepted = index_.contains(key);
+    registry_.countDuplicate(kf.robot_id);
+    lock.unlock();
+    publisher_.acknowledge(kf.robot_id, kf.keyframe_id, accepted, accepted ? "duplicate" : "refused before");
+    return false;
+  }
+  if (kf.previous_keyframe_id >= 0) {
+    const KeyframeKey prev{std::get<0>(key), std::get<1>(key), kf.segment_id, kf.previous_keyframe_id};
+    if (!index_.contains(prev) && !index_.refused(prev)) {
+      // The predecessor has not arrived yet (a retransmission overtook it): keep the odometry chain whole
+      // by waiting for it; this one is not acknowledged and comes again.
+      registry_.countOutOfOrder(kf.robot_id);
+      return false;
+    }
+  }
+  return true;
+}
+
+void IngestPipeline::refuseLocked(const msg::Keyframe& kf, const KeyframeKey& key, const std::string& reason,
+                                  Lock& lock) {
+  index_.refuse(key);
+  ++counters_.keyframes_refused;
+  registry_.countRefused(kf.robot_id);
+  lock.unlock();
+  log::warn("server: keyframe ", kf.keyframe_id, " of ", kf.robot_id, " refused: ", reason);
+  publisher_.acknowledge(kf.robot_id, kf.keyframe_id, false, reason);
+}
+
+Result<IngestPipeline::Decoded> IngestPipeline::decode(const msg::Keyframe& kf,
+                                                       const CameraIntrinsics& camera) {
+  if (kf.images.width != camera.width || kf.images.height != camera.height)
+    return Result<Decoded>::failure("image size differs from the camera in the robot's Hello");
+  auto images = msg::decodeKeyframeImages(kf);
+  if (!images) return Result<Decoded>::failure("images: " + images.error());
+  auto features = featuresFromMessage(kf, PinholeCamera(camera));
+  if (!features) return Result<Decoded>::failure(features.error());
+  return Decoded{std::move(*images), std::move(*features)};
+}
+
+/// A stored and acknowledged keyframe: graph, loop detection, map worker, loop edges, optimisation.
+void IngestPipeline::addLiveLocked(const StoredKeyframe& stored, const Decoded& decoded,
+                                   const CameraIntrinsics& camera) {
+  LoopStats loop_stats;
+  const std::vector<LoopEdge> edges = integrateLocked(stored, decoded.features, true, &loop_stats);
+  const IndexedNode& n = index_.node(stored.node_id);
+  if (map_worker_)
+    map_worker_->addKeyframe({n.kf.node_id, n.kf.robot_id, n.kf.map_id, n.kf.T_map_kf, camera,
+                              decoded.images.depth, decoded.images.color, true});
+  counters_.loop_candidates += loop_stats.candidates;
+  timings_.addVerify(loop_stats.verify_ms);
+  for (int r = 0; r < kLoopRejectionCount; ++r)
+    counters_.loops_rejected_by_reason[r] += loop_stats.rejected_by_reason[r];
+  const int added = addDetectedLoopsLocked(edges, n.robot);
+  counters_.loops_accepted += added;
+  ++counters_.keyframes;
+  registry_.countKeyframe(n.kf.robot_id);
+  if (added > 0) submitOptimizationLocked();
+}
+
+/// Adds the detector's loop edges to the graph and stores them. Returns how many were added.
+int IngestPipeline::addDetectedLoopsLocked(const std::vector<LoopEdge>& edges, int robot) {
+  int added = 0;
+  std::vector<StoredLoop> to_store;
+  for (const LoopEdge& edge : edges) {
+    if (const Status s = addLoopEdgeLocked(edge); !s) {
+      log::warn("server: loop edge ", edge.from_id, "-", edge.to_id, ": ", s.error());
+      continue;
+    }
+    to_store.push_back(
+        {edge.from_id, edge.to_id, edge.T_from_to, edge.information, edge.inliers, edge.motion_measure});
+    ++added;
+    registry_.countLoop(index_.node(edge.from_id).kf.robot_id);
+    if (index_.node(edge.to_id).robot != robot) registry_.countLoop(index_.node(edge.to_id).kf.robot_id);
+  }
+  // One write and one sync for all of this keyframe's loops (a lost loop edge costs accuracy, not data).
+  if (const Status s = store_->appendLoops(to_store); !s)
+    log::error("server: cannot store loops: ", s.error());
+  return added;
+}
+
+void IngestPipeline::submitOptimizationLocked() {
+  if (submit_) submit_(graph_);
+}
+
+void IngestPipeline::submitRestoredLoops() {
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (counters_.restored_loops > 0) submitOptimizationLocked();
+}
+
+MapServerStats IngestPipeline::stats() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  MapServerStats s = counters_;
+  timings_.fill(&s);
+  s.maps = static_cast<int>(index_.mapCount());
+  s.robots = registry_.stats();
+  for (ServerRobotStats& r : s.robots) index_.fillRobotStats(&r, registry_.index(r.robot_id));
+  return s;
+}
+
+std::vector<ServerKeyframe> IngestPipeline::keyframes() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return index_.validKeyframes();
+}
+
+std::vector<double> IngestPipeline::ingestTimesMs() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return timings_.ingestMs();
+}
+
+int64_t IngestPipeline::graphRevision() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return counters_.graph_revision;
+}
+
+}  // namespace rgbdmap

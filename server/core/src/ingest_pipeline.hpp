@@ -1,0 +1,110 @@
+#pragma once
+// The ingest pipeline owns the map state (keyframe index, pose graph, loop detector, counters) and runs on
+// the ingest worker, one event at a time:
+//   Hello -> session; Keyframe -> decode + validate images -> store durably -> acknowledge -> loop detection
+//   -> pose graph (-> a snapshot to the optimiser when loops were added); optimisation result -> apply ->
+//   PoseCorrections to every robot.
+// Readers (stats, keyframes) take the same state lock from other threads. Restoring from the map store is
+// in map_restore.cpp, graph insertion and optimisation results in ingest_graph.cpp.
+#include <cstdint>
+#include <functional>
+#include <map>
+#include <mutex>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "ingest_timings.hpp"
+#include "keyframe_index.hpp"
+#include "map_worker.hpp"
+#include "rgbdmap/graph/pose_graph.hpp"
+#include "rgbdmap/graph/pose_graph_optimizer.hpp"
+#include "rgbdmap/loop/loop_detector.hpp"
+#include "rgbdmap/proto/codec.hpp"
+#include "rgbdmap/server/map_server.hpp"
+#include "rgbdmap/store/map_store.hpp"
+#include "robot_publisher.hpp"
+#include "robot_registry.hpp"
+
+namespace rgbdmap {
+
+class IngestPipeline {
+ public:
+  /// Hands a snapshot of the graph to the optimiser (called with the state lock held, so keep it short).
+  using SubmitGraph = std::function<void(const PoseGraph& snapshot)>;
+
+  /// References must outlive the pipeline. revision_base: added to the optimiser's revisions.
+  IngestPipeline(const MapServerConfig& config, RobotRegistry& registry, RobotPublisher& publisher,
+                 int64_t revision_base);
+
+  /// Before restore(): the opened store and where graph snapshots go.
+  void attach(MapStore* store, SubmitGraph submit);
+  /// Restores robots, keyframes and loop edges from the store (map_restore.cpp).
+  Status restore();
+  /// Hands every restored keyframe to the map worker (it reads the images back itself) and keeps it for
+  /// live keyframes and pose updates.
+  void startFeeding(MapWorker* map_worker);
+  /// After restore(): a first optimisation when loops were restored.
+  void submitRestoredLoops();
+
+  // ---- the ingest worker
+  void onHello(const msg::Hello& hello);
+  void onKeyframe(const msg::Keyframe& keyframe);
+  void onOptimized(const OptimizedPoses& result);
+
+  // ---- readers (any thread)
+  /// Counters, timings, maps and robots (not the receive-side or map worker fields).
+  MapServerStats stats() const;
+  std::vector<ServerKeyframe> keyframes() const;
+  std::vector<double> ingestTimesMs() const;
+  int64_t graphRevision() const;
+
+ private:
+  struct Decoded {
+    DecodedImages images;
+    FrameFeatures features;
+  };
+  using Lock = std::unique_lock<std::mutex>;
+
+  // ingest_pipeline.cpp: the keyframe path
+  bool admitLocked(const msg::Keyframe& kf, const KeyframeKey& key, Lock& lock);
+  void refuseLocked(const msg::Keyframe& kf, const KeyframeKey& key, const std::string& reason, Lock& lock);
+  static Result<Decoded> decode(const msg::Keyframe& kf, const CameraIntrinsics& camera);
+  void addLiveLocked(const StoredKeyframe& stored, const Decoded& decoded, const CameraIntrinsics& camera);
+  int addDetectedLoopsLocked(const std::vector<LoopEdge>& edges, int robot);
+  void submitOptimizationLocked();
+
+  // ingest_graph.cpp: the graph
+  /// Adds a stored keyframe to the index, the graph and the detector. `detect`: run loop detection (a live
+  /// keyframe) or just index it (restore). Returns the accepted loop edges.
+  std::vector<LoopEdge> integrateLocked(const StoredKeyframe& stored, const FrameFeatures& features,
+                                        bool detect, LoopStats* loop_stats);
+  IndexedNode makeNodeLocked(const StoredKeyframe& stored, int robot, std::optional<int64_t> prev);
+  void addToGraphLocked(const IndexedNode& node, const msg::Keyframe& kf, std::optional<int64_t> prev);
+  Status addLoopEdgeLocked(const LoopEdge& edge);
+  void applyOptimizedLocked(const OptimizedPoses& result);
+  std::map<std::string, int64_t> currentSessionsLocked() const;
+  std::vector<MapNodePose> mapPosesLocked() const;
+
+  // map_restore.cpp
+  int restoreKeyframesLocked();  ///< returns the number skipped
+  void restoreLoopsLocked();
+
+  const MapServerConfig& config_;
+  RobotRegistry& registry_;
+  RobotPublisher& publisher_;
+  const int64_t revision_base_;  ///< graph revisions grow across restarts: start second * 1e6 + solve number
+  MapStore* store_ = nullptr;
+  SubmitGraph submit_;
+  MapWorker* map_worker_ = nullptr;  ///< null when occupancy is off
+
+  mutable std::mutex mutex_;  ///< everything below
+  KeyframeIndex index_;
+  PoseGraph graph_;
+  LoopDetector detector_;
+  int64_t next_edge_id_ = 0;
+  MapServerStats counters_;  ///< the counting fields; the derived ones are filled in stats()
+  IngestTimings timings_;
+};
+
+}  // namespace rgbdmap

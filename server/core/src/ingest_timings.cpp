@@ -1,0 +1,37 @@
+#include "ingest_timings.hpp"
+
+#include <ctime>
+
+namespace rgbdmap {
+
+double threadCpuMs() {
+  timespec ts{};
+  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
+  return ts.tv_sec * 1e3 + ts.tv_nsec * 1e-6;
+}
+
+double msSince(std::chrono::steady_clock::time_point t0) {
+  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+}
+
+void IngestTimings::add(const KeyframeTiming& t) {
+  decode_ms_.add(t.decode_ms);
+  store_ms_.add(t.store_ms);
+  loops_ms_.add(t.loops_ms);
+  ingest_ms_.add(t.total_ms);
+  ingest_cpu_ms_.add(t.cpu_ms);
+}
+
+void IngestTimings::fill(MapServerStats* s) const {
+  s->ingest_ms_median = ingest_ms_.median();
+  s->ingest_ms_p90 = ingest_ms_.quantile(0.9);
+  s->ingest_ms_max = ingest_ms_.max();
+  s->ingest_cpu_ms_median = ingest_cpu_ms_.median();
+  s->ingest_cpu_ms_p90 = ingest_cpu_ms_.quantile(0.9);
+  s->verify_ms_median = verify_ms_.median();
+  s->decode_ms_median = decode_ms_.median();
+  s->store_ms_median = store_ms_.median();
+  s->loops_ms_median = loops_ms_.median();
+}
+
+}  // namespace rgbdmap

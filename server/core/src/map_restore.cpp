@@ -1,0 +1,83 @@
+// Restart on the same map directory: robots (cameras), keyframes and loop edges come back from the map
+// store into the index, the graph and the loop detector; the map worker re-inserts the keyframes.
+#include <string>
+
+#include "ingest_pipeline.hpp"
+#include "rgbdmap/common/logging.hpp"
+#include "rgbdmap/vision/keyframe_message.hpp"
+
+namespace rgbdmap {
+
+Status IngestPipeline::restore() {
+  std::lock_guard<std::mutex> lock(mutex_);
+  const auto loaded = registry_.load(store_->directory());
+  if (!loaded) return Status::failure(loaded.error());
+  for (const ServerRobotStats& r : registry_.stats())
+    if (r.camera) detector_.setRobotCamera(registry_.index(r.robot_id), *r.camera);
+  const int skipped = restoreKeyframesLocked();
+  restoreLoopsLocked();
+  counters_.restored_keyframes = counters_.keyframes;
+  index_.setComponents(graph_.components());
+  if (counters_.keyframes > 0)
+    log::info("server: restored ", counters_.keyframes, " keyframes, ", counters_.restored_loops,
+              " loops from ", store_->directory(),
+              skipped ? " (" + std::to_string(skipped) + " skipped)" : std::string());
+  return Status::success();
+}
+
+int IngestPipeline::restoreKeyframesLocked() {
+  int skipped = 0;
+  for (const StoredKeyframe& stored : store_->keyframes()) {
+    const auto camera = registry_.camera(stored.keyframe.robot_id);
+    const auto features =
+        camera ? featuresFromMessage(stored.keyframe, PinholeCamera(*camera))
+               : Result<FrameFeatures>::failure("no camera for robot " + stored.keyframe.robot_id);
+    if (!features || stored.node_id < index_.size()) {
+      ++skipped;
+      log::error("server: stored keyframe ", stored.node_id,
+                 " skipped: ", features ? "node id out of order" : features.error());
+      continue;
+    }
+    integrateLocked(stored, *features, false, nullptr);
+    registry_.countKeyframe(stored.keyframe.robot_id);
+    ++counters_.keyframes;
+  }
+  return skipped;
+}
+
+void IngestPipeline::restoreLoopsLocked() {
+  for (const StoredLoop& loop : store_->loops()) {
+    if (!index_.validId(loop.from_node) || !index_.validId(loop.to_node)) {
+      log::error("server: stored loop ", loop.from_node, "-", loop.to_node, " names unknown keyframes");
+      continue;
+    }
+    LoopEdge edge;
+    edge.from_id = static_cast<int>(loop.from_node);
+    edge.to_id = static_cast<int>(loop.to_node);
+    edge.T_from_to = loop.T_from_to;
+    edge.information = loop.information;
+    edge.inliers = loop.inliers;
+    edge.motion_measure = loop.motion_measure;
+    if (const Status s = addLoopEdgeLocked(edge); !s) {
+      log::error("server: stored loop: ", s.error());
+      continue;
+    }
+    detector_.restoreEdge(edge);
+    registry_.countLoop(index_.node(edge.from_id).kf.robot_id);
+    ++counters_.loops_accepted;
+    ++counters_.restored_loops;
+  }
+}
+
+void IngestPipeline::startFeeding(MapWorker* map_worker) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  map_worker_ = map_worker;
+  for (const IndexedNode& n : index_.nodes()) {
+    const auto camera = n.valid ? registry_.camera(n.kf.robot_id) : std::nullopt;
+    if (!camera) continue;
+    map_worker_->addKeyframe(
+        {n.kf.node_id, n.kf.robot_id, n.kf.map_id, n.kf.T_map_kf, *camera, {}, {}, false});
+  }
+}
+
+}  // namespace rgbdmap

@@ -1,0 +1,22 @@
+#pragma once
+// What each robot is told after an optimisation: a pure function of the keyframes' optimised poses.
+#include <cstdint>
+#include <map>
+#include <string>
+#include <vector>
+
+#include "keyframe_index.hpp"
+#include "rgbdmap/proto/messages.hpp"
+
+namespace rgbdmap {
+
+/// PoseCorrections for each robot's current process. `nodes` in node id order (invalid ones are skipped);
+/// `current_sessions`: robot -> the session of its running process (a robot missing from it has session 0).
+/// A robot's corrections carry its current session's keyframes with their optimised T_map_kf (the newest
+/// msg::kMaxCorrections of them) and T_map_odom of its newest keyframe (T_map_kf * T_odom_kf^-1). Robots
+/// with no keyframe of their current session get nothing.
+std::map<std::string, msg::PoseCorrections> buildCorrections(
+    const std::vector<IndexedNode>& nodes, const std::map<std::string, int64_t>& current_sessions,
+    int64_t graph_revision);
+
+}  // namespace rgbdmap

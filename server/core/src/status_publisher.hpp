@@ -1,0 +1,37 @@
+#pragma once
+// The status thread: every status_period_s a ServerStatus (uptime, graph revision, per-robot counters) to
+// every robot that said Hello. A periodic SerialWorker ("rgbdmap-status"); off when the period is 0.
+#include <chrono>
+#include <cstdint>
+#include <functional>
+
+#include "rgbdmap/common/serial_worker.hpp"
+#include "robot_publisher.hpp"
+#include "robot_registry.hpp"
+
+namespace rgbdmap {
+
+class StatusPublisher {
+ public:
+  /// graph_revision: the revision of the last applied optimisation.
+  StatusPublisher(double period_s, RobotRegistry& registry, RobotPublisher& publisher,
+                  std::function<int64_t()> graph_revision);
+
+  void start();  ///< no effect when the period is 0
+  void stop();   ///< idempotent
+
+  /// The status as it would be published now (its robots are the ones it goes to).
+  msg::ServerStatus status() const;
+
+ private:
+  void publish();
+
+  const double period_s_;
+  RobotRegistry& registry_;
+  RobotPublisher& publisher_;
+  const std::function<int64_t()> graph_revision_;
+  const std::chrono::steady_clock::time_point started_ = std::chrono::steady_clock::now();
+  SerialWorker worker_;  ///< last member
+};
+
+}  // namespace rgbdmap
