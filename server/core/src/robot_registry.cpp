@@ -1,11 +1,11 @@
 #include "robot_registry.hpp"
 
-#include <cstdio>
 #include <fcntl.h>
+#include <unistd.h>
+#include <cstdio>
 #include <fstream>
 #include <iomanip>
 #include <sstream>
-#include <unistd.h>
 
 #include "rgbdmap/common/logging.hpp"
 
@@ -13,7 +13,8 @@ namespace rgbdmap {
 namespace {
 
 constexpr const char* kFileName = "robots.txt";
-constexpr const char* kHeader = "# rgbdmap robots v1: id index fx fy cx cy width height k1 k2 p1 p2 k3 depth_scale";
+constexpr const char* kHeader =
+    "# rgbdmap robots v1: id index fx fy cx cy width height k1 k2 p1 p2 k3 depth_scale";
 
 bool sameCamera(const CameraIntrinsics& a, const CameraIntrinsics& b) {
   return a.fx == b.fx && a.fy == b.fy && a.cx == b.cx && a.cy == b.cy && a.width == b.width &&
@@ -36,7 +37,8 @@ RobotRegistry::Entry& RobotRegistry::entry(const std::string& robot_id) {
   return e;
 }
 
-Result<bool> RobotRegistry::hello(const std::string& robot_id, int64_t session, const CameraIntrinsics& camera) {
+Result<bool> RobotRegistry::hello(const std::string& robot_id, int64_t session,
+                                  const CameraIntrinsics& camera) {
   std::lock_guard<std::mutex> lock(mutex_);
   Entry& e = entry(robot_id);
   bool changed = false;
@@ -64,7 +66,8 @@ Status RobotRegistry::save(const std::string& map_dir) const {
     std::vector<const Entry*> ordered;
     for (const auto& [id, e] : robots_)
       if (e.index >= 0 && e.stats.camera) ordered.push_back(&e);
-    std::sort(ordered.begin(), ordered.end(), [](const Entry* a, const Entry* b) { return a->index < b->index; });
+    std::sort(ordered.begin(), ordered.end(),
+              [](const Entry* a, const Entry* b) { return a->index < b->index; });
     for (const Entry* e : ordered) {
       const CameraIntrinsics& c = *e->stats.camera;
       out << e->stats.robot_id << " " << e->index << " " << c.fx << " " << c.fy << " " << c.cx << " " << c.cy
@@ -81,7 +84,8 @@ Status RobotRegistry::save(const std::string& map_dir) const {
     if (!f.flush()) return Status::failure("cannot write " + tmp);
   }
   if (const Status s = syncPath(tmp, O_RDONLY); !s) return s;
-  if (std::rename(tmp.c_str(), path.c_str()) != 0) return Status::failure("cannot rename " + tmp + " to " + path);
+  if (std::rename(tmp.c_str(), path.c_str()) != 0)
+    return Status::failure("cannot rename " + tmp + " to " + path);
   return syncPath(map_dir, O_RDONLY | O_DIRECTORY);
 }
 
@@ -160,11 +164,15 @@ void RobotRegistry::countRefused(const std::string& robot_id) {
 }
 void RobotRegistry::countOutOfOrder(const std::string& robot_id) {
   std::lock_guard<std::mutex> lock(mutex_);
-  ++entry(robot_id).out_of_order;
+  ++entry(robot_id).stats.out_of_order;
+}
+void RobotRegistry::countChainSplit(const std::string& robot_id) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  ++entry(robot_id).stats.chain_splits;
 }
 void RobotRegistry::countWaitingForHello(const std::string& robot_id) {
   std::lock_guard<std::mutex> lock(mutex_);
-  ++entry(robot_id).waiting_for_hello;
+  ++entry(robot_id).stats.waiting_for_hello;
 }
 
 std::vector<ServerRobotStats> RobotRegistry::stats() const {
