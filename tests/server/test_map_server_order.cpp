@@ -160,6 +160,7 @@ TEST(MapServerOrder, TheReorderBoundGivesUpOnAGapAndALatePredecessorJoinsTheChai
   EXPECT_EQ(s.keyframes, 3);
   EXPECT_EQ(s.keyframes_waiting, 4);
   EXPECT_EQ(s.robots[0].keyframes_waiting, 4);
+  EXPECT_EQ(s.robots[0].out_of_order, 4u);
   // A fifth: over the bound, the run gives up on keyframe 3 and starts a new chain.
   deliverOneByOne(robot, *h.server, seg, {8});
   ASSERT_TRUE(h.server->waitIdle(60.0));

@@ -32,7 +32,8 @@ void IngestPipeline::placeLocked(WaitingKeyframe waiting, const DecodedImages* i
                  waiting.stored.keyframe.robot_id, " stored, waits for its predecessor ",
                  waiting.stored.keyframe.previous_keyframe_id);
     }
-    reorder_.add(keyOf(waiting.stored), *prev, std::move(waiting));
+    const KeyframeKey key = keyOf(waiting.stored);  // before the move into the by-value argument
+    reorder_.add(key, *prev, std::move(waiting));
     return;
   }
   integrateWithSuccessorsLocked(std::move(waiting), images, live);
