@@ -5,7 +5,9 @@ function(rgbdmap_target_defaults target)
     target_compile_options(${target} PRIVATE -Werror)
   endif()
   if(RGBDMAP_SANITIZE)
-    target_compile_options(${target} PRIVATE -fsanitize=address,undefined -fno-omit-frame-pointer)
+    # -O1 -g1 (after the build type's flags): what ASan recommends, line tables for the reports, and a tree
+    # that compiles in about half the time of -O2 -g.
+    target_compile_options(${target} PRIVATE -fsanitize=address,undefined -fno-omit-frame-pointer -O1 -g1)
     target_link_options(${target} PRIVATE -fsanitize=address,undefined)
   endif()
 endfunction()

@@ -1,11 +1,11 @@
 #include "robot_registry.hpp"
 
-#include <cstdio>
 #include <fcntl.h>
+#include <unistd.h>
+#include <cstdio>
 #include <fstream>
 #include <iomanip>
 #include <sstream>
-#include <unistd.h>
 
 #include "rgbdmap/common/logging.hpp"
 
@@ -13,12 +13,8 @@ namespace rgbdmap {
 namespace {
 
 constexpr const char* kFileName = "robots.txt";
-constexpr const char* kHeader = "# rgbdmap robots v1: id index fx fy cx cy width height k1 k2 p1 p2 k3 depth_scale";
-
-bool sameCamera(const CameraIntrinsics& a, const CameraIntrinsics& b) {
-  return a.fx == b.fx && a.fy == b.fy && a.cx == b.cx && a.cy == b.cy && a.width == b.width &&
-         a.height == b.height && a.distortion == b.distortion && a.depth_scale == b.depth_scale;
-}
+constexpr const char* kHeader =
+    "# rgbdmap robots v1: id index fx fy cx cy width height k1 k2 p1 p2 k3 depth_scale";
 
 Status syncPath(const std::string& path, int flags) {
   const int fd = ::open(path.c_str(), flags);
@@ -36,7 +32,8 @@ RobotRegistry::Entry& RobotRegistry::entry(const std::string& robot_id) {
   return e;
 }
 
-Result<bool> RobotRegistry::hello(const std::string& robot_id, int64_t session, const CameraIntrinsics& camera) {
+Result<bool> RobotRegistry::hello(const std::string& robot_id, int64_t session,
+                                  const CameraIntrinsics& camera) {
   std::lock_guard<std::mutex> lock(mutex_);
   Entry& e = entry(robot_id);
   bool changed = false;
@@ -44,7 +41,7 @@ Result<bool> RobotRegistry::hello(const std::string& robot_id, int64_t session, 
     e.index = next_index_++;
     changed = true;
   }
-  if (!e.stats.camera || !sameCamera(*e.stats.camera, camera)) {
+  if (!e.stats.camera || !sameIntrinsics(*e.stats.camera, camera)) {
     if (e.stats.camera) log::warn("server: robot ", robot_id, " reports a different camera from now on");
     e.stats.camera = camera;
     changed = true;
@@ -64,7 +61,8 @@ Status RobotRegistry::save(const std::string& map_dir) const {
     std::vector<const Entry*> ordered;
     for (const auto& [id, e] : robots_)
       if (e.index >= 0 && e.stats.camera) ordered.push_back(&e);
-    std::sort(ordered.begin(), ordered.end(), [](const Entry* a, const Entry* b) { return a->index < b->index; });
+    std::sort(ordered.begin(), ordered.end(),
+              [](const Entry* a, const Entry* b) { return a->index < b->index; });
     for (const Entry* e : ordered) {
       const CameraIntrinsics& c = *e->stats.camera;
       out << e->stats.robot_id << " " << e->index << " " << c.fx << " " << c.fy << " " << c.cx << " " << c.cy
@@ -81,7 +79,8 @@ Status RobotRegistry::save(const std::string& map_dir) const {
     if (!f.flush()) return Status::failure("cannot write " + tmp);
   }
   if (const Status s = syncPath(tmp, O_RDONLY); !s) return s;
-  if (std::rename(tmp.c_str(), path.c_str()) != 0) return Status::failure("cannot rename " + tmp + " to " + path);
+  if (std::rename(tmp.c_str(), path.c_str()) != 0)
+    return Status::failure("cannot rename " + tmp + " to " + path);
   return syncPath(map_dir, O_RDONLY | O_DIRECTORY);
 }
 
