@@ -30,10 +30,19 @@ fi
 ctest --test-dir "$build_dir" --output-on-failure -j "$(nproc)" "$@"
 if [ "${RGBDMAP_SKIP_SANITIZERS:-0}" != "1" ]; then
   echo "== sanitizer pass (ASan + UBSan): every tier but cli"
-  # The server tests' recorded keyframe stream is copied from the Release tree (byte-identical).
+  # The server tests' recorded keyframe stream is copied from the Release tree (byte-identical). A unity
+  # build (16 sources per compiler run) at -O1 -g1 compiles in ~5 min on 2 cores instead of ~19 min.
   BUILD_DIR="$root/build-asan" BUILD_TYPE=RelWithDebInfo CMAKE_EXTRA_ARGS="-DRGBDMAP_SANITIZE=ON \
--DRGBDMAP_BUILD_BENCHMARKS=OFF -DRGBDMAP_KEYFRAME_FIXTURE_FROM=$build_dir/tests/fixtures" \
+-DRGBDMAP_BUILD_BENCHMARKS=OFF -DRGBDMAP_KEYFRAME_FIXTURE_FROM=$build_dir/tests/fixtures \
+-DCMAKE_UNITY_BUILD=ON -DCMAKE_UNITY_BUILD_BATCH_SIZE=16" \
     "$root/deploy/build.sh"
-  UBSAN_OPTIONS=halt_on_error=1:print_stacktrace=1 ASAN_OPTIONS=detect_leaks=1 \
-    ctest --test-dir "$root/build-asan" --output-on-failure -j "$(nproc)" -LE '^cli$' "$@"
+  export UBSAN_OPTIONS=halt_on_error=1:print_stacktrace=1 ASAN_OPTIONS=detect_leaks=1
+  log="$root/build-asan/sanitizer_tests.log"
+  if ! ctest --test-dir "$root/build-asan" --output-on-failure -j "$(nproc)" -LE '^cli$' "$@" 2>&1 | tee "$log"; then
+    # LeakSanitizer's own tracer sometimes crashes at exit after a test passed ("Tracer caught signal 11",
+    # google/sanitizers#1353): not a leak, not our failure. Then, and only then, the failed tests run again.
+    grep -q "LeakSanitizer has encountered a fatal error" "$log" || exit 1
+    echo "== LeakSanitizer's tracer crashed (google/sanitizers#1353): the failed tests once more"
+    ctest --test-dir "$root/build-asan" --output-on-failure --rerun-failed
+  fi
 fi

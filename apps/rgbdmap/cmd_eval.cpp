@@ -13,7 +13,7 @@
 namespace rgbdmap::cmd {
 namespace {
 
-const char* kUsage =
+const char* kEvalUsage =
     "usage: rgbdmap eval --gt GROUNDTRUTH --est ESTIMATE [options]\n"
     "Absolute trajectory error (after least-squares alignment) and relative pose error of an estimated\n"
     "trajectory; both files in TUM format (timestamp tx ty tz qx qy qz qw, '#' comments).\n"
@@ -96,11 +96,11 @@ void printText(const EvalConfig& c, size_t gt_poses, size_t est_poses, const Res
 int eval(int argc, char** argv) {
   cli::Args args(argc, argv, {"scale", "json", "help"});
   if (args.has("help")) {
-    std::fputs(kUsage, stdout);
+    std::fputs(kEvalUsage, stdout);
     return 0;
   }
   const std::optional<EvalConfig> config = parseConfig(args);
-  if (!config) return cli::usageError(args.errors(), kUsage);
+  if (!config) return cli::usageError(args.errors(), kEvalUsage);
   const auto gt = readTumTrajectory(config->gt_path);
   const auto est = readTumTrajectory(config->est_path);
   if (!gt || !est) {

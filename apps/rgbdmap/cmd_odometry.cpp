@@ -11,7 +11,7 @@
 namespace rgbdmap::cmd {
 namespace {
 
-const char* kUsage =
+const char* kOdometryUsage =
     "usage: rgbdmap odometry --dataset DIR --out traj.txt [options]\n"
     "  --dataset DIR           TUM layout: rgb.txt, depth.txt, rgb/, depth/ [, groundtruth.txt, "
     "camera.yaml]\n"
@@ -32,7 +32,7 @@ std::string keyframesPath(const std::string& out) {
 int odometry(int argc, char** argv) {
   cli::Args args(argc, argv, {"help"});
   if (args.has("help")) {
-    std::printf("%s%s", kUsage, app::datasetOptionsHelp());
+    std::printf("%s%s", kOdometryUsage, app::datasetOptionsHelp());
     return 0;
   }
   auto allowed = app::datasetOptionNames();
@@ -50,7 +50,7 @@ int odometry(int argc, char** argv) {
   app::applyLogLevel(args, &errors);
   const app::OdometrySetup setup = app::loadOdometrySetup(args, dataset_dir.value_or(""), &errors);
   errors.insert(errors.begin(), args.errors().begin(), args.errors().end());
-  if (!errors.empty()) return cli::usageError(errors, kUsage);
+  if (!errors.empty()) return cli::usageError(errors, kOdometryUsage);
 
   cv::setNumThreads(static_cast<int>(threads));
   const auto dataset = TumDataset::open(*dataset_dir, setup.dataset);

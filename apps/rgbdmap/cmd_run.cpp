@@ -29,7 +29,7 @@
 namespace rgbdmap::cmd {
 namespace {
 
-const char* kUsage =
+const char* kRunUsage =
     "usage: rgbdmap run [--dataset DIR[,DIR...]] [--robots N] [--transport memq|lcm|dds|URL] [--out DIR] "
     "[options]\n"
     "  --dataset DIR[,DIR]     TUM-layout dataset(s); one per robot, or one split into --robots overlapping\n"
@@ -107,7 +107,7 @@ std::optional<int> loadInputs(cli::Args& args, RunOptions* o, RunInputs* in) {
   for (const std::string& dir : o->datasets) {
     std::vector<std::string> errors;
     in->setups.push_back(app::loadOdometrySetup(args, dir, &errors));
-    if (!errors.empty()) return cli::usageError(errors, kUsage);
+    if (!errors.empty()) return cli::usageError(errors, kRunUsage);
     auto d = TumDataset::open(dir, in->setups.back().dataset);
     if (!d) return log::error(d.error()), 1;
     in->datasets.push_back(std::move(*d));
@@ -216,13 +216,13 @@ int writeOutputs(const RunOptions& o, const RunInputs& in, const std::vector<Rob
 int run(int argc, char** argv) {
   cli::Args args(argc, argv, {"help", "realtime"});
   if (args.has("help")) {
-    std::printf("%s%s", kUsage, app::datasetOptionsHelp());
+    std::printf("%s%s", kRunUsage, app::datasetOptionsHelp());
     return 0;
   }
   std::vector<std::string> errors;
   ServerAppConfig server_config;
   RunOptions o = parseRun(args, &server_config, &errors);
-  if (!errors.empty()) return cli::usageError(errors, kUsage);
+  if (!errors.empty()) return cli::usageError(errors, kRunUsage);
   cv::setNumThreads(static_cast<int>(o.threads));
   RunInputs in;
   if (const auto failed = loadInputs(args, &o, &in)) return *failed;

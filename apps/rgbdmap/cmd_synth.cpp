@@ -3,8 +3,8 @@
 #include <cstdio>
 #include <sstream>
 
-#include "rgbdmap/cli/cli.hpp"
 #include "commands.hpp"
+#include "rgbdmap/cli/cli.hpp"
 #include "rgbdmap/common/synth.hpp"
 
 namespace rgbdmap::cmd {

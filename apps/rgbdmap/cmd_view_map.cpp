@@ -4,14 +4,14 @@
 
 #include <octomap/OcTree.h>
 
-#include "rgbdmap/cli/cli.hpp"
 #include "commands.hpp"
+#include "rgbdmap/cli/cli.hpp"
 #include "rgbdmap/map/map_io.hpp"
 
 namespace rgbdmap::cmd {
 namespace {
 
-const char* kUsage =
+const char* kViewMapUsage =
     "usage: rgbdmap view-map FILE.bt|FILE.ot [--help]\n"
     "Prints an octree map's statistics as `key value` lines: resolution, file and memory size, bounds,\n"
     "leaf counts and volumes. The file is checked before it is parsed (corrupt files are reported).\n"
@@ -22,12 +22,12 @@ const char* kUsage =
 int viewMap(int argc, char** argv) {
   cli::Args args(argc, argv, {"help"});
   if (args.has("help")) {
-    std::fputs(kUsage, stdout);
+    std::fputs(kViewMapUsage, stdout);
     return 0;
   }
   args.checkAllowed({"help"});
   if (args.positional().size() != 1) args.addError("expected exactly one map file");
-  if (!args.errors().empty()) return cli::usageError(args.errors(), kUsage);
+  if (!args.errors().empty()) return cli::usageError(args.errors(), kViewMapUsage);
   const std::string path = args.positional()[0];
   const auto tree = readMapFile(path);
   if (!tree) {

@@ -9,6 +9,11 @@ namespace rgbdmap {
 
 std::string CameraIntrinsics::validate() const { return joinProblems(cameraConfigTable().problems(*this)); }
 
+bool sameIntrinsics(const CameraIntrinsics& a, const CameraIntrinsics& b) {
+  return a.fx == b.fx && a.fy == b.fy && a.cx == b.cx && a.cy == b.cy && a.width == b.width &&
+         a.height == b.height && a.distortion == b.distortion && a.depth_scale == b.depth_scale;
+}
+
 bool CameraIntrinsics::hasDistortion() const {
   for (double d : distortion)
     if (d != 0.0) return true;

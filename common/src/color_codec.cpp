@@ -50,7 +50,7 @@ void unpackLeftDeltaPlanes(const Bytes& in, cv::Mat& bgr) {
   }
 }
 
-Status checkOptions(const ImageCodecOptions& o) {
+Status checkColorOptions(const ImageCodecOptions& o) {
   if (o.color != ColorCodec::kNone && o.color != ColorCodec::kJpeg && o.color != ColorCodec::kLossless)
     return Status::failure("unknown colour codec " + std::to_string(static_cast<int>(o.color)));
   if (o.color == ColorCodec::kJpeg && (o.jpeg_quality < 1 || o.jpeg_quality > 100))
@@ -74,7 +74,7 @@ Status decodePayload(const uint8_t* payload, size_t size, ColorCodec codec, cv::
 
 Result<Bytes> encodeColor(const cv::Mat& bgr, const ImageCodecOptions& options) {
   using R = Result<Bytes>;
-  if (const Status s = checkOptions(options); !s) return R::failure(s.error());
+  if (const Status s = checkColorOptions(options); !s) return R::failure(s.error());
   if (options.color == ColorCodec::kNone) return Bytes{};
   if (bgr.type() != CV_8UC3) return R::failure("colour must be CV_8UC3");
   if (const Status s = detail::checkImageSize(bgr.cols, bgr.rows, "colour"); !s) return R::failure(s.error());

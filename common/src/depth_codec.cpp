@@ -16,7 +16,7 @@ bool knownFilter(DepthFilter f) {
   return f == DepthFilter::kNone || f == DepthFilter::kRowDelta || f == DepthFilter::kRankMed;
 }
 
-Status checkOptions(const ImageCodecOptions& o) {
+Status checkDepthOptions(const ImageCodecOptions& o) {
   if (o.zstd_level < 1 || o.zstd_level > 19)
     return Status::failure("zstd_level " + std::to_string(o.zstd_level) + " outside 1..19");
   if (!knownFilter(o.depth_filter))
@@ -48,7 +48,7 @@ Result<Bytes> encodeDepth(const cv::Mat& depth16, const ImageCodecOptions& optio
   if (depth16.type() != CV_16UC1) return R::failure("depth must be CV_16UC1");
   if (const Status s = detail::checkImageSize(depth16.cols, depth16.rows, "depth"); !s)
     return R::failure(s.error());
-  if (const Status s = checkOptions(options); !s) return R::failure(s.error());
+  if (const Status s = checkDepthOptions(options); !s) return R::failure(s.error());
   detail::BlobHeader header{0, static_cast<uint16_t>(depth16.cols), static_cast<uint16_t>(depth16.rows), 0};
   Bytes content;
   filterDepth(depth16, options.depth_filter, header, content);

@@ -17,7 +17,7 @@
 namespace rgbdmap {
 namespace {
 
-constexpr double kRes = 0.05;
+constexpr double kSliceRes = 0.05;
 constexpr double kCameraHeight = 0.5;               ///< world z of the camera (a small ground robot)
 constexpr double kBandLow = -0.4, kBandHigh = 0.5;  ///< slice height band relative to the camera
 
@@ -60,7 +60,8 @@ void insertFrame(const RgbdFrame& frame, const PinholeCamera& camera, const SE3&
 /// their centre in the height band; occupied wins over free, anything else unknown.
 msg::OccupancySlice projectSlice(const octomap::OcTree& tree, const SE3& T_map_cam, const Vec3& up,
                                  double now_s) {
-  msg::OccupancySlice s = testing::robotCentredSlice(T_map_cam, 4.4, kRes, msg::OccupancySlice::kUnknown);
+  msg::OccupancySlice s =
+      testing::robotCentredSlice(T_map_cam, 4.4, kSliceRes, msg::OccupancySlice::kUnknown);
   s.header.utime = static_cast<int64_t>(std::llround(now_s * 1e6));
   const double cam_height = T_map_cam.translation().dot(up);
   for (auto it = tree.begin_leafs(), end = tree.end_leafs(); it != end; ++it) {
@@ -68,14 +69,14 @@ msg::OccupancySlice projectSlice(const octomap::OcTree& tree, const SE3& T_map_c
     const double h = c.dot(up) - cam_height;
     if (h < kBandLow || h > kBandHigh) continue;
     const bool occupied = tree.isNodeOccupied(*it);
-    const int n = std::max(1, static_cast<int>(std::lround(it.getSize() / kRes)));
+    const int n = std::max(1, static_cast<int>(std::lround(it.getSize() / kSliceRes)));
     for (int i = 0; i < n; ++i)
       for (int j = 0; j < n; ++j)
         for (int k = 0; k < n; ++k) {
-          const Vec3 p = c + kRes * Vec3(i - (n - 1) / 2.0, j - (n - 1) / 2.0, k - (n - 1) / 2.0);
+          const Vec3 p = c + kSliceRes * Vec3(i - (n - 1) / 2.0, j - (n - 1) / 2.0, k - (n - 1) / 2.0);
           const Vec3 g = s.T_map_grid.inverse() * p;
-          const int col = static_cast<int>(std::floor(g.x() / kRes)),
-                    row = static_cast<int>(std::floor(g.y() / kRes));
+          const int col = static_cast<int>(std::floor(g.x() / kSliceRes)),
+                    row = static_cast<int>(std::floor(g.y() / kSliceRes));
           if (col < 0 || row < 0 || col >= s.width || row >= s.height) continue;
           int8_t& cell = s.cells[static_cast<size_t>(row) * s.width + col];
           if (occupied)
@@ -106,7 +107,7 @@ TEST(AvoidanceE2E, CommandsReactToTheObstacleAheadInTheSyntheticRoom) {
   const Vec3 up_map = T_map_world.linear() * Vec3::UnitZ();
   ASSERT_TRUE(up_map.isApprox(acfg.up_in_map, 1e-12)) << "a level first camera: up = -y in the map";
 
-  octomap::OcTree tree(kRes);
+  octomap::OcTree tree(kSliceRes);
   bool turned = false;
   double t = 100.0, true_at_turn = NAN;
   AvoidanceDecision d;
@@ -119,7 +120,7 @@ TEST(AvoidanceE2E, CommandsReactToTheObstacleAheadInTheSyntheticRoom) {
     ASSERT_FALSE(d.stopped) << d.reason;
     if (truth <= 1.5) {  // seen, and quantised to the voxels: at most one voxel nearer than the truth
       EXPECT_LE(d.closest_obstacle_m, truth + 0.02) << "step " << step;
-      EXPECT_GE(d.closest_obstacle_m, truth - kRes - 0.02) << "step " << step;
+      EXPECT_GE(d.closest_obstacle_m, truth - kSliceRes - 0.02) << "step " << step;
     }
     if (truth > acfg.safety_distance_m + 0.1) {
       EXPECT_EQ(d.state, AvoidanceState::kForward) << "step " << step << ", obstacle " << truth << " m ahead";

@@ -4,6 +4,7 @@
 #include <limits>
 #include <random>
 
+#include "common/common_test_util.hpp"
 #include "rgbdmap/common/alignment.hpp"
 #include "rgbdmap/common/association.hpp"
 
@@ -12,13 +13,9 @@ namespace {
 
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
-bool contains(const std::string& s, const std::string& part) { return s.find(part) != std::string::npos; }
+using testing::contains;
 
-SE3 knownTransform() {
-  Vec6 xi;
-  xi << 0.7, -1.2, 2.5, 0.3, -0.5, 1.1;
-  return se3::exp(xi);
-}
+using testing::knownTransform;
 
 std::vector<Vec3> randomPoints(int n, unsigned seed) {
   std::mt19937 rng(seed);

@@ -1,12 +1,13 @@
 #include <gtest/gtest.h>
 
+#include "common/common_test_util.hpp"
 #include "common/temp_dir.hpp"
 #include "rgbdmap/common/tum_dataset.hpp"
 
 namespace rgbdmap {
 namespace {
 
-bool contains(const std::string& s, const std::string& part) { return s.find(part) != std::string::npos; }
+using testing::contains;
 
 TEST(DatasetCamera, AbsentValidAndMalformed) {
   testing::TempDir d;

@@ -5,13 +5,14 @@
 #include <limits>
 #include <random>
 
+#include "common/common_test_util.hpp"
 #include "rgbdmap/common/evaluation.hpp"
 #include "rgbdmap/common/evaluation_json.hpp"
 
 namespace rgbdmap {
 namespace {
 
-bool contains(const std::string& s, const std::string& part) { return s.find(part) != std::string::npos; }
+using testing::contains;
 
 SE3 pose(const Mat3& R, const Vec3& t) {
   SE3 T = SE3::Identity();
@@ -38,11 +39,7 @@ Trajectory fromPositions(const std::vector<Vec3>& p) {
 /// A helix with changing orientation: well conditioned for alignment.
 SE3 helix(double t) { return pose(yaw(0.5 * t), Vec3(std::cos(t), std::sin(t), 0.2 * t)); }
 
-SE3 knownTransform() {
-  Vec6 xi;
-  xi << 0.7, -1.2, 2.5, 0.3, -0.5, 1.1;
-  return se3::exp(xi);
-}
+using testing::knownTransform;
 
 TEST(Summarize, MedianMeanRmseMinMax) {
   const ErrorStats even = summarize({3, 1, 2, 10});

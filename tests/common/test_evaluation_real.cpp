@@ -4,17 +4,14 @@
 #include <cmath>
 #include <random>
 
+#include "common/common_test_util.hpp"
 #include "rgbdmap/common/evaluation.hpp"
 #include "test_data.hpp"
 
 namespace rgbdmap {
 namespace {
 
-SE3 knownTransform() {
-  Vec6 xi;
-  xi << 0.7, -1.2, 2.5, 0.3, -0.5, 1.1;
-  return se3::exp(xi);
-}
+using testing::knownTransform;
 
 /// The fr1_rpy ground truth moved into another world frame, 3 ms late, with isotropic position noise.
 Trajectory perturbedFr1Rpy(const Trajectory& gt, double sigma) {

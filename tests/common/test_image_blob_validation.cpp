@@ -18,10 +18,10 @@ using testing::Bytes;
 using testing::putU16;
 using testing::reseal;
 
-constexpr int kW = 32, kH = 24;
+constexpr int kValW = 32, kValH = 24;
 
-Bytes depthBlob(DepthFilter filter, int height = kH) { return testing::depthBlob(filter, kW, height); }
-Bytes colorBlob(ColorCodec codec, int height = kH) { return testing::colorBlob(codec, kW, height); }
+Bytes depthBlob(DepthFilter filter, int height = kValH) { return testing::depthBlob(filter, kValW, height); }
+Bytes colorBlob(ColorCodec codec, int height = kValH) { return testing::colorBlob(codec, kValW, height); }
 
 Bytes setByte(Bytes b, size_t at, uint8_t value, bool seal = true) {
   b[at] = value;
@@ -61,7 +61,7 @@ Bytes zstdFrame(const Bytes& content, bool declare_size = true) {
 
 /// A kRankMed blob with the given table (as deltas) and every symbol equal to `symbol`.
 Bytes forgedRankBlob(const std::vector<uint16_t>& table_deltas, uint16_t symbol) {
-  const size_t k = table_deltas.size(), n = kW * kH;
+  const size_t k = table_deltas.size(), n = kValW * kValH;
   Bytes content(2 * k + 2 * n);
   for (size_t t = 0; t < k; ++t) putU16(content, 2 * t, table_deltas[t]);
   for (size_t i = 0; i < n; ++i) {
@@ -87,7 +87,7 @@ struct Case {
 
 void expectDepthRejected(const std::vector<Case>& cases) {
   for (const Case& c : cases) {
-    const auto r = decodeDepth(c.blob.data(), c.blob.size(), kW, kH);
+    const auto r = decodeDepth(c.blob.data(), c.blob.size(), kValW, kValH);
     ASSERT_FALSE(r) << c.name;
     EXPECT_NE(r.error().find(c.expect), std::string::npos) << c.name << ": " << r.error();
   }
@@ -95,7 +95,7 @@ void expectDepthRejected(const std::vector<Case>& cases) {
 
 void expectColorRejected(ColorCodec codec, const std::vector<Case>& cases) {
   for (const Case& c : cases) {
-    const auto r = decodeColor(c.blob.data(), c.blob.size(), codec, kW, kH);
+    const auto r = decodeColor(c.blob.data(), c.blob.size(), codec, kValW, kValH);
     ASSERT_FALSE(r) << c.name;
     EXPECT_NE(r.error().find(c.expect), std::string::npos) << c.name << ": " << r.error();
   }
@@ -113,12 +113,12 @@ TEST(ImageBlobValidation, ForgedHeadersAreRejectedWithAReason) {
       {"extended", resized(rank, rank.size() + 1, false), "-byte payload, has"},
       {"truncated", resized(rank, rank.size() - 1, false), "-byte payload, has"},
       {"bit flip", setByte(rank, 30, static_cast<uint8_t>(rank[30] ^ 4), false), "checksum mismatch"},
-      {"width", setU16(rank, 6, kW + 1), "declares 33x24, expected 32x24"},
+      {"width", setU16(rank, 6, kValW + 1), "declares 33x24, expected 32x24"},
       {"zero height", setU16(rank, 8, 0), "outside 1..4096"},
       {"huge width", setU16(rank, 6, 65535), "outside 1..4096"},
   });
-  EXPECT_FALSE(decodeDepth(rank.data(), rank.size(), 5000, kH));  // expected size itself out of range
-  EXPECT_FALSE(decodeDepth(rank.data(), rank.size(), kW, 0));
+  EXPECT_FALSE(decodeDepth(rank.data(), rank.size(), 5000, kValH));  // expected size itself out of range
+  EXPECT_FALSE(decodeDepth(rank.data(), rank.size(), kValW, 0));
 }
 
 TEST(ImageBlobValidation, ForgedDepthPayloadsAreRejectedWithAReason) {
@@ -131,9 +131,10 @@ TEST(ImageBlobValidation, ForgedDepthPayloadsAreRejectedWithAReason) {
       {"garbage", withPayload(rank, Bytes(100, 0x5A)), "not a zstd frame"},
       {"trailing", resized(rank, rank.size() + 3, true), "3 bytes after the frame"},
       {"cut frame", resized(rank, rank.size() - 3, true), "zstd:"},
-      {"no size", withPayload(none, zstdFrame(Bytes(2 * kW * kH, 1), false)),
+      {"no size", withPayload(none, zstdFrame(Bytes(2 * kValW * kValH, 1), false)),
        "does not declare its content size"},
-      {"other size", withPayload(none, zstdFrame(Bytes(2 * kW * kH + 2, 1))), "content bytes, expected"},
+      {"other size", withPayload(none, zstdFrame(Bytes(2 * kValW * kValH + 2, 1))),
+       "content bytes, expected"},
       {"table order", forgedRankBlob({500, 0}, 0), "not strictly ascending"},
       {"table wrap", forgedRankBlob({60000, 6000}, 0), "not strictly ascending"},
       {"symbol", forgedRankBlob({500}, 5), "row 0 points outside the rank table"},
@@ -150,23 +151,24 @@ TEST(ImageBlobValidation, ForgedColourPayloadsAreRejectedWithAReason) {
           {"aux", setByte(jpeg, 10, 1), "non-zero aux"},
           {"cut", resized(jpeg, jpeg.size() / 2, true), "JPEG decode"},
           {"garbage", withPayload(jpeg, Bytes(300, 0x5A)), "JPEG decode: Not a JPEG file"},
-          {"jpeg size", withPayload(jpeg, jpegBytes(testing::syntheticColor(kW, kH + 1, 1))),
+          {"jpeg size", withPayload(jpeg, jpegBytes(testing::syntheticColor(kValW, kValH + 1, 1))),
            "JPEG dimensions differ"},
-          {"grey", withPayload(jpeg, jpegBytes(cv::Mat(kH, kW, CV_8UC1, cv::Scalar(9)))), "not 3-component"},
+          {"grey", withPayload(jpeg, jpegBytes(cv::Mat(kValH, kValW, CV_8UC1, cv::Scalar(9)))),
+           "not 3-component"},
           {"progressive",
-           withPayload(jpeg,
-                       jpegBytes(testing::syntheticColor(kW, kH, 1), {cv::IMWRITE_JPEG_PROGRESSIVE, 1})),
+           withPayload(
+               jpeg, jpegBytes(testing::syntheticColor(kValW, kValH, 1), {cv::IMWRITE_JPEG_PROGRESSIVE, 1})),
            "progressive"},
       });
   expectColorRejected(
       ColorCodec::kLossless,
       {
           {"jpeg blob", jpeg, "codec 1, expected lossless"},
-          {"other size", withPayload(lossless, payloadOf(colorBlob(ColorCodec::kLossless, kH + 1))),
+          {"other size", withPayload(lossless, payloadOf(colorBlob(ColorCodec::kLossless, kValH + 1))),
            "content bytes, expected"},
       });
   const uint8_t stray[] = {1};
-  EXPECT_FALSE(decodeColor(stray, sizeof(stray), ColorCodec::kNone, kW, kH));
+  EXPECT_FALSE(decodeColor(stray, sizeof(stray), ColorCodec::kNone, kValW, kValH));
 }
 
 }  // namespace

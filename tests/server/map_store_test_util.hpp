@@ -139,4 +139,10 @@ inline void expectSameLoop(const StoredLoop& a, const StoredLoop& b) {
   EXPECT_EQ(a.motion_measure, b.motion_measure);
 }
 
+inline std::unique_ptr<MapStore> openStore(const std::string& dir, bool sync = false) {
+  Result<std::unique_ptr<MapStore>> store = MapStore::open(dir, MapStoreOptions{sync});
+  EXPECT_TRUE(store) << store.error();
+  return store ? std::move(store).value() : nullptr;
+}
+
 }  // namespace rgbdmap::testing

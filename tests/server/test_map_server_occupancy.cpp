@@ -19,7 +19,7 @@ using testing::loopSegment;
 using testing::OdometrySegment;
 using testing::ScriptedRobot;
 
-std::string freshDir(const std::string& name) { return testing::freshDir("occ_" + name); }
+std::string occDir(const std::string& name) { return testing::freshDir("occ_" + name); }
 
 MapServerConfig testConfig(const std::string& dir) {
   MapServerConfig config = testing::serverTestConfig(dir, {"robot0"});
@@ -32,7 +32,7 @@ MapServerConfig testConfig(const std::string& dir) {
   return config;
 }
 
-using Harness = testing::ServerHarness;
+using OccHarness = testing::ServerHarness;
 
 /// The synthetic world pose of the map frame: the map frame is the first keyframe's odometry frame, which
 /// the server keeps fixed, so world <- map = gt(first keyframe) * (T_map_kf of node 0)^-1.
@@ -89,7 +89,7 @@ double occupiedCells(const octomap::OcTree& tree) {
 TEST(MapServerOccupancy, SyntheticLoopBuildsTheRoomSendsSlicesAndStreamsAndWritesFiles) {
   const OdometrySegment& seg = loopSegment(kLoopFrames, 0, kLoopFrames);
   ASSERT_GT(seg.keyframes.size(), 20u);
-  Harness h(testConfig(freshDir("loop")));
+  OccHarness h(testConfig(occDir("loop")));
   ScriptedRobot robot(*h.transport, "robot0", rgbdmap::testing::testKey(1), 100);
   testing::driveRobot(*h.server, robot, seg, 0, seg.keyframes.size());
   const MapServerStats s = h.server->stats();
@@ -119,7 +119,7 @@ TEST(MapServerOccupancy, SyntheticLoopBuildsTheRoomSendsSlicesAndStreamsAndWrite
   EXPECT_GT(count(msg::OccupancySlice::kFree), 500);
 
   // The written files read back; the octree's occupied cells lie on the room's surfaces.
-  const std::string out = freshDir("loop_out");
+  const std::string out = occDir("loop_out");
   const Status written = h.server->writeMapOutputs(out);
   ASSERT_TRUE(written) << written.error();
   auto bt = readMapFile(out + "/map.bt");
@@ -160,9 +160,9 @@ TEST(MapServerOccupancy, SyntheticLoopBuildsTheRoomSendsSlicesAndStreamsAndWrite
 
 TEST(MapServerOccupancy, RestartReinsertsTheStoredKeyframes) {
   const OdometrySegment& seg = loopSegment(kLoopFrames, 0, kLoopFrames);
-  const std::string dir = freshDir("restart");
+  const std::string dir = occDir("restart");
   const size_t half = seg.keyframes.size() / 2;
-  Harness h(testConfig(dir));
+  OccHarness h(testConfig(dir));
   size_t occupied_before = 0;
   {
     ScriptedRobot robot(*h.transport, "robot0", rgbdmap::testing::testKey(1), 100);
@@ -184,7 +184,7 @@ TEST(MapServerOccupancy, RestartReinsertsTheStoredKeyframes) {
   testing::driveRobot(*h.server, robot, seg, half, seg.keyframes.size());
   EXPECT_EQ(h.server->stats().map_keyframes, seg.keyframes.size());
   EXPECT_GE(robot.slicesReceived(), 1);
-  const std::string out = freshDir("restart_out");
+  const std::string out = occDir("restart_out");
   ASSERT_TRUE(h.server->writeMapOutputs(out));
   auto bt = readMapFile(out + "/map.bt");
   ASSERT_TRUE(bt) << bt.error();
@@ -193,22 +193,22 @@ TEST(MapServerOccupancy, RestartReinsertsTheStoredKeyframes) {
 
 TEST(MapServerOccupancy, OffMeansNoOctreeNoSlicesAndAClearErrorForFiles) {
   const OdometrySegment& seg = loopSegment(kLoopFrames, 0, 60);
-  MapServerConfig config = testConfig(freshDir("off"));
+  MapServerConfig config = testConfig(occDir("off"));
   config.occupancy_enabled = false;
-  Harness h(config);
+  OccHarness h(config);
   ScriptedRobot robot(*h.transport, "robot0", rgbdmap::testing::testKey(1), 100);
   testing::driveRobot(*h.server, robot, seg, 0, 3);
   const MapServerStats s = h.server->stats();
   EXPECT_EQ(s.keyframes, 3);
   EXPECT_EQ(s.map_keyframes, 0u);
   EXPECT_EQ(robot.slicesReceived(), 0);
-  const Status written = h.server->writeMapOutputs(freshDir("off_out"));
+  const Status written = h.server->writeMapOutputs(occDir("off_out"));
   ASSERT_FALSE(written);
   EXPECT_NE(written.error().find("occupancy"), std::string::npos) << written.error();
 }
 
 TEST(MapServerOccupancy, InvalidOccupancyConfigurationIsRefusedAtStart) {
-  MapServerConfig config = testConfig(freshDir("badconfig"));
+  MapServerConfig config = testConfig(occDir("badconfig"));
   config.occupancy.resolution_m = -1.0;
   config.slice.z_min_m = std::nan("");
   config.map_stream_period_s = -2.0;
@@ -229,7 +229,7 @@ TEST(MapServerOccupancy, RobotRunAvoidsOnTheServersSlices) {
   sc.scene = "loop";
   sc.frames = 120;
   sc.camera = {262.5, 262.5, 159.5, 119.5, 320, 240, {0, 0, 0, 0, 0}, 5000.0};  // quarter size: fast
-  const std::string data = freshDir("robot_run_data");
+  const std::string data = occDir("robot_run_data");
   ASSERT_TRUE(writeSyntheticSequence(sc, data));
   const auto scene = SyntheticScene::build(sc);
   ASSERT_TRUE(scene) << scene.error();
@@ -240,7 +240,7 @@ TEST(MapServerOccupancy, RobotRunAvoidsOnTheServersSlices) {
   auto dataset = TumDataset::open(data, dataset_options);
   ASSERT_TRUE(dataset) << dataset.error();
 
-  Harness h(testConfig(freshDir("robot_run")));
+  OccHarness h(testConfig(occDir("robot_run")));
   RobotLinkOptions lo;
   lo.robot_id = "robot0";
   lo.key = rgbdmap::testing::testKey(1);

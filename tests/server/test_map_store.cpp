@@ -18,11 +18,7 @@ using testing::expectSameLoop;
 using testing::makeKeyframe;
 using testing::makeLoop;
 
-std::unique_ptr<MapStore> openStore(const std::string& dir, bool sync = false) {
-  Result<std::unique_ptr<MapStore>> store = MapStore::open(dir, MapStoreOptions{sync});
-  EXPECT_TRUE(store) << store.error();
-  return store ? std::move(store).value() : nullptr;
-}
+using testing::openStore;
 
 /// Six keyframes of two robots with rendered 640x480 images, and three loops.
 struct Sample {

@@ -43,11 +43,7 @@ void writeFile(const std::string& path, const Bytes& bytes, size_t size) {
   fs::resize_file(path, size);
 }
 
-std::unique_ptr<MapStore> openStore(const std::string& dir) {
-  Result<std::unique_ptr<MapStore>> store = MapStore::open(dir, MapStoreOptions{false});
-  EXPECT_TRUE(store) << store.error();
-  return store ? std::move(store).value() : nullptr;
-}
+using testing::openStore;
 
 /// Four keyframes and two loops between nodes 0 and 2; records where the records start.
 struct Written {

@@ -67,35 +67,28 @@ void sendAll(Transport& tx, Transport& rx) {
   rx.stop();
 }
 
-std::unique_ptr<Transport> make(const std::string& url) {
-  if (url.rfind("dds", 0) == 0) testing::useLoopbackDdsConfig();
-  auto t = makeTransport(url);
-  EXPECT_TRUE(t.ok()) << t.error();
-  return t.ok() ? std::move(t).value() : nullptr;
-}
-
 TEST(MessagesOverTransports, EveryMessageOverMemq) {
-  auto t = make("memq://");
+  auto t = testing::makeTestTransport("memq://");
   ASSERT_TRUE(t);
   sendAll(*t, *t);
 }
 
 TEST(NetMessagesOverTransports, EveryMessageOverUdpm) {
   RGBDMAP_REQUIRE_NETNS();
-  auto tx = make(testing::kUdpmUrl), rx = make(testing::kUdpmUrl);
+  auto tx = testing::makeTestTransport(testing::kUdpmUrl), rx = testing::makeTestTransport(testing::kUdpmUrl);
   ASSERT_TRUE(tx && rx);
   sendAll(*tx, *rx);
 }
 
 TEST(NetMessagesOverTransports, EveryMessageOverDds) {
   RGBDMAP_REQUIRE_NETNS();
-  auto tx = make("dds://?domain=0"), rx = make("dds://?domain=0");
+  auto tx = testing::makeTestTransport("dds://?domain=0"), rx = testing::makeTestTransport("dds://?domain=0");
   ASSERT_TRUE(tx && rx);
   sendAll(*tx, *rx);
 }
 
 TEST(LatestRepublisher, LateSubscriberGetsTheLatestMapOverLcm) {
-  auto t = make("memq://");
+  auto t = testing::makeTestTransport("memq://");
   ASSERT_TRUE(t);
   testing::Inbox marker;  // memq dispatches in order: once the marker is in, the earlier messages were too
   ASSERT_TRUE(t->subscribe("rgbdmap/test/marker", marker.handler()));
@@ -122,7 +115,7 @@ TEST(LatestRepublisher, LateSubscriberGetsTheLatestMapOverLcm) {
 }
 
 TEST(LatestRepublisher, StopIsPrompt) {
-  auto t = make("memq://");
+  auto t = testing::makeTestTransport("memq://");
   ASSERT_TRUE(t);
   RepublisherOptions options;
   options.period = std::chrono::hours(1);

@@ -13,17 +13,10 @@ using namespace std::chrono_literals;
 using testing::Inbox;
 using testing::makePayload;
 
-std::unique_ptr<Transport> make(const std::string& url) {
-  if (url.rfind("dds", 0) == 0) testing::useLoopbackDdsConfig();
-  auto t = makeTransport(url);
-  EXPECT_TRUE(t.ok()) << t.error();
-  return t.ok() ? std::move(t).value() : nullptr;
-}
-
 /// Two separate transports (two sockets for LCM, two participants for DDS): small and 300 KB messages.
 void roundTrip(const std::string& url) {
-  auto tx = make(url);
-  auto rx = make(url);
+  auto tx = testing::makeTestTransport(url);
+  auto rx = testing::makeTestTransport(url);
   ASSERT_TRUE(tx && rx);
   Inbox probe, inbox;
   ASSERT_TRUE(rx->subscribe("rgbdmap/robot0/probe", probe.handler()));
@@ -58,14 +51,14 @@ TEST(NetDds, SmallAndLargeRoundTrip) {
 
 TEST(NetDds, LateJoinerGetsTheLastMessageOfATransientLocalChannel) {
   RGBDMAP_REQUIRE_NETNS();
-  auto tx = make("dds://?domain=0");
+  auto tx = testing::makeTestTransport("dds://?domain=0");
   ASSERT_TRUE(tx);
   const auto last = makePayload(300 * 1024, 42);
   ASSERT_TRUE(tx->publish("rgbdmap/server/map", makePayload(1000, 1)));
   ASSERT_TRUE(tx->publish("rgbdmap/server/map", last));
   ASSERT_TRUE(tx->publish("rgbdmap/robot0/keyframe", makePayload(1000, 2)));  // volatile: not kept
 
-  auto late = make("dds://?domain=0");
+  auto late = testing::makeTestTransport("dds://?domain=0");
   ASSERT_TRUE(late);
   Inbox map_inbox, keyframe_inbox;
   ASSERT_TRUE(late->subscribe("rgbdmap/server/map", map_inbox.handler()));
@@ -82,7 +75,7 @@ TEST(NetDds, LateJoinerGetsTheLastMessageOfATransientLocalChannel) {
 
 TEST(NetDds, DdsRejectsPrefixSubscriptions) {
   RGBDMAP_REQUIRE_NETNS();
-  auto t = make("dds://?domain=0");
+  auto t = testing::makeTestTransport("dds://?domain=0");
   ASSERT_TRUE(t);
   EXPECT_FALSE(t->subscribe("rgbdmap/robot0/*", [](const std::string&, const uint8_t*, size_t) {}));
 }

@@ -5,6 +5,7 @@
 #include <chrono>
 #include <condition_variable>
 #include <cstdlib>
+#include <memory>
 #include <mutex>
 #include <string>
 #include <utility>
@@ -27,6 +28,14 @@ inline bool inNetns() {
 inline void useLoopbackDdsConfig() {
   const std::string uri = std::string("file://") + RGBDMAP_SOURCE_DIR + "/deploy/dds/cyclonedds-loopback.xml";
   setenv("CYCLONEDDS_URI", uri.c_str(), 1);
+}
+
+/// A transport for URL (DDS on the loopback configuration); fails the test and returns null when it cannot.
+inline std::unique_ptr<Transport> makeTestTransport(const std::string& url) {
+  if (url.rfind("dds", 0) == 0) useLoopbackDdsConfig();
+  auto t = makeTransport(url);
+  EXPECT_TRUE(t.ok()) << t.error();
+  return t.ok() ? std::move(t).value() : nullptr;
 }
 
 #define RGBDMAP_REQUIRE_NETNS()                                                                \

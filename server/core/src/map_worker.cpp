@@ -9,24 +9,14 @@
 #include "rgbdmap/map/occupancy_slice.hpp"
 #include "rgbdmap/proto/codec.hpp"
 
+#include "ingest_timings.hpp"
+
 namespace rgbdmap {
 namespace {
 
 using Clock = std::chrono::steady_clock;
 
-/// CPU time of the calling thread (ms): the insertion's cost whatever else the machine is doing.
-double threadCpuMs() {
-  timespec ts{};
-  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
-  return ts.tv_sec * 1e3 + ts.tv_nsec * 1e-6;
-}
-
 double nowS() { return std::chrono::duration<double>(Clock::now().time_since_epoch()).count(); }
-
-bool sameCamera(const CameraIntrinsics& a, const CameraIntrinsics& b) {
-  return a.fx == b.fx && a.fy == b.fy && a.cx == b.cx && a.cy == b.cy && a.width == b.width &&
-         a.height == b.height && a.distortion == b.distortion && a.depth_scale == b.depth_scale;
-}
 
 SerialWorkerOptions workerOptions(const MapServerConfig& config, std::function<void()> stream) {
   SerialWorkerOptions options;
@@ -68,7 +58,7 @@ bool MapWorker::waitIdle(double timeout_s) const {
 
 const KeyframeCloudMaker& MapWorker::makerFor(const std::string& robot_id, const CameraIntrinsics& camera) {
   auto& slot = makers_[robot_id];
-  if (!slot.second || !sameCamera(slot.first, camera)) {
+  if (!slot.second || !sameIntrinsics(slot.first, camera)) {
     slot.first = camera;
     slot.second = std::make_unique<KeyframeCloudMaker>(PinholeCamera(camera), config_.occupancy);
   }

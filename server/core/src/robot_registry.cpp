@@ -16,11 +16,6 @@ constexpr const char* kFileName = "robots.txt";
 constexpr const char* kHeader =
     "# rgbdmap robots v1: id index fx fy cx cy width height k1 k2 p1 p2 k3 depth_scale";
 
-bool sameCamera(const CameraIntrinsics& a, const CameraIntrinsics& b) {
-  return a.fx == b.fx && a.fy == b.fy && a.cx == b.cx && a.cy == b.cy && a.width == b.width &&
-         a.height == b.height && a.distortion == b.distortion && a.depth_scale == b.depth_scale;
-}
-
 Status syncPath(const std::string& path, int flags) {
   const int fd = ::open(path.c_str(), flags);
   if (fd < 0) return Status::failure("cannot open " + path + " to sync");
@@ -46,7 +41,7 @@ Result<bool> RobotRegistry::hello(const std::string& robot_id, int64_t session,
     e.index = next_index_++;
     changed = true;
   }
-  if (!e.stats.camera || !sameCamera(*e.stats.camera, camera)) {
+  if (!e.stats.camera || !sameIntrinsics(*e.stats.camera, camera)) {
     if (e.stats.camera) log::warn("server: robot ", robot_id, " reports a different camera from now on");
     e.stats.camera = camera;
     changed = true;

@@ -25,6 +25,9 @@ struct CameraIntrinsics {
   bool hasDistortion() const;
 };
 
+/// Exactly the same calibration: every field equal (a robot that announces another camera is a new camera).
+bool sameIntrinsics(const CameraIntrinsics& a, const CameraIntrinsics& b);
+
 /// Projection and back-projection. Keypoints are in raw (distorted) pixels; undistort() maps them to
 /// the ideal pinhole image so that back-projection with depth is exact.
 class PinholeCamera {
