@@ -2,6 +2,8 @@
 
 #include <cstdio>
 
+#include "rgbdmap/link/delivery_report.hpp"
+
 namespace rgbdmap::app {
 
 Json clientJson(const ClientRunInfo& info, const RobotRunResult& r) {
@@ -26,6 +28,9 @@ Json clientJson(const ClientRunInfo& info, const RobotRunResult& r) {
           {"keyframes_pending", l.keyframes_pending},
           {"retransmissions", l.retransmissions},
           {"all_acked", r.all_acked},
+          {"keyframes_not_accepted", deliveryReport(r).unaccepted},
+          {"server_heard", l.server_heard},
+          {"refused_by_reason", l.refused_by_reason},
           {"corrections_received", l.corrections_received},
           {"graph_revision", l.graph_revision},
           {"final_correction_received", r.final_correction_received},

@@ -16,6 +16,7 @@
 #include "rgbdmap/cli/odometry_setup.hpp"
 #include "rgbdmap/cli/progress.hpp"
 #include "rgbdmap/common/logging.hpp"
+#include "rgbdmap/link/delivery_report.hpp"
 #include "rgbdmap/link/robot_client_config.hpp"
 
 namespace rgbdmap::app {
@@ -38,7 +39,13 @@ const char* kUsage =
     "  --fast                  as fast as possible instead of the dataset's frame rate\n"
     "  --frames A:B            frames A (inclusive) to B (exclusive); A: or :B leave one end open\n"
     "  --out DIR               output folder (default: out)\n"
-    "  --threads N             OpenCV threads (default 1)\n";
+    "  --threads N             OpenCV threads (default 1)\n"
+    "Exit status: 0 every keyframe accepted by the server; 1 run-time error (dataset, transport); 2 usage "
+    "or\n"
+    "configuration error; 3 keyframes not accepted (how many and why is printed: no server heard at all, or\n"
+    "refused / unanswered by the server heard).\n";
+
+constexpr int kExitKeyframesNotAccepted = 3;
 
 struct ClientArgs {
   std::string dataset, out = "out";
@@ -184,6 +191,8 @@ int run(int argc, char** argv) {
                config.robot_id.c_str(), config.robot_id.c_str());
   if (result.frames == 0 && result.unreadable_frames > 0)
     return log::error(a.dataset, ": none of the ", result.unreadable_frames, " frames could be read"), 1;
+  if (const DeliveryReport d = deliveryReport(result); d.unaccepted > 0)
+    return log::error("robot ", config.robot_id, ": ", d.message), kExitKeyframesNotAccepted;
   return 0;
 }
 

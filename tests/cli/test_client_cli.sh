@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Command-line contract of `rgbdmap-client` without a server (memq://, nothing acknowledges): outputs, the
-# JSON summary, Ctrl-C still writing outputs, and configuration errors (exit 2, all named). Usage:
-# test_client_cli.sh BIN_DIR
+# JSON summary, Ctrl-C still writing outputs, exit 3 with the reason when keyframes were not accepted (here:
+# no server heard at all), and configuration errors (exit 2, all named). Usage: test_client_cli.sh BIN_DIR
 set -u
 client="$1/rgbdmap-client"
 source "$(dirname "$0")/cli_test_lib.sh"
@@ -10,21 +10,27 @@ check "synth writes a sequence" 0 "$1/rgbdmap" synth --out "$tmp/seq" --scene sw
 printf 'robot:\n  id: alpha\nlink:\n  final_wait_s: 0.2\n' >"$tmp/client.yaml"
 check "help" 0 "$client" --help
 contains "help names DDS configuration" "$tmp/out.txt" "CYCLONEDDS_URI"
-check "runs --fast without a server" 0 "$client" --config "$tmp/client.yaml" --dataset "$tmp/seq" --fast \
-  --frames 2:30 --out "$tmp/out"
+check "runs --fast without a server: exit 3, keyframes not accepted" 3 "$client" --config "$tmp/client.yaml" \
+  --dataset "$tmp/seq" --fast --frames 2:30 --out "$tmp/out"
+contains "says how many were not accepted" "$tmp/err.txt" "robot alpha: [0-9]* of [0-9]* keyframes not accepted"
+contains "says why: no server heard" "$tmp/err.txt" "no server heard at all"
+contains "names what to check" "$tmp/err.txt" "holds this robot's key"
 [ "$(grep -vc '^#' "$tmp/out/trajectory_alpha.txt")" -eq 28 ] && echo "ok: one pose per frame" || { echo "FAIL: pose count"; fail=1; }
 for f in trajectory_alpha_live.txt keyframes_alpha.txt; do [ -s "$tmp/out/$f" ] && echo "ok: $f" || { echo "FAIL: $f"; fail=1; }; done
 json "json counts frames" "$tmp/out/client_alpha.json" '.frames == 28'
 json "json says nothing was acked" "$tmp/out/client_alpha.json" '.all_acked == false'
 json "json has bytes sent" "$tmp/out/client_alpha.json" '.bytes_sent > 0'
-check "--robot-id overrides the config" 0 "$client" --config "$tmp/client.yaml" --dataset "$tmp/seq" --fast \
+json "json counts the keyframes not accepted" "$tmp/out/client_alpha.json" \
+  '.keyframes_not_accepted == .keyframes and .keyframes > 0 and .server_heard == false'
+check "--robot-id overrides the config" 3 "$client" --config "$tmp/client.yaml" --dataset "$tmp/seq" --fast \
   --frames :5 --robot-id beta --out "$tmp/out"
 [ -s "$tmp/out/client_beta.json" ] && echo "ok: robot id in file names" || { echo "FAIL: client_beta.json"; fail=1; }
-# A corrupt image is skipped with a warning and counted (exit 0); a robot that can read no frame exits 1.
+# A corrupt image is skipped with a warning and counted (exit 3 here only because no server acknowledges);
+# a robot that can read no frame exits 1 (a data error comes before the delivery verdict).
 cp -r "$tmp/seq" "$tmp/bad"
 img="$tmp/bad/$(grep -v '^#' "$tmp/bad/rgb.txt" | awk 'NR == 5 {print $2}')"  # frame 4's colour image
 head -c 100 "$img" >"$tmp/cut.png" && mv "$tmp/cut.png" "$img"  # a truncated PNG
-check "a corrupt image is skipped" 0 "$client" --config "$tmp/client.yaml" --dataset "$tmp/bad" --fast \
+check "a corrupt image is skipped" 3 "$client" --config "$tmp/client.yaml" --dataset "$tmp/bad" --fast \
   --frames :10 --out "$tmp/bad_out"
 contains "the skipped frame is a warning naming the image" "$tmp/err.txt" "skipping frame 4: .*rgb/.*cannot read"
 contains "summary counts it" "$tmp/err.txt" "unreadable 1,"
@@ -35,13 +41,16 @@ check "no readable frame is a data error" 1 "$client" --config "$tmp/client.yaml
 contains "no readable frame is named" "$tmp/err.txt" "none of the 10 frames could be read"
 json "json still written" "$tmp/bad_out/client_alpha.json" '.unreadable_frames == 10 and .frames == 0'
 
-# Ctrl-C during a paced run: clean stop, outputs still written.
+# Ctrl-C during a paced run: clean stop, outputs still written; the keyframes sent were not accepted (no
+# server), so the exit code still says so.
 "$client" --config "$tmp/client.yaml" --dataset "$tmp/seq" --robot-id gamma --out "$tmp/sig" >/dev/null 2>&1 &
 pid=$!
 sleep 0.5
 kill -INT "$pid"
 wait "$pid"
-[ $? -eq 0 ] && echo "ok: SIGINT exits 0" || { echo "FAIL: SIGINT exit code"; fail=1; }
+code=$?
+want=$(jq -r 'if .keyframes > 0 then 3 else 0 end' "$tmp/sig/client_gamma.json" 2>/dev/null || echo missing)
+[ "$code" = "$want" ] && echo "ok: SIGINT exits $want" || { echo "FAIL: SIGINT exit code $code, expected $want"; fail=1; }
 json "interrupted run still reports" "$tmp/sig/client_gamma.json" '.interrupted == true'
 
 printf 'robot:\n  id: "bad id"\n  key_file: nokey.hex\nlink:\n  jitter: 3\n  codec:\n    color: gif\n' >"$tmp/bad.yaml"

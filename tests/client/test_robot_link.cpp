@@ -8,6 +8,7 @@
 
 #include "fake_map_server.hpp"
 #include "link_test_util.hpp"
+#include "rgbdmap/link/delivery_report.hpp"
 
 namespace rgbdmap {
 namespace {
@@ -122,6 +123,44 @@ TEST(RobotLink, RefusedKeyframeIsCountedAndNotResent) {
   EXPECT_EQ(st.keyframes_acked, 2u);
   EXPECT_EQ(st.keyframes_pending, 0u);
   EXPECT_FALSE(link.correctedKeyframe(1).has_value());
+  EXPECT_TRUE(st.server_heard);
+  EXPECT_EQ(st.refused_by_reason, (std::map<std::string, uint64_t>{{"test refusal", 1}}));
+  // What rgbdmap-client tells its operator (and exits 3 on): a server answered, one keyframe refused, why.
+  RobotRunResult run;
+  run.keyframes = 3;
+  run.link = st;
+  const DeliveryReport d = deliveryReport(run);
+  EXPECT_EQ(d.unaccepted, 1);
+  EXPECT_NE(d.message.find("1 of 3 keyframes not accepted"), std::string::npos) << d.message;
+  EXPECT_NE(d.message.find("by the server (it was heard): 1 refused (1 x \"test refusal\")"),
+            std::string::npos)
+      << d.message;
+}
+
+TEST(RobotLink, DeliveryReportSaysWhetherAnyServerWasHeard) {
+  RobotRunResult run;
+  run.keyframes = 4;
+  run.link.keyframes_acked = 4;
+  EXPECT_EQ(deliveryReport(run).unaccepted, 0);
+  EXPECT_EQ(deliveryReport(run).message, "");
+  run.link.keyframes_acked = 0;
+  run.link.keyframes_pending = 3;
+  run.keyframes_not_sent = 1;
+  DeliveryReport d = deliveryReport(run);
+  EXPECT_EQ(d.unaccepted, 4);
+  EXPECT_NE(d.message.find("4 of 4 keyframes not accepted: no server heard at all"), std::string::npos)
+      << d.message;
+  EXPECT_NE(d.message.find("holds this robot's key"), std::string::npos) << d.message;
+  run.link.bad_signatures = 5;
+  EXPECT_NE(deliveryReport(run).message.find("5 messages with a bad signature"), std::string::npos);
+  run.link.server_heard = true;  // heard, but nothing answered in time
+  run.link.keyframes_acked = 1;
+  run.link.keyframes_pending = 2;
+  d = deliveryReport(run);
+  EXPECT_EQ(d.unaccepted, 3);
+  EXPECT_NE(d.message.find("(it was heard): 2 still unanswered after link.final_wait_s, 1 not sent"),
+            std::string::npos)
+      << d.message;
 }
 
 TEST(RobotLink, CorrectionsMoveEachSegmentIntoTheMap) {
@@ -252,6 +291,8 @@ TEST(RobotLink, WrongKeysAreRejectedInBothDirections) {
   EXPECT_FALSE(link.waitAllAcked(0.3));
   EXPECT_EQ(link.stats().keyframes_acked, 0u);
   EXPECT_GE(link.stats().messages_rejected, 2u);
+  EXPECT_GE(link.stats().bad_signatures, 2u);
+  EXPECT_FALSE(link.stats().server_heard) << "a server that cannot sign for this robot is not heard";
   EXPECT_FALSE(link.correctedKeyframe(0).has_value());
 
   // A robot signing with a key the server does not hold is refused by the server.

@@ -288,6 +288,8 @@ RobotLinkStats RobotLink::Impl::stats() const {
   s.bytes_sent = bytes_sent_.load();
   s.bytes_received = bytes_received_.load();
   s.graph_revision = graph_revision_;
+  s.server_heard = heard_from_server_;
+  s.bad_signatures = rejects_.get(msg::RejectReason::kBadSignature);
   return s;
 }
 

@@ -2,10 +2,10 @@
 // they only decode, update state under the mutex and acknowledge; they never wait.
 #include <algorithm>
 
-#include "rgbdmap/common/logging.hpp"
-#include "rgbdmap/proto/channels.hpp"
 #include <functional>
 #include <string_view>
+#include "rgbdmap/common/logging.hpp"
+#include "rgbdmap/proto/channels.hpp"
 
 #include "robot_link_impl.hpp"
 
@@ -35,8 +35,10 @@ void RobotLink::Impl::onMessage(const uint8_t* data, size_t size) {
     std::lock_guard<std::mutex> lock(mutex_);
     if (stopping_) return;
     if constexpr (std::is_same_v<T, msg::VelocityCommand>) {
-      const size_t hash = std::hash<std::string_view>()(std::string_view(reinterpret_cast<const char*>(data), size));
-      if (std::find(own_commands_.begin(), own_commands_.end(), hash) != own_commands_.end()) return;  // our echo
+      const size_t hash =
+          std::hash<std::string_view>()(std::string_view(reinterpret_cast<const char*>(data), size));
+      if (std::find(own_commands_.begin(), own_commands_.end(), hash) != own_commands_.end())
+        return;  // our echo
     }
   }
   bytes_received_ += size;
@@ -81,9 +83,11 @@ void RobotLink::Impl::handle(const msg::KeyframeAck& ack) {
       entry.answer = ack.accepted ? Answer::kAccepted : Answer::kRefused;
       entry.message.reset();
       ++(ack.accepted ? counts_.keyframes_acked : counts_.keyframes_refused);
-      if (!ack.accepted)
+      if (!ack.accepted) {
+        ++counts_.refused_by_reason[ack.reason.empty() ? "no reason given" : ack.reason];
         log::warn("robot ", options_.robot_id, ": server refused keyframe ", ack.keyframe_id, ": ",
                   ack.reason);
+      }
     }
   }
   reliable_.acknowledge(static_cast<uint64_t>(ack.keyframe_id));  // no resend, whatever the answer

@@ -17,9 +17,12 @@ std::vector<LoopEdge> IngestPipeline::integrateLocked(const StoredKeyframe& stor
   std::optional<int64_t> prev;
   if (kf.previous_keyframe_id >= 0)
     prev = index_.find({robot, stored.session, kf.segment_id, kf.previous_keyframe_id});
-  const IndexedNode node = makeNodeLocked(stored, robot, prev);
+  const bool split = kf.previous_keyframe_id >= 0 && !prev;
+  const IndexedNode node = makeNodeLocked(stored, robot, prev, split);
   index_.add(node);
   addToGraphLocked(node, kf, prev);
+  if (split) noteSplitLocked(node, kf);
+  joinSplitSuccessorLocked(node);
   LoopKeyframe lk;
   lk.id = static_cast<int>(stored.node_id);
   lk.robot_id = robot;
@@ -42,12 +45,17 @@ std::vector<LoopEdge> IngestPipeline::integrateLocked(const StoredKeyframe& stor
 
 /// The node of a stored keyframe: chained to its predecessor's optimised pose, or a map of its own.
 IndexedNode IngestPipeline::makeNodeLocked(const StoredKeyframe& stored, int robot,
-                                           std::optional<int64_t> prev) {
+                                           std::optional<int64_t> prev, bool split) {
   const msg::Keyframe& kf = stored.keyframe;
   IndexedNode node;
   node.valid = true;
   node.robot = robot;
-  node.chain = index_.chainFor(robot, stored.session, kf.segment_id);
+  if (prev)
+    node.chain = index_.node(*prev).chain;
+  else if (split)
+    node.chain = index_.newChain(robot, stored.session, kf.segment_id);
+  else
+    node.chain = index_.chainFor(robot, stored.session, kf.segment_id);
   node.kf.node_id = stored.node_id;
   node.kf.robot_id = kf.robot_id;
   node.kf.session = stored.session;
@@ -60,7 +68,15 @@ IndexedNode IngestPipeline::makeNodeLocked(const StoredKeyframe& stored, int rob
     node.kf.T_map_kf = se3::normalized(p.kf.T_map_kf * kf.T_prev_cur);
     node.kf.map_id = p.kf.map_id;
   } else {
-    node.kf.T_map_kf = kf.T_odom_cam;  // a new chain starts a map of its own until a loop joins it
+    // A new chain starts a map of its own until a loop joins it. A split one starts where the odometry of
+    // its segment puts it (its latest keyframe in the graph), so the robot's T_map_odom does not jump.
+    node.kf.T_map_kf = kf.T_odom_cam;
+    const auto latest =
+        split ? index_.latestBefore({robot, stored.session, kf.segment_id, kf.keyframe_id}) : std::nullopt;
+    if (latest) {
+      const IndexedNode& l = index_.node(*latest);
+      node.kf.T_map_kf = se3::normalized(l.kf.T_map_kf * l.kf.T_odom_kf.inverse() * kf.T_odom_cam);
+    }
     node.kf.map_id = static_cast<int>(stored.node_id);
   }
   return node;
@@ -72,13 +88,17 @@ void IngestPipeline::addToGraphLocked(const IndexedNode& node, const msg::Keyfra
   if (const Status s = graph_.addNode(id, node.chain, node.kf.T_map_kf); !s)
     log::error("server: graph node ", id, ": ", s.error());
   if (graph_.nodes().size() == 1) graph_.setFixed(id);  // the first keyframe of the first robot
-  if (!prev) return;
+  if (prev) addOdometryEdgeLocked(id, *prev, kf.T_prev_cur, odometryInformation(kf.information, config_));
+}
+
+void IngestPipeline::addOdometryEdgeLocked(int64_t from, int64_t to, const SE3& T_prev_cur,
+                                           const Mat6& information) {
   PoseGraphEdge e;
   e.id = next_edge_id_++;
-  e.from = id;
-  e.to = *prev;
-  e.T_from_to = kf.T_prev_cur.inverse();
-  e.information = odometryInformation(kf.information, config_);
+  e.from = from;
+  e.to = to;
+  e.T_from_to = T_prev_cur.inverse();
+  e.information = information;
   e.kind = EdgeKind::kOdometry;
   if (const Status s = graph_.addEdge(e); !s) log::error("server: odometry edge: ", s.error());
 }

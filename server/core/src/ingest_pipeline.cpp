@@ -56,10 +56,11 @@ void IngestPipeline::onKeyframe(const msg::Keyframe& kf) {
   if (!admitLocked(kf, key, lock)) return;
   KeyframeTiming timing;
   const auto t_decode = Clock::now();
-  const Result<Decoded> decoded = decode(kf, *camera);
+  Result<Decoded> decoded = decode(kf, *camera);
   if (!decoded) return refuseLocked(kf, key, decoded.error(), lock);
-  StoredKeyframe stored;
-  stored.node_id = index_.size();
+  WaitingKeyframe waiting;
+  StoredKeyframe& stored = waiting.stored;
+  stored.node_id = next_node_id_;
   stored.session = kf.header.session;
   stored.keyframe = kf;
   timing.decode_ms = msSince(t_decode);
@@ -68,35 +69,30 @@ void IngestPipeline::onKeyframe(const msg::Keyframe& kf) {
     log::error("server: cannot store keyframe ", kf.keyframe_id, " of ", kf.robot_id, ": ", s.error());
     return;  // not acknowledged: the robot sends it again
   }
+  ++next_node_id_;
   stored.keyframe.images = {};
   timing.store_ms = msSince(t_store);
+  // Stored first, acknowledged at once whatever its order; the graph takes it in chain order.
   publisher_.acknowledge(kf.robot_id, kf.keyframe_id, true, "");
   const auto t_loops = Clock::now();
-  addLiveLocked(stored, *decoded, *camera);
+  waiting.features = std::move(decoded->features);
+  waiting.since = t_store;
+  placeLocked(std::move(waiting), &decoded->images, true);
+  giveUpWaitingLocked(Clock::now(), config_.reorder_timeout_s, true);  // the per-robot bound
   timing.loops_ms = msSince(t_loops);
   timing.total_ms = msSince(t0);
   timing.cpu_ms = threadCpuMs() - cpu0;
   timings_.add(timing);
 }
 
+/// False for a keyframe seen before (stored, waiting in the reorder buffer or refused): answered again.
 bool IngestPipeline::admitLocked(const msg::Keyframe& kf, const KeyframeKey& key, Lock& lock) {
-  if (index_.contains(key) || index_.refused(key)) {
-    const bool accepted = index_.contains(key);
-    registry_.countDuplicate(kf.robot_id);
-    lock.unlock();
-    publisher_.acknowledge(kf.robot_id, kf.keyframe_id, accepted, accepted ? "duplicate" : "refused before");
-    return false;
-  }
-  if (kf.previous_keyframe_id >= 0) {
-    const KeyframeKey prev{std::get<0>(key), std::get<1>(key), kf.segment_id, kf.previous_keyframe_id};
-    if (!index_.contains(prev) && !index_.refused(prev)) {
-      // The predecessor has not arrived yet (a retransmission overtook it): keep the odometry chain whole
-      // by waiting for it; this one is not acknowledged and comes again.
-      registry_.countOutOfOrder(kf.robot_id);
-      return false;
-    }
-  }
-  return true;
+  if (!index_.contains(key) && !reorder_.contains(key) && !index_.refused(key)) return true;
+  const bool accepted = !index_.refused(key);
+  registry_.countDuplicate(kf.robot_id);
+  lock.unlock();
+  publisher_.acknowledge(kf.robot_id, kf.keyframe_id, accepted, accepted ? "duplicate" : "refused before");
+  return false;
 }
 
 void IngestPipeline::refuseLocked(const msg::Keyframe& kf, const KeyframeKey& key, const std::string& reason,
@@ -104,6 +100,9 @@ void IngestPipeline::refuseLocked(const msg::Keyframe& kf, const KeyframeKey& ke
   index_.refuse(key);
   ++counters_.keyframes_refused;
   registry_.countRefused(kf.robot_id);
+  // Keyframes that waited for this one will not get it: they start a new chain.
+  for (WaitingKeyframe& w : reorder_.takeSuccessors(key))
+    integrateWithSuccessorsLocked(std::move(w), nullptr, true);
   lock.unlock();
   log::warn("server: keyframe ", kf.keyframe_id, " of ", kf.robot_id, " refused: ", reason);
   publisher_.acknowledge(kf.robot_id, kf.keyframe_id, false, reason);
@@ -120,15 +119,15 @@ Result<IngestPipeline::Decoded> IngestPipeline::decode(const msg::Keyframe& kf,
   return Decoded{std::move(*images), std::move(*features)};
 }
 
-/// A stored and acknowledged keyframe: graph, loop detection, map worker, loop edges, optimisation.
-void IngestPipeline::addLiveLocked(const StoredKeyframe& stored, const Decoded& decoded,
-                                   const CameraIntrinsics& camera) {
+void IngestPipeline::addLiveLocked(const StoredKeyframe& stored, const FrameFeatures& features,
+                                   const DecodedImages* images) {
   LoopStats loop_stats;
-  const std::vector<LoopEdge> edges = integrateLocked(stored, decoded.features, true, &loop_stats);
+  const std::vector<LoopEdge> edges = integrateLocked(stored, features, true, &loop_stats);
   const IndexedNode& n = index_.node(stored.node_id);
-  if (map_worker_)
-    map_worker_->addKeyframe({n.kf.node_id, n.kf.robot_id, n.kf.map_id, n.kf.T_map_kf, camera,
-                              decoded.images.depth, decoded.images.color, true});
+  const std::optional<CameraIntrinsics> camera = registry_.camera(n.kf.robot_id);
+  if (map_worker_ && camera)
+    map_worker_->addKeyframe({n.kf.node_id, n.kf.robot_id, n.kf.map_id, n.kf.T_map_kf, *camera,
+                              images ? images->depth : cv::Mat(), images ? images->color : cv::Mat(), true});
   counters_.loop_candidates += loop_stats.candidates;
   timings_.addVerify(loop_stats.verify_ms);
   for (int r = 0; r < kLoopRejectionCount; ++r)
@@ -137,7 +136,7 @@ void IngestPipeline::addLiveLocked(const StoredKeyframe& stored, const Decoded& 
   counters_.loops_accepted += added;
   ++counters_.keyframes;
   registry_.countKeyframe(n.kf.robot_id);
-  if (added > 0) submitOptimizationLocked();
+  if (added > 0 || std::exchange(graph_joined_, false)) submitOptimizationLocked();
 }
 
 /// Adds the detector's loop edges to the graph and stores them. Returns how many were added.
@@ -167,7 +166,7 @@ void IngestPipeline::submitOptimizationLocked() {
 
 void IngestPipeline::submitRestoredLoops() {
   std::lock_guard<std::mutex> lock(mutex_);
-  if (counters_.restored_loops > 0) submitOptimizationLocked();
+  if (counters_.restored_loops > 0 || std::exchange(graph_joined_, false)) submitOptimizationLocked();
 }
 
 MapServerStats IngestPipeline::stats() const {
@@ -175,8 +174,13 @@ MapServerStats IngestPipeline::stats() const {
   MapServerStats s = counters_;
   timings_.fill(&s);
   s.maps = static_cast<int>(index_.mapCount());
+  s.keyframes_waiting = static_cast<int>(reorder_.size());
   s.robots = registry_.stats();
-  for (ServerRobotStats& r : s.robots) index_.fillRobotStats(&r, registry_.index(r.robot_id));
+  for (ServerRobotStats& r : s.robots) {
+    const int robot = registry_.index(r.robot_id);
+    index_.fillRobotStats(&r, robot);
+    r.keyframes_waiting = static_cast<int>(reorder_.waiting(robot));
+  }
   return s;
 }
 

@@ -1,11 +1,14 @@
 #pragma once
 // The ingest pipeline owns the map state (keyframe index, pose graph, loop detector, counters) and runs on
 // the ingest worker, one event at a time:
-//   Hello -> session; Keyframe -> decode + validate images -> store durably -> acknowledge -> loop detection
-//   -> pose graph (-> a snapshot to the optimiser when loops were added); optimisation result -> apply ->
-//   PoseCorrections to every robot.
+//   Hello -> session; Keyframe -> decode + validate images -> store durably -> acknowledge -> (in chain
+//   order, through the reorder buffer) loop detection -> pose graph (-> a snapshot to the optimiser when
+//   loops were added); optimisation result -> apply -> PoseCorrections to every robot; a periodic tick
+//   gives up on predecessors that do not come.
 // Readers (stats, keyframes) take the same state lock from other threads. Restoring from the map store is
-// in map_restore.cpp, graph insertion and optimisation results in ingest_graph.cpp.
+// in map_restore.cpp, graph insertion and optimisation results in ingest_graph.cpp, chain order (reorder
+// buffer, chain splits) in ingest_order.cpp.
+#include <chrono>
 #include <cstdint>
 #include <functional>
 #include <map>
@@ -17,6 +20,7 @@
 #include "ingest_timings.hpp"
 #include "keyframe_index.hpp"
 #include "map_worker.hpp"
+#include "reorder_buffer.hpp"
 #include "rgbdmap/graph/pose_graph.hpp"
 #include "rgbdmap/graph/pose_graph_optimizer.hpp"
 #include "rgbdmap/loop/loop_detector.hpp"
@@ -51,6 +55,8 @@ class IngestPipeline {
   void onHello(const msg::Hello& hello);
   void onKeyframe(const msg::Keyframe& keyframe);
   void onOptimized(const OptimizedPoses& result);
+  /// Gives up on predecessors that did not come within reorder_timeout_s (ingest_order.cpp).
+  void onTick();
 
   // ---- readers (any thread)
   /// Counters, timings, maps and robots (not the receive-side or map worker fields).
@@ -70,24 +76,47 @@ class IngestPipeline {
   bool admitLocked(const msg::Keyframe& kf, const KeyframeKey& key, Lock& lock);
   void refuseLocked(const msg::Keyframe& kf, const KeyframeKey& key, const std::string& reason, Lock& lock);
   static Result<Decoded> decode(const msg::Keyframe& kf, const CameraIntrinsics& camera);
-  void addLiveLocked(const StoredKeyframe& stored, const Decoded& decoded, const CameraIntrinsics& camera);
+  /// Graph, loop detection, map worker (`images`, or read back from the store when null), loop edges,
+  /// optimisation.
+  void addLiveLocked(const StoredKeyframe& stored, const FrameFeatures& features,
+                     const DecodedImages* images);
   int addDetectedLoopsLocked(const std::vector<LoopEdge>& edges, int robot);
   void submitOptimizationLocked();
+
+  // ingest_order.cpp: chain order
+  /// A stored keyframe into the graph now (its predecessor is there, refused, or it has none), followed by
+  /// the keyframes that waited for it; or into the reorder buffer. `live`: received now (loop detection,
+  /// map worker, counted as out of order when it waits) or restored.
+  void placeLocked(WaitingKeyframe waiting, const DecodedImages* images, bool live);
+  void integrateWithSuccessorsLocked(WaitingKeyframe first, const DecodedImages* images, bool live);
+  /// Runs given up on (timeout_s, reorder_capacity) start new chains.
+  void giveUpWaitingLocked(std::chrono::steady_clock::time_point now, double timeout_s, bool live);
+  KeyframeKey keyOf(const StoredKeyframe& stored) const;
+  std::optional<KeyframeKey> predecessorOf(const StoredKeyframe& stored) const;
+  /// A keyframe integrated without its predecessor: the split is counted and remembered, so that the
+  /// predecessor joins it with its odometry edge if it comes after all.
+  void noteSplitLocked(const IndexedNode& node, const msg::Keyframe& kf);
+  /// The odometry edge from a keyframe split off earlier to `node`, its late predecessor, if there is one.
+  void joinSplitSuccessorLocked(const IndexedNode& node);
 
   // ingest_graph.cpp: the graph
   /// Adds a stored keyframe to the index, the graph and the detector. `detect`: run loop detection (a live
   /// keyframe) or just index it (restore). Returns the accepted loop edges.
   std::vector<LoopEdge> integrateLocked(const StoredKeyframe& stored, const FrameFeatures& features,
                                         bool detect, LoopStats* loop_stats);
-  IndexedNode makeNodeLocked(const StoredKeyframe& stored, int robot, std::optional<int64_t> prev);
+  /// `prev`: the predecessor's node; `split`: it has one that is not in the graph (a new chain, placed by
+  /// the odometry of its segment's latest keyframe in the graph).
+  IndexedNode makeNodeLocked(const StoredKeyframe& stored, int robot, std::optional<int64_t> prev,
+                             bool split);
   void addToGraphLocked(const IndexedNode& node, const msg::Keyframe& kf, std::optional<int64_t> prev);
+  void addOdometryEdgeLocked(int64_t from, int64_t to, const SE3& T_prev_cur, const Mat6& information);
   Status addLoopEdgeLocked(const LoopEdge& edge);
   void applyOptimizedLocked(const OptimizedPoses& result);
   std::map<std::string, int64_t> currentSessionsLocked() const;
   std::vector<MapNodePose> mapPosesLocked() const;
 
   // map_restore.cpp
-  int restoreKeyframesLocked();  ///< returns the number skipped
+  int restoreKeyframesLocked();  ///< returns the number skipped; keyframes may be stored out of chain order
   void restoreLoopsLocked();
 
   const MapServerConfig& config_;
@@ -103,6 +132,15 @@ class IngestPipeline {
   PoseGraph graph_;
   LoopDetector detector_;
   int64_t next_edge_id_ = 0;
+  int64_t next_node_id_ = 0;  ///< of the next stored keyframe (node ids are dense in store order)
+  ReorderBuffer reorder_;
+  struct SplitHead {
+    int64_t node_id = 0;
+    SE3 T_prev_cur = SE3::Identity();
+    Mat6 information = Mat6::Identity();
+  };
+  std::map<KeyframeKey, SplitHead> split_heads_;  ///< by the key of the predecessor that did not come
+  bool graph_joined_ = false;                     ///< a late predecessor joined a split chain: optimise
   MapServerStats counters_;  ///< the counting fields; the derived ones are filled in stats()
   IngestTimings timings_;
 };

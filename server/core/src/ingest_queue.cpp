@@ -6,17 +6,19 @@
 namespace rgbdmap {
 namespace {
 
-SerialWorkerOptions ingestOptions(size_t keyframe_capacity) {
+SerialWorkerOptions ingestOptions(size_t keyframe_capacity, double tick_s, IngestPipeline& pipeline) {
   SerialWorkerOptions options;
   options.name = "rgbdmap-ingest";
   options.capacity = keyframe_capacity;  // keyframes only (tryPost); Hello and results always get in
+  options.period_s = tick_s;
+  options.on_period = [&pipeline] { pipeline.onTick(); };
   return options;
 }
 
 }  // namespace
 
-IngestQueue::IngestQueue(size_t keyframe_capacity, IngestPipeline& pipeline)
-    : pipeline_(pipeline), worker_(ingestOptions(keyframe_capacity)) {}
+IngestQueue::IngestQueue(size_t keyframe_capacity, double tick_s, IngestPipeline& pipeline)
+    : pipeline_(pipeline), worker_(ingestOptions(keyframe_capacity, tick_s, pipeline)) {}
 
 void IngestQueue::start() { worker_.start(); }
 

@@ -1,7 +1,8 @@
 #pragma once
 // The ingest worker: one SerialWorker ("rgbdmap-ingest") that runs the pipeline's events in arrival order
 // (Hello and Keyframe from the receive thread, optimisation results from the optimiser's thread). Keyframes
-// are bounded by ingest_queue_capacity: beyond, they are dropped unacknowledged (the robot resends).
+// are bounded by ingest_queue_capacity: beyond, they are dropped unacknowledged (the robot resends). A
+// periodic tick on the same thread lets the pipeline give up on predecessors that do not come.
 // Tracks the submitted and applied optimisation revisions, so that waitIdle() also waits for the solves in
 // flight and their corrections.
 #include <atomic>
@@ -18,7 +19,8 @@ namespace rgbdmap {
 
 class IngestQueue {
  public:
-  IngestQueue(size_t keyframe_capacity, IngestPipeline& pipeline);
+  /// Every tick_s (> 0) between events, pipeline.onTick() (keyframes waiting too long for a predecessor).
+  IngestQueue(size_t keyframe_capacity, double tick_s, IngestPipeline& pipeline);
 
   void start();
   /// Drops the queued events, waits for the running one; afterwards pushes are ignored. Idempotent.

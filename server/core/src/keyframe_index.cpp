@@ -13,16 +13,38 @@ int KeyframeIndex::chainFor(int robot, int64_t session, int segment) {
   return static_cast<int>(chains_.size() - 1);
 }
 
+int KeyframeIndex::newChain(int robot, int64_t session, int segment) {
+  chains_.push_back({robot, session, segment});
+  const int chain = static_cast<int>(chains_.size() - 1);
+  chain_of_[std::make_tuple(robot, session, segment)] = chain;
+  return chain;
+}
+
 void KeyframeIndex::add(const IndexedNode& node) {
-  const int64_t id = node.kf.node_id;
-  if (nodes_.size() < static_cast<size_t>(id)) nodes_.resize(static_cast<size_t>(id));
-  nodes_.push_back(node);
+  const auto id = static_cast<size_t>(node.kf.node_id);
+  if (id < nodes_.size()) {
+    nodes_[id] = node;  // a hole filled: the keyframe waited for its predecessor
+  } else {
+    nodes_.resize(id);
+    nodes_.push_back(node);
+  }
   node_of_[{node.robot, node.kf.session, node.kf.segment, node.kf.keyframe_id}] = id;
 }
 
 std::optional<int64_t> KeyframeIndex::find(const KeyframeKey& key) const {
   const auto it = node_of_.find(key);
   if (it == node_of_.end()) return std::nullopt;
+  return it->second;
+}
+
+std::optional<int64_t> KeyframeIndex::latestBefore(const KeyframeKey& key) const {
+  auto it = node_of_.lower_bound(key);
+  if (it == node_of_.begin()) return std::nullopt;
+  --it;
+  const KeyframeKey& found = it->first;
+  if (std::get<0>(found) != std::get<0>(key) || std::get<1>(found) != std::get<1>(key) ||
+      std::get<2>(found) != std::get<2>(key))
+    return std::nullopt;
   return it->second;
 }
 

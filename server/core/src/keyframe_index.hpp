@@ -28,10 +28,16 @@ class KeyframeIndex {
  public:
   /// The chain of (robot, session, segment), created on first use.
   int chainFor(int robot, int64_t session, int segment);
-  /// Adds a node at its id (ids skipped since the last one become invalid holes) and indexes its key.
+  /// A new chain for (robot, session, segment) that chainFor() returns from now on: the segment's odometry
+  /// is split (a predecessor that never came).
+  int newChain(int robot, int64_t session, int segment);
+  /// Adds a node at its id and indexes its key. Ids beyond the last one leave invalid holes (records lost,
+  /// or keyframes still waiting for their predecessor); a node may fill a hole later.
   void add(const IndexedNode& node);
 
   std::optional<int64_t> find(const KeyframeKey& key) const;
+  /// The node of the same robot, session and segment with the greatest keyframe id below key's.
+  std::optional<int64_t> latestBefore(const KeyframeKey& key) const;
   bool contains(const KeyframeKey& key) const { return node_of_.count(key) != 0; }
   bool refused(const KeyframeKey& key) const { return refused_.count(key) != 0; }
   void refuse(const KeyframeKey& key) { refused_.insert(key); }

@@ -1,6 +1,8 @@
 // Restart on the same map directory: robots (cameras), keyframes and loop edges come back from the map
 // store into the index, the graph and the loop detector; the map worker re-inserts the keyframes.
+#include <chrono>
 #include <string>
+#include <utility>
 
 #include "ingest_pipeline.hpp"
 #include "rgbdmap/common/logging.hpp"
@@ -25,23 +27,28 @@ Status IngestPipeline::restore() {
   return Status::success();
 }
 
+/// Keyframes in store order, which is arrival order: each enters the graph after its predecessor as it did
+/// live (the reorder buffer again); those still waiting at the end start new chains at once, before the
+/// loop edges that may name them.
 int IngestPipeline::restoreKeyframesLocked() {
   int skipped = 0;
+  const auto now = std::chrono::steady_clock::now();
   for (const StoredKeyframe& stored : store_->keyframes()) {
     const auto camera = registry_.camera(stored.keyframe.robot_id);
-    const auto features =
-        camera ? featuresFromMessage(stored.keyframe, PinholeCamera(*camera))
-               : Result<FrameFeatures>::failure("no camera for robot " + stored.keyframe.robot_id);
-    if (!features || stored.node_id < index_.size()) {
+    auto features = camera
+                        ? featuresFromMessage(stored.keyframe, PinholeCamera(*camera))
+                        : Result<FrameFeatures>::failure("no camera for robot " + stored.keyframe.robot_id);
+    const bool in_order = stored.node_id >= next_node_id_;
+    if (in_order) next_node_id_ = stored.node_id + 1;  // never reused, even when skipped
+    if (!features || !in_order) {
       ++skipped;
       log::error("server: stored keyframe ", stored.node_id,
-                 " skipped: ", features ? "node id out of order" : features.error());
+                 " skipped: ", !in_order ? "node id out of order" : features.error());
       continue;
     }
-    integrateLocked(stored, *features, false, nullptr);
-    registry_.countKeyframe(stored.keyframe.robot_id);
-    ++counters_.keyframes;
+    placeLocked({stored, std::move(*features), now}, nullptr, false);
   }
+  giveUpWaitingLocked(now, 0.0, false);
   return skipped;
 }
 

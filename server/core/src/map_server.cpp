@@ -21,6 +21,14 @@
 
 namespace rgbdmap {
 
+namespace {
+/// How often the ingest worker looks for keyframes that waited reorder_timeout_s: a quarter of it, at
+/// least every second.
+double reorderTick(const MapServerConfig& config) {
+  return std::clamp(config.reorder_timeout_s / 4.0, 0.05, 1.0);
+}
+}  // namespace
+
 struct MapServer::Impl {
   Impl(MapServerConfig c, transport::Transport& t, msg::KeyStore k)
       : config(std::move(c)),
@@ -29,7 +37,7 @@ struct MapServer::Impl {
         server_session(msg::newSessionId()),
         publisher(transport, keys, server_session, registry),
         pipeline(config, registry, publisher, server_session / 1000000 * 1000000),
-        queue(config.ingest_queue_capacity, pipeline),
+        queue(config.ingest_queue_capacity, reorderTick(config), pipeline),
         inbox(config, keys, registry, queue),
         status(config.status_period_s, registry, publisher, [this] { return pipeline.graphRevision(); }),
         gate([this](const std::string& channel, const uint8_t* data, size_t size) {

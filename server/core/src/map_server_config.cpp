@@ -26,6 +26,11 @@ const ConfigTable<C>& ownTable() {
                "ServerStatus to every robot (s); 0: off")
           .add("server.ingest_queue_capacity", &C::ingest_queue_capacity, R::closed(1, 100000),
                "keyframes waiting for the worker; beyond, they are left unacknowledged")
+          .add("server.reorder_capacity", &C::reorder_capacity, R::closed(1, 100000),
+               "keyframes per robot stored and acknowledged but waiting for their odometry predecessor; "
+               "beyond, the oldest waiting ones give it up and start a new chain (re-anchored by loops)")
+          .add("server.reorder_timeout_s", &C::reorder_timeout_s, R::closed(0.0, 3600.0),
+               "a keyframe waits at most this long for its predecessor, then starts a new chain")
           .add("server.default_odometry_sigma_m", &C::default_odometry_sigma_m, R::closedOpen(1e-4, 10.0),
                "odometry edge uncertainty when a keyframe carries no information matrix")
           .add("server.default_odometry_sigma_deg", &C::default_odometry_sigma_deg, R::closedOpen(1e-3, 90.0),

@@ -159,11 +159,15 @@ void RobotRegistry::countRefused(const std::string& robot_id) {
 }
 void RobotRegistry::countOutOfOrder(const std::string& robot_id) {
   std::lock_guard<std::mutex> lock(mutex_);
-  ++entry(robot_id).out_of_order;
+  ++entry(robot_id).stats.out_of_order;
+}
+void RobotRegistry::countChainSplit(const std::string& robot_id) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  ++entry(robot_id).stats.chain_splits;
 }
 void RobotRegistry::countWaitingForHello(const std::string& robot_id) {
   std::lock_guard<std::mutex> lock(mutex_);
-  ++entry(robot_id).waiting_for_hello;
+  ++entry(robot_id).stats.waiting_for_hello;
 }
 
 std::vector<ServerRobotStats> RobotRegistry::stats() const {

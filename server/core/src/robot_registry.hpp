@@ -35,6 +35,7 @@ class RobotRegistry {
   void countDuplicate(const std::string& robot_id);
   void countRefused(const std::string& robot_id);
   void countOutOfOrder(const std::string& robot_id);
+  void countChainSplit(const std::string& robot_id);
   void countWaitingForHello(const std::string& robot_id);
 
   /// Robots that said Hello, in index order.
@@ -45,7 +46,6 @@ class RobotRegistry {
     ServerRobotStats stats;
     int index = -1;
     int64_t session = 0;
-    uint64_t out_of_order = 0, waiting_for_hello = 0;
   };
   Entry& entry(const std::string& robot_id);  // caller holds mutex_
 

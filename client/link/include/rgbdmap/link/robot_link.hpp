@@ -17,6 +17,7 @@
 // The transport may be shared by several links and a server; it must outlive the link. Handlers the link
 // registered stay registered (Transport has no unsubscribe) but do nothing once the link is stopped or gone.
 #include <cstdint>
+#include <map>
 #include <memory>
 #include <optional>
 #include <string>
@@ -64,6 +65,9 @@ struct RobotLinkStats {
   uint64_t messages_rejected = 0;  ///< every rejection (envelope, payload, wrong sender or robot)
   uint64_t bytes_sent = 0, bytes_received = 0;  ///< this link's messages only (the transport may be shared)
   int64_t graph_revision = -1;                  ///< of the last applied PoseCorrections; -1 before any
+  bool server_heard = false;    ///< a valid message from the server for this robot has arrived
+  uint64_t bad_signatures = 0;  ///< of messages_rejected: signature did not verify (another key?)
+  std::map<std::string, uint64_t> refused_by_reason;  ///< KeyframeAck reason -> refused keyframes
 };
 
 class RobotLink {  // thread-safe; handlers never block the transport's receive thread

@@ -54,6 +54,11 @@ struct ServerRobotStats {
   uint64_t bytes_sent = 0;
   uint64_t keyframes_refused = 0;  ///< acknowledged with accepted = false
   uint64_t duplicates = 0;         ///< re-sent keyframes acknowledged again
+  uint64_t out_of_order = 0;       ///< stored before their predecessor was in the graph (they waited)
+  uint64_t chain_splits = 0;       ///< keyframes that started a new chain: their predecessor never came
+                                   ///< (reorder bound or timeout) or was refused
+  uint64_t waiting_for_hello = 0;  ///< keyframes before the robot's Hello (not acknowledged)
+  int keyframes_waiting = 0;       ///< stored, acknowledged, waiting for their predecessor now
   int64_t last_utime = 0;
   std::optional<CameraIntrinsics> camera;
 };
@@ -72,6 +77,7 @@ struct MapServerStats {
   uint64_t keyframes_dropped_queue_full = 0;
   uint64_t keyframes_refused = 0;
   uint64_t unknown_robot_messages = 0;
+  int keyframes_waiting = 0;  ///< in the reorder buffer: stored and acknowledged, not in the graph yet
   /// Per keyframe, from dequeue to the graph update (decode + validate images, features, durable store,
   /// acknowledgement, loop candidates and verification, graph insertion).
   double ingest_ms_median = 0.0, ingest_ms_p90 = 0.0, ingest_ms_max = 0.0;

@@ -22,6 +22,12 @@ struct MapServerConfig {
   double status_period_s = 1.0;        ///< ServerStatus to every known robot; 0 turns it off
   size_t ingest_queue_capacity = 256;  ///< keyframes waiting for the worker; beyond, they are dropped
                                        ///< unacknowledged (the robot resends)
+  /// Store first, order later: a keyframe whose odometry predecessor is not in the graph yet is stored and
+  /// acknowledged at once and waits in a per-robot reorder buffer. A robot with more than
+  /// reorder_capacity keyframes waiting, or a keyframe that waited reorder_timeout_s, gives up on the
+  /// missing predecessor: the waiting keyframes start a new chain (re-anchored by loop closure).
+  size_t reorder_capacity = 64;
+  double reorder_timeout_s = 10.0;
   /// Uncertainty of an odometry edge whose keyframe carried no information matrix (1 sigma per axis).
   double default_odometry_sigma_m = 0.02;
   double default_odometry_sigma_deg = 1.0;
