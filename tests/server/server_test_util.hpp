@@ -3,6 +3,7 @@
 // speaks the real protocol (signed Hello and Keyframes, acks and corrections back), and the server harness.
 #include <unistd.h>
 
+#include <chrono>
 #include <condition_variable>
 #include <filesystem>
 #include <functional>
@@ -10,7 +11,9 @@
 #include <memory>
 #include <mutex>
 #include <set>
+#include <thread>
 
+#include <gtest/gtest.h>
 #include <octomap/OcTree.h>
 
 #include "proto/proto_test_util.hpp"
@@ -284,6 +287,23 @@ inline Trajectory odometryTrajectory(const OdometrySegment& seg) {
   Trajectory t;
   for (const msg::Keyframe& k : seg.keyframes) t.push_back({k.timestamp, k.T_odom_cam});
   return t;
+}
+
+/// ATE RMSE of `est` against `gt` (a failed alignment fails the test and reads as 1e9 m).
+inline double ateOf(const Trajectory& gt, const Trajectory& est) {
+  const auto ate = computeAte(gt, est);
+  EXPECT_TRUE(ate) << ate.error();
+  return ate ? ate->rmse : 1e9;
+}
+
+/// Polls `done` (a test may poll; the server never does) until it holds or timeout_s passed.
+inline bool eventually(const std::function<bool()>& done, double timeout_s) {
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::duration<double>(timeout_s);
+  while (!done()) {
+    if (std::chrono::steady_clock::now() > deadline) return false;
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  }
+  return true;
 }
 
 }  // namespace rgbdmap::testing

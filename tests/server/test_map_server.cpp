@@ -11,6 +11,7 @@
 namespace rgbdmap {
 namespace {
 
+using testing::ateOf;
 using testing::freshDir;
 using testing::kLoopFrames;
 using testing::loopSegment;
@@ -22,12 +23,6 @@ using testing::serverTestConfig;
 struct Harness : testing::ServerHarness {
   explicit Harness(const std::string& dir) : ServerHarness(serverTestConfig(dir)) {}
 };
-
-double ateOf(const Trajectory& gt, const Trajectory& est) {
-  const auto ate = computeAte(gt, est);
-  EXPECT_TRUE(ate) << ate.error();
-  return ate ? ate->rmse : 1e9;
-}
 
 TEST(MapServer, LoopClosureReducesTheOdometryErrorOnTheSyntheticLoop) {
   const OdometrySegment& seg = loopSegment(kLoopFrames, 0, kLoopFrames);

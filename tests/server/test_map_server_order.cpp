@@ -15,27 +15,13 @@
 namespace rgbdmap {
 namespace {
 
+using testing::ateOf;
+using testing::eventually;
 using testing::freshDir;
 using testing::kLoopFrames;
 using testing::loopSegment;
 using testing::OdometrySegment;
 using testing::ScriptedRobot;
-
-double ateOf(const Trajectory& gt, const Trajectory& est) {
-  const auto ate = computeAte(gt, est);
-  EXPECT_TRUE(ate) << ate.error();
-  return ate ? ate->rmse : 1e9;
-}
-
-/// Polls `done` (a test may poll; the server never does) until it holds or timeout_s passed.
-bool eventually(const std::function<bool()>& done, double timeout_s) {
-  const auto deadline = std::chrono::steady_clock::now() + std::chrono::duration<double>(timeout_s);
-  while (!done()) {
-    if (std::chrono::steady_clock::now() > deadline) return false;
-    std::this_thread::sleep_for(std::chrono::milliseconds(20));
-  }
-  return true;
-}
 
 MapServerConfig orderConfig(const std::string& dir, double timeout_s, size_t capacity) {
   MapServerConfig config = testing::serverTestConfig(dir);
