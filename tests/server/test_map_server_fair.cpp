@@ -213,6 +213,47 @@ TEST(MapServerFair, AFloodingRobotDoesNotDelayAWellBehavedOne) {
             static_cast<uint64_t>(flood_sent));
 }
 
+/// The robot's link after an outage: every unacknowledged keyframe is resent each retransmission round
+/// (the ReliableSender's backoff tops out at 2 s). With the default queue, burst and rate, a whole window
+/// gets through in far fewer rounds than the client's max_attempts (20).
+TEST(MapServerFair, ARecoveryBurstGetsThroughTheDefaultLimitsInAFewRounds) {
+  const OdometrySegment& seg = loopSegment(kLoopFrames, 0, kLoopFrames);
+  ASSERT_GT(seg.keyframes.size(), 10u);
+  MapServerConfig config = testing::serverTestConfig(freshDir("fair_recovery"));
+  config.occupancy_enabled = false;
+  testing::ServerHarness h(config);
+  ScriptedRobot robot(*h.transport, "robot0", testing::testKey(1), 100);
+  AckLog acks(*h.transport, "robot0", testing::testKey(1));
+  robot.hello(seg.camera);
+  ASSERT_TRUE(eventually([&] { return robotStats(*h.server, "robot0").has_value(); }, 10.0));
+  const int window = 160;  // keyframes unacknowledged when the link comes back
+  std::set<int> pending;
+  for (int i = 0; i < window; ++i) pending.insert(i);
+  const auto t0 = Clock::now();
+  int rounds = 0;
+  for (; rounds < 20 && !pending.empty(); ++rounds) {
+    for (const int i : pending) {
+      msg::Keyframe kf = seg.keyframes[static_cast<size_t>(i) % seg.keyframes.size()];
+      kf.segment_id = 0;
+      kf.keyframe_id = i;
+      kf.previous_keyframe_id = i - 1;
+      robot.send(std::move(kf));
+    }
+    (void)acks.waitFor(pending, 2.0);
+    for (const auto& [id, ack] : acks.acks()) pending.erase(id);
+  }
+  const double took_s = std::chrono::duration<double>(Clock::now() - t0).count();
+  const auto r = robotStats(*h.server, "robot0");
+  ASSERT_TRUE(r);
+  std::printf(
+      "[ measured ] recovery of %d keyframes: %d rounds, %.1f s, %llu throttled, %llu queue full, %d "
+      "stored\n",
+      window, rounds, took_s, static_cast<unsigned long long>(r->throttled),
+      static_cast<unsigned long long>(r->queue_full), r->keyframes);
+  EXPECT_TRUE(pending.empty()) << pending.size() << " keyframes never acknowledged";
+  EXPECT_LE(rounds, 12) << "too close to the client's max_attempts";
+}
+
 TEST(MapServerFair, ImagesThatDoNotMatchTheCameraAreRefusedBeforeDecoding) {
   const OdometrySegment& seg = loopSegment(kLoopFrames, 0, 60);
   ASSERT_GE(seg.keyframes.size(), 3u);
