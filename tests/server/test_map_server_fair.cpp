@@ -156,8 +156,12 @@ TEST(MapServerFair, AFloodingRobotDoesNotDelayAWellBehavedOne) {
       },
       30.0))
       << "the flood was neither throttled nor queue-full";
+  // Its Hello does not wait behind the flood's queued keyframes.
+  const auto hello_at = Clock::now();
   good.hello(good_seg.camera);
   ASSERT_TRUE(eventually([&] { return robotStats(*h.server, "robot1").has_value(); }, 10.0));
+  const double hello_s = std::chrono::duration<double>(Clock::now() - hello_at).count();
+  EXPECT_LT(hello_s, 1.0) << "the Hello waited behind the flood";
   // The well-behaved robot: a keyframe every 200 ms.
   std::map<int, Clock::time_point> sent_at;
   std::set<int> ids;
@@ -186,14 +190,18 @@ TEST(MapServerFair, AFloodingRobotDoesNotDelayAWellBehavedOne) {
   const double p50 = percentile(latency_s, 0.5), p90 = percentile(latency_s, 0.9);
   const long rss_kb = procStatusKb("VmRSS"), hwm_kb = procStatusKb("VmHWM");
   std::printf(
-      "[ measured ] flood: %d keyframes sent, %d stored, %llu throttled, %llu queue full, queue max %d; "
-      "well-behaved: %zu sent, %d stored, ack latency median %.3f s p90 %.3f s max %.3f s, queue max %d; "
+      "[ measured ] flood: %d keyframes sent, %d in the graph + %d waiting, %llu throttled, %llu queue full, "
+      "queue max %d; "
+      "well-behaved: Hello registered in %.3f s, %zu sent, %d in the graph, ack latency median %.3f s p90 "
+      "%.3f s "
+      "max %.3f s, queue max %d; "
       "RSS %ld -> %ld MB (peak %ld MB); ingest median %.1f ms p90 %.1f ms (verify median %.1f ms)\n",
-      flood_sent, flood_stats->keyframes, static_cast<unsigned long long>(flood_stats->throttled),
-      static_cast<unsigned long long>(flood_stats->queue_full), flood_stats->keyframes_queued_max, ids.size(),
-      good_stats->keyframes, p50, p90, percentile(latency_s, 1.0), good_stats->keyframes_queued_max,
-      rss_before_kb / 1024, rss_kb / 1024, hwm_kb / 1024, s.ingest_ms_median, s.ingest_ms_p90,
-      s.verify_ms_median);
+      flood_sent, flood_stats->keyframes, flood_stats->keyframes_waiting,
+      static_cast<unsigned long long>(flood_stats->throttled),
+      static_cast<unsigned long long>(flood_stats->queue_full), flood_stats->keyframes_queued_max, hello_s,
+      ids.size(), good_stats->keyframes, p50, p90, percentile(latency_s, 1.0),
+      good_stats->keyframes_queued_max, rss_before_kb / 1024, rss_kb / 1024, hwm_kb / 1024,
+      s.ingest_ms_median, s.ingest_ms_p90, s.verify_ms_median);
 
   EXPECT_EQ(latency_s.size(), ids.size());
   EXPECT_LT(p90, 1.0) << "the well-behaved robot's acknowledgements are late";
