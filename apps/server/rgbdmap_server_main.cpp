@@ -56,7 +56,10 @@ rgbdmap::Json summaryJson(const rgbdmap::MapServer& server) {
                       {"duplicates", r.duplicates},
                       {"out_of_order", r.out_of_order},
                       {"chain_splits", r.chain_splits},
-                      {"waiting", r.keyframes_waiting}});
+                      {"waiting", r.keyframes_waiting},
+                      {"queue_full", r.queue_full},
+                      {"throttled", r.throttled},
+                      {"refused_before_decode", r.refused_before_decode}});
   return {{"keyframes", s.keyframes},
           {"loops", s.loops_accepted},
           {"loops_disabled", s.loops_disabled},
@@ -64,6 +67,8 @@ rgbdmap::Json summaryJson(const rgbdmap::MapServer& server) {
           {"optimizations", s.optimizations},
           {"messages_rejected", s.messages_rejected},
           {"keyframes_waiting", s.keyframes_waiting},
+          {"keyframes_queue_full", s.keyframes_dropped_queue_full},
+          {"keyframes_throttled", s.keyframes_throttled},
           {"ingest_ms_median", jsonNumber(s.ingest_ms_median)},
           {"ingest_ms_p90", jsonNumber(s.ingest_ms_p90)},
           {"ingest_cpu_ms_median", jsonNumber(s.ingest_cpu_ms_median)},

@@ -8,7 +8,11 @@ namespace rgbdmap {
 
 Inbox::Inbox(const MapServerConfig& config, const msg::KeyStore& keys, RobotRegistry& registry,
              IngestQueue& queue)
-    : config_(config), keys_(keys), registry_(registry), queue_(queue) {}
+    : config_(config),
+      keys_(keys),
+      registry_(registry),
+      queue_(queue),
+      throttle_(config.robot_max_keyframes_per_s, config.robot_keyframe_burst) {}
 
 void Inbox::onMessage(const std::string& channel, const uint8_t* data, size_t size) {
   std::string robot, suffix;
@@ -59,6 +63,15 @@ void Inbox::onHello(const msg::OpenedEnvelope& opened, const std::string& robot)
 }
 
 void Inbox::onKeyframe(const msg::OpenedEnvelope& opened, const std::string& robot) {
+  // Authentic, not decoded yet: over the robot's rate, or no room in its queue, costs nothing more.
+  if (!throttle_.allow(robot, KeyframeThrottle::Clock::now())) {
+    ++throttled_;
+    registry_.countThrottled(robot);
+    queue_.demote(robot);
+    return;
+  }
+  const size_t bytes = opened.payload.size();
+  if (!queue_.hasRoom(robot, bytes)) return countQueueFull(robot);
   auto keyframe = msg::decodeMessage<msg::Keyframe>(opened, &rejects_);
   if (!keyframe) return;
   if (keyframe->robot_id != robot) {
@@ -66,7 +79,13 @@ void Inbox::onKeyframe(const msg::OpenedEnvelope& opened, const std::string& rob
                  "keyframe for '" + keyframe->robot_id + "' from " + robot);
     return;
   }
-  queue_.pushKeyframe(std::move(*keyframe));
+  if (queue_.pushKeyframe(std::move(*keyframe), bytes) == IngestQueue::Pushed::kFull) countQueueFull(robot);
+}
+
+void Inbox::countQueueFull(const std::string& robot) {
+  ++queue_full_;
+  registry_.countQueueFull(robot);
+  queue_.demote(robot);
 }
 
 }  // namespace rgbdmap

@@ -1,12 +1,15 @@
 #pragma once
 // The server's inbox, on the transport's receive thread: channel -> authenticate (signature, replay) ->
-// decode -> check the sender -> queue for the ingest worker. Never blocks on the worker: a full keyframe
-// queue drops (the robot resends). Rejections are counted (and logged, rate-limited) by RejectCounters.
+// decode -> check the sender -> queue for the ingest worker. Never blocks on the worker. A keyframe over
+// its robot's rate (KeyframeThrottle) or that does not fit its robot's queue is dropped before its payload
+// is decoded, unacknowledged (the robot resends) and counted per robot (throttled, queue_full).
+// Rejections are counted (and logged, rate-limited) by RejectCounters.
 #include <atomic>
 #include <cstdint>
 #include <string>
 
 #include "ingest_queue.hpp"
+#include "keyframe_throttle.hpp"
 #include "rgbdmap/proto/envelope.hpp"
 #include "rgbdmap/server/map_server_config.hpp"
 #include "robot_registry.hpp"
@@ -24,11 +27,14 @@ class Inbox {
 
   uint64_t rejected() const { return rejects_.total(); }
   uint64_t unknownRobot() const { return unknown_robot_.load(); }
+  uint64_t throttled() const { return throttled_.load(); }
+  uint64_t queueFull() const { return queue_full_.load(); }
 
  private:
   bool admitted(const std::string& robot) const;  ///< in config.robots (or the list is empty)
   void onHello(const msg::OpenedEnvelope& opened, const std::string& robot);
   void onKeyframe(const msg::OpenedEnvelope& opened, const std::string& robot);
+  void countQueueFull(const std::string& robot);
 
   const MapServerConfig& config_;
   const msg::KeyStore& keys_;
@@ -37,6 +43,9 @@ class Inbox {
   msg::ReplayGuard guard_;
   msg::RejectCounters rejects_;
   std::atomic<uint64_t> unknown_robot_{0};
+  KeyframeThrottle throttle_;
+  std::atomic<uint64_t> throttled_{0};
+  std::atomic<uint64_t> queue_full_{0};
 };
 
 }  // namespace rgbdmap

@@ -4,6 +4,7 @@
 
 #include <utility>
 
+#include "image_admission.hpp"
 #include "rgbdmap/common/logging.hpp"
 #include "rgbdmap/vision/keyframe_message.hpp"
 
@@ -54,8 +55,14 @@ void IngestPipeline::onKeyframe(const msg::Keyframe& kf) {
   }
   const KeyframeKey key{robot, kf.header.session, kf.segment_id, kf.keyframe_id};
   if (!admitLocked(kf, key, lock)) return;
+  const ImageLimits limits{config_.max_image_pixels, config_.max_image_bytes};
+  if (std::string why = imagesRefusedBeforeDecode(kf.images, *camera, limits); !why.empty()) {
+    registry_.countRefusedBeforeDecode(kf.robot_id);
+    return refuseLocked(kf, key, why, lock);
+  }
   KeyframeTiming timing;
   const auto t_decode = Clock::now();
+  ++counters_.keyframes_decoded;
   Result<Decoded> decoded = decode(kf, *camera);
   if (!decoded) return refuseLocked(kf, key, decoded.error(), lock);
   WaitingKeyframe waiting;
@@ -110,8 +117,6 @@ void IngestPipeline::refuseLocked(const msg::Keyframe& kf, const KeyframeKey& ke
 
 Result<IngestPipeline::Decoded> IngestPipeline::decode(const msg::Keyframe& kf,
                                                        const CameraIntrinsics& camera) {
-  if (kf.images.width != camera.width || kf.images.height != camera.height)
-    return Result<Decoded>::failure("image size differs from the camera in the robot's Hello");
   auto images = msg::decodeKeyframeImages(kf);
   if (!images) return Result<Decoded>::failure("images: " + images.error());
   auto features = featuresFromMessage(kf, PinholeCamera(camera));

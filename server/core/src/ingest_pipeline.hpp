@@ -1,10 +1,11 @@
 #pragma once
 // The ingest pipeline owns the map state (keyframe index, pose graph, loop detector, counters) and runs on
 // the ingest worker, one event at a time:
-//   Hello -> session; Keyframe -> decode + validate images -> store durably -> acknowledge -> (in chain
-//   order, through the reorder buffer) loop detection -> pose graph (-> a snapshot to the optimiser when
-//   loops were added); optimisation result -> apply -> PoseCorrections to every robot; a periodic tick
-//   gives up on predecessors that do not come.
+//   Hello -> session; Keyframe -> image headers against the robot's camera (image_admission.hpp) ->
+//   decode + validate images -> store durably -> acknowledge -> (in chain order, through the reorder
+//   buffer) loop detection -> pose graph (-> a snapshot to the optimiser when loops were added);
+//   optimisation result -> apply -> PoseCorrections to every robot; a periodic tick gives up on
+//   predecessors that do not come.
 // Readers (stats, keyframes) take the same state lock from other threads. Restoring from the map store is
 // in map_restore.cpp, graph insertion and optimisation results in ingest_graph.cpp, chain order (reorder
 // buffer, chain splits) in ingest_order.cpp.
@@ -75,6 +76,7 @@ class IngestPipeline {
   // ingest_pipeline.cpp: the keyframe path
   bool admitLocked(const msg::Keyframe& kf, const KeyframeKey& key, Lock& lock);
   void refuseLocked(const msg::Keyframe& kf, const KeyframeKey& key, const std::string& reason, Lock& lock);
+  /// Decodes the images (their headers were checked against the camera: image_admission.hpp) and features.
   static Result<Decoded> decode(const msg::Keyframe& kf, const CameraIntrinsics& camera);
   /// Graph, loop detection, map worker (`images`, or read back from the store when null), loop edges,
   /// optimisation.

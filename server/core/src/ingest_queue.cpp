@@ -6,10 +6,10 @@
 namespace rgbdmap {
 namespace {
 
-SerialWorkerOptions ingestOptions(size_t keyframe_capacity, double tick_s, IngestPipeline& pipeline) {
+SerialWorkerOptions ingestOptions(double tick_s, IngestPipeline& pipeline) {
   SerialWorkerOptions options;
   options.name = "rgbdmap-ingest";
-  options.capacity = keyframe_capacity;  // keyframes only (tryPost); Hello and results always get in
+  options.capacity = 0;  // one task per queued event; the events are bounded here (RobotQueues, hellos)
   options.period_s = tick_s;
   options.on_period = [&pipeline] { pipeline.onTick(); };
   return options;
@@ -17,12 +17,20 @@ SerialWorkerOptions ingestOptions(size_t keyframe_capacity, double tick_s, Inges
 
 }  // namespace
 
-IngestQueue::IngestQueue(size_t keyframe_capacity, double tick_s, IngestPipeline& pipeline)
-    : pipeline_(pipeline), worker_(ingestOptions(keyframe_capacity, tick_s, pipeline)) {}
+IngestQueue::IngestQueue(RobotQueueLimits limits, double tick_s, IngestPipeline& pipeline)
+    : pipeline_(pipeline), keyframes_(limits), worker_(ingestOptions(tick_s, pipeline)) {}
 
 void IngestQueue::start() { worker_.start(); }
 
 void IngestQueue::stop() {
+  {
+    std::lock_guard<std::mutex> lock(events_mutex_);
+    events_stopped_ = true;
+    hellos_.clear();
+    hello_order_.clear();
+    results_.clear();
+    keyframes_.clear();
+  }
   {
     std::lock_guard<std::mutex> lock(revision_mutex_);
     stopping_ = true;
@@ -31,25 +39,88 @@ void IngestQueue::stop() {
   worker_.stop();
 }
 
-void IngestQueue::pushHello(msg::Hello hello) {
-  worker_.post([this, hello = std::move(hello)] { pipeline_.onHello(hello); });
+bool IngestQueue::postServeLocked() {
+  if (events_stopped_) return false;
+  return worker_.post([this] { serveNext(); }) == SerialWorker::Posted::kQueued;
 }
 
-void IngestQueue::pushKeyframe(msg::Keyframe keyframe) {
-  const auto posted =
-      worker_.tryPost([this, keyframe = std::move(keyframe)] { pipeline_.onKeyframe(keyframe); });
-  if (posted == SerialWorker::Posted::kFull) ++dropped_queue_full_;  // not acknowledged: the robot resends
+void IngestQueue::pushHello(msg::Hello hello) {
+  std::lock_guard<std::mutex> lock(events_mutex_);
+  if (events_stopped_) return;
+  const std::string robot = hello.robot_id;
+  const bool pending = hellos_.count(robot) > 0;
+  hellos_[robot] = std::move(hello);  // the newest camera and session win
+  if (pending) return;                // already has its task
+  hello_order_.push_back(robot);
+  postServeLocked();
+}
+
+bool IngestQueue::hasRoom(const std::string& robot, size_t bytes) const {
+  std::lock_guard<std::mutex> lock(events_mutex_);
+  return !events_stopped_ && keyframes_.hasRoom(robot, bytes);
+}
+
+IngestQueue::Pushed IngestQueue::pushKeyframe(msg::Keyframe keyframe, size_t bytes) {
+  std::lock_guard<std::mutex> lock(events_mutex_);
+  if (events_stopped_) return Pushed::kStopped;
+  const std::string robot = keyframe.robot_id;
+  if (!keyframes_.push(robot, std::move(keyframe), bytes)) return Pushed::kFull;  // the robot resends
+  postServeLocked();
+  return Pushed::kQueued;
+}
+
+void IngestQueue::demote(const std::string& robot) {
+  const auto until =
+      std::chrono::steady_clock::now() + std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+                                             std::chrono::duration<double>(kDemotionS));
+  std::lock_guard<std::mutex> lock(events_mutex_);
+  keyframes_.demote(robot, until);
 }
 
 void IngestQueue::pushOptimized(std::shared_ptr<const OptimizedPoses> result) {
-  worker_.post([this, result = std::move(result)] {
+  std::lock_guard<std::mutex> lock(events_mutex_);
+  if (events_stopped_) return;
+  results_.push_back([this, result = std::move(result)] {
     pipeline_.onOptimized(*result);
     {
-      std::lock_guard<std::mutex> lock(revision_mutex_);
+      std::lock_guard<std::mutex> revision_lock(revision_mutex_);
       applied_revision_ = std::max(applied_revision_, result->revision);
     }
     revision_cv_.notify_all();
   });
+  postServeLocked();
+}
+
+/// One event: a pending Hello first, then an optimisation result, then the next robot's keyframe.
+void IngestQueue::serveNext() {
+  std::unique_lock<std::mutex> lock(events_mutex_);
+  if (!hello_order_.empty()) {
+    const auto it = hellos_.find(hello_order_.front());
+    hello_order_.pop_front();
+    msg::Hello hello = std::move(it->second);
+    hellos_.erase(it);
+    lock.unlock();
+    return pipeline_.onHello(hello);
+  }
+  if (!results_.empty()) {
+    Task task = std::move(results_.front());
+    results_.pop_front();
+    lock.unlock();
+    return task();
+  }
+  std::optional<msg::Keyframe> keyframe = keyframes_.pop();
+  lock.unlock();
+  if (keyframe) pipeline_.onKeyframe(*keyframe);
+}
+
+size_t IngestQueue::queued(const std::string& robot) const {
+  std::lock_guard<std::mutex> lock(events_mutex_);
+  return keyframes_.size(robot);
+}
+
+size_t IngestQueue::queuedHighWater(const std::string& robot) const {
+  std::lock_guard<std::mutex> lock(events_mutex_);
+  return keyframes_.highWater(robot);
 }
 
 void IngestQueue::noteSubmitted(uint64_t revision) {

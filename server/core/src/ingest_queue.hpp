@@ -1,47 +1,78 @@
 #pragma once
-// The ingest worker: one SerialWorker ("rgbdmap-ingest") that runs the pipeline's events in arrival order
-// (Hello and Keyframe from the receive thread, optimisation results from the optimiser's thread). Keyframes
-// are bounded by ingest_queue_capacity: beyond, they are dropped unacknowledged (the robot resends). A
-// periodic tick on the same thread lets the pipeline give up on predecessors that do not come.
+// The ingest worker: one SerialWorker ("rgbdmap-ingest") that runs the pipeline's events one at a time.
+// Each posted task serves one event, chosen when it runs (issue #11, fair share):
+//   1. a robot's Hello (at most one pending per robot: a newer one replaces it), so a session never waits
+//      behind keyframes;
+//   2. optimisation results, in order;
+//   3. keyframes, from per-robot bounded queues served round-robin (RobotQueues): a robot flooding the
+//      server fills only its own queue, and is served after the robots within their share for a while.
+//      A keyframe that does not fit is dropped unacknowledged (the robot resends it) and counted.
+// A periodic tick on the same thread lets the pipeline give up on predecessors that do not come.
 // Tracks the submitted and applied optimisation revisions, so that waitIdle() also waits for the solves in
 // flight and their corrections.
 #include <atomic>
 #include <chrono>
 #include <condition_variable>
 #include <cstdint>
+#include <deque>
+#include <functional>
+#include <map>
 #include <memory>
 #include <mutex>
 
 #include "ingest_pipeline.hpp"
 #include "rgbdmap/common/serial_worker.hpp"
+#include "robot_queues.hpp"
 
 namespace rgbdmap {
 
 class IngestQueue {
  public:
+  enum class Pushed { kQueued, kFull, kStopped };
+
   /// Every tick_s (> 0) between events, pipeline.onTick() (keyframes waiting too long for a predecessor).
-  IngestQueue(size_t keyframe_capacity, double tick_s, IngestPipeline& pipeline);
+  IngestQueue(RobotQueueLimits limits, double tick_s, IngestPipeline& pipeline);
 
   void start();
   /// Drops the queued events, waits for the running one; afterwards pushes are ignored. Idempotent.
   void stop();
 
   void pushHello(msg::Hello hello);
-  void pushKeyframe(msg::Keyframe keyframe);
+  /// Whether a keyframe of `bytes` from `robot` would be queued now (asked before decoding it).
+  bool hasRoom(const std::string& robot, size_t bytes) const;
+  /// `bytes`: its encoded size (the per-robot byte bound). kFull: not queued (the caller counts it).
+  Pushed pushKeyframe(msg::Keyframe keyframe, size_t bytes);
+  /// `robot` went over its share (throttled, or its queue was full): served after the other robots for
+  /// kDemotionS (RobotQueues).
+  void demote(const std::string& robot);
+  static constexpr double kDemotionS = 5.0;
   void pushOptimized(std::shared_ptr<const OptimizedPoses> result);
   /// A snapshot with this revision went to the optimiser (its result will come back through pushOptimized).
   void noteSubmitted(uint64_t revision);
 
   /// No event queued or running, and every submitted revision applied; false on timeout or once stopped.
   bool waitIdleUntil(std::chrono::steady_clock::time_point deadline) const;
-  uint64_t droppedQueueFull() const { return dropped_queue_full_.load(); }
+  /// Keyframes of `robot` queued now, and the most it has had queued at once.
+  size_t queued(const std::string& robot) const;
+  size_t queuedHighWater(const std::string& robot) const;
 
  private:
+  using Task = std::function<void()>;
+  /// Posts one "serve the next event" task; false once stopped. Caller holds events_mutex_.
+  bool postServeLocked();
+  void serveNext();  ///< on the worker
   bool waitRevisionsUntil(std::chrono::steady_clock::time_point deadline) const;
   bool revisionsApplied() const;  ///< caller holds revision_mutex_
 
   IngestPipeline& pipeline_;
-  std::atomic<uint64_t> dropped_queue_full_{0};
+
+  mutable std::mutex events_mutex_;           ///< the events below
+  std::map<std::string, msg::Hello> hellos_;  ///< the latest pending Hello per robot
+  std::deque<std::string> hello_order_;       ///< robots with a pending Hello, oldest first
+  std::deque<Task> results_;                  ///< optimisation results
+  RobotQueues keyframes_;
+  bool events_stopped_ = false;
+
   mutable std::mutex revision_mutex_;
   mutable std::condition_variable revision_cv_;
   uint64_t submitted_revision_ = 0;

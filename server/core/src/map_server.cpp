@@ -37,7 +37,8 @@ struct MapServer::Impl {
         server_session(msg::newSessionId()),
         publisher(transport, keys, server_session, registry),
         pipeline(config, registry, publisher, server_session / 1000000 * 1000000),
-        queue(config.ingest_queue_capacity, reorderTick(config), pipeline),
+        queue({config.robot_queue_capacity, config.robot_queue_bytes, config.ingest_queue_capacity},
+              reorderTick(config), pipeline),
         inbox(config, keys, registry, queue),
         status(config.status_period_s, registry, publisher, [this] { return pipeline.graphRevision(); }),
         gate([this](const std::string& channel, const uint8_t* data, size_t size) {
@@ -162,7 +163,12 @@ MapServerStats MapServer::stats() const {
   const Impl& m = *impl_;
   MapServerStats s = m.pipeline.stats();
   s.messages_rejected = m.inbox.rejected();
-  s.keyframes_dropped_queue_full = m.queue.droppedQueueFull();
+  s.keyframes_dropped_queue_full = m.inbox.queueFull();
+  s.keyframes_throttled = m.inbox.throttled();
+  for (ServerRobotStats& r : s.robots) {
+    r.keyframes_queued = static_cast<int>(m.queue.queued(r.robot_id));
+    r.keyframes_queued_max = static_cast<int>(m.queue.queuedHighWater(r.robot_id));
+  }
   s.unknown_robot_messages = m.inbox.unknownRobot();
   // Outside the server's state lock: counting the octree's leaves must not hold up the ingest worker.
   if (m.map_worker) m.map_worker->fillStats(&s);

@@ -24,8 +24,27 @@ const ConfigTable<C>& ownTable() {
                "fdatasync every keyframe before acknowledging it (durability)")
           .add("server.status_period_s", &C::status_period_s, ConfigRange::closed(0.0, 3600.0),
                "ServerStatus to every robot (s); 0: off")
-          .add("server.ingest_queue_capacity", &C::ingest_queue_capacity, R::closed(1, 100000),
-               "keyframes waiting for the worker; beyond, they are left unacknowledged")
+          .add("server.ingest_queue_capacity", &C::ingest_queue_capacity, R::closed(1, 1000000),
+               "keyframes waiting for the worker, all robots together; beyond, they are left "
+               "unacknowledged (the robot resends them) and counted as queue_full")
+          .add("server.robot_queue_capacity", &C::robot_queue_capacity, R::closed(1, 100000),
+               "keyframes one robot may have waiting; each robot has its own queue, served round-robin, so "
+               "a robot sending faster than the server ingests delays only itself; beyond, left "
+               "unacknowledged and counted as queue_full")
+          .add("server.robot_queue_bytes", &C::robot_queue_bytes, R::closed(1024, size_t(1) << 30),
+               "encoded bytes one robot may have waiting (one keyframe always fits an empty queue)")
+          .add("server.robot_max_keyframes_per_s", &C::robot_max_keyframes_per_s, R::closed(0.0, 1e6),
+               "keyframe messages per robot and second (retransmissions included), a token bucket checked "
+               "before decoding; beyond, left unacknowledged and counted as throttled; 0: off. A robot "
+               "makes a few keyframes per second, the server ingests ~30 per second on two cores")
+          .add("server.robot_keyframe_burst", &C::robot_keyframe_burst, R::closed(1.0, 1e6),
+               "the bucket's size: keyframes a robot may send at once, e.g. the retransmissions of its whole "
+               "send window (client max_pending) when its link comes back after an outage")
+          .add("server.max_image_pixels", &C::max_image_pixels, R::closed(1, 4096 * 4096),
+               "largest camera (width * height) whose keyframes are decoded; checked, with the image size "
+               "against the robot's Hello, from the compressed images' headers before decoding")
+          .add("server.max_image_bytes", &C::max_image_bytes, R::closed(1024, size_t(1) << 30),
+               "largest compressed depth or colour image of a keyframe; beyond, refused before decoding")
           .add("server.reorder_capacity", &C::reorder_capacity, R::closed(1, 100000),
                "keyframes per robot stored and acknowledged but waiting for their odometry predecessor; "
                "beyond, the oldest waiting ones give it up and start a new chain (re-anchored by loops)")

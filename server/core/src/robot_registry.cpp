@@ -169,6 +169,18 @@ void RobotRegistry::countWaitingForHello(const std::string& robot_id) {
   std::lock_guard<std::mutex> lock(mutex_);
   ++entry(robot_id).stats.waiting_for_hello;
 }
+void RobotRegistry::countQueueFull(const std::string& robot_id) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  ++entry(robot_id).stats.queue_full;
+}
+void RobotRegistry::countThrottled(const std::string& robot_id) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  ++entry(robot_id).stats.throttled;
+}
+void RobotRegistry::countRefusedBeforeDecode(const std::string& robot_id) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  ++entry(robot_id).stats.refused_before_decode;
+}
 
 std::vector<ServerRobotStats> RobotRegistry::stats() const {
   std::lock_guard<std::mutex> lock(mutex_);

@@ -37,6 +37,9 @@ class RobotRegistry {
   void countOutOfOrder(const std::string& robot_id);
   void countChainSplit(const std::string& robot_id);
   void countWaitingForHello(const std::string& robot_id);
+  void countQueueFull(const std::string& robot_id);
+  void countThrottled(const std::string& robot_id);
+  void countRefusedBeforeDecode(const std::string& robot_id);
 
   /// Robots that said Hello, in index order.
   std::vector<ServerRobotStats> stats() const;

@@ -59,6 +59,13 @@ struct ServerRobotStats {
                                    ///< (reorder bound or timeout) or was refused
   uint64_t waiting_for_hello = 0;  ///< keyframes before the robot's Hello (not acknowledged)
   int keyframes_waiting = 0;       ///< stored, acknowledged, waiting for their predecessor now
+  /// Fair share (issue #11): keyframes left unacknowledged because its queue was full, or because it sent
+  /// over server.robot_max_keyframes_per_s; refused from the images' headers, before decoding.
+  uint64_t queue_full = 0;
+  uint64_t throttled = 0;
+  uint64_t refused_before_decode = 0;
+  int keyframes_queued = 0;      ///< in its ingest queue now
+  int keyframes_queued_max = 0;  ///< the most it has had queued at once (at most robot_queue_capacity)
   int64_t last_utime = 0;
   std::optional<CameraIntrinsics> camera;
 };
@@ -72,9 +79,11 @@ struct MapServerStats {
   int optimizations = 0;
   double last_optimize_ms = 0.0;
   int64_t graph_revision = 0;
-  int maps = 0;                    ///< connected components of the graph
-  uint64_t messages_rejected = 0;  ///< RejectCounters total (auth, replay, malformed, ...)
-  uint64_t keyframes_dropped_queue_full = 0;
+  int maps = 0;                               ///< connected components of the graph
+  uint64_t messages_rejected = 0;             ///< RejectCounters total (auth, replay, malformed, ...)
+  uint64_t keyframes_dropped_queue_full = 0;  ///< all robots' queue_full
+  uint64_t keyframes_throttled = 0;           ///< all robots' throttled
+  uint64_t keyframes_decoded = 0;             ///< keyframes whose images were decoded (passed the headers)
   uint64_t keyframes_refused = 0;
   uint64_t unknown_robot_messages = 0;
   int keyframes_waiting = 0;  ///< in the reorder buffer: stored and acknowledged, not in the graph yet

@@ -18,10 +18,24 @@ struct MapServerConfig {
   /// Robots whose channels are subscribed at start. With an empty list and an LCM transport, the server
   /// subscribes "rgbdmap/*" and serves any robot the KeyStore admits (DDS needs the list).
   std::vector<std::string> robots;
-  bool store_sync = true;              ///< fdatasync each keyframe before acknowledging it
-  double status_period_s = 1.0;        ///< ServerStatus to every known robot; 0 turns it off
-  size_t ingest_queue_capacity = 256;  ///< keyframes waiting for the worker; beyond, they are dropped
-                                       ///< unacknowledged (the robot resends)
+  bool store_sync = true;        ///< fdatasync each keyframe before acknowledging it
+  double status_period_s = 1.0;  ///< ServerStatus to every known robot; 0 turns it off
+  /// Fair share (issue #11): each robot's keyframes wait in a queue of their own, served round-robin with
+  /// the other robots'; a keyframe that does not fit its robot's queue (robot_queue_capacity keyframes,
+  /// robot_queue_bytes encoded bytes) or the total (ingest_queue_capacity, all robots together) is left
+  /// unacknowledged (the robot resends it) and counted as queue_full.
+  size_t ingest_queue_capacity = 1024;
+  size_t robot_queue_capacity = 64;
+  size_t robot_queue_bytes = 64u << 20;
+  /// Per-robot token bucket over keyframe messages (retransmissions included), checked before decoding:
+  /// beyond it a keyframe is left unacknowledged and counted as throttled. 0 turns it off. The burst
+  /// covers a whole client send window (client max_pending, 256) retransmitted at once after an outage.
+  double robot_max_keyframes_per_s = 30.0;
+  double robot_keyframe_burst = 256.0;
+  /// Checked from the compressed images' headers before decoding: the camera a robot announced (width *
+  /// height) and each compressed depth or colour image; beyond, the keyframe is refused.
+  size_t max_image_pixels = 2048 * 2048;
+  size_t max_image_bytes = 8u << 20;
   /// Store first, order later: a keyframe whose odometry predecessor is not in the graph yet is stored and
   /// acknowledged at once and waits in a per-robot reorder buffer. A robot with more than
   /// reorder_capacity keyframes waiting, or a keyframe that waited reorder_timeout_s, gives up on the
