@@ -17,6 +17,7 @@ namespace rgbdmap {
 namespace {
 
 using Clock = std::chrono::steady_clock;
+using testing::eventually;
 using testing::freshDir;
 using testing::kLoopFrames;
 using testing::loopSegment;
@@ -72,16 +73,6 @@ class AckLog {
   };
   std::shared_ptr<State> state_;
 };
-
-/// Polls `done` (a test may poll; the server never does) until it holds or timeout_s passed.
-bool eventually(const std::function<bool()>& done, double timeout_s) {
-  const auto deadline = Clock::now() + std::chrono::duration<double>(timeout_s);
-  while (!done()) {
-    if (Clock::now() > deadline) return false;
-    std::this_thread::sleep_for(std::chrono::milliseconds(20));
-  }
-  return true;
-}
 
 std::optional<ServerRobotStats> robotStats(const MapServer& server, const std::string& robot) {
   for (const ServerRobotStats& r : server.stats().robots)
