@@ -57,6 +57,9 @@ rgbdmap::Json summaryJson(const rgbdmap::MapServer& server) {
                       {"out_of_order", r.out_of_order},
                       {"chain_splits", r.chain_splits},
                       {"waiting", r.keyframes_waiting}});
+  Json rejects_by_robot = Json::object(), rejects_unknown = Json::object();
+  for (const rgbdmap::msg::RejectCount& r : s.rejects)
+    (r.robot_id.empty() ? rejects_unknown : rejects_by_robot[r.robot_id])[r.reason] = r.count;
   return {{"keyframes", s.keyframes},
           {"loops", s.loops_accepted},
           {"loops_disabled", s.loops_disabled},
@@ -68,7 +71,9 @@ rgbdmap::Json summaryJson(const rgbdmap::MapServer& server) {
           {"ingest_ms_p90", jsonNumber(s.ingest_ms_p90)},
           {"ingest_cpu_ms_median", jsonNumber(s.ingest_cpu_ms_median)},
           {"robots", robots},
-          {"merged_maps", server.mergedMaps()}};
+          {"merged_maps", server.mergedMaps()},
+          {"rejects_by_robot", rejects_by_robot},       // claimed robot -> reason -> count (known robots)
+          {"rejects_unknown_robot", rejects_unknown}};  // reason -> count for every other claimed sender
 }
 
 /// SIGINT and SIGTERM, blocked in every thread (call before any thread starts: threads inherit the mask)

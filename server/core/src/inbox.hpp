@@ -7,6 +7,7 @@
 #include <string>
 
 #include "ingest_queue.hpp"
+#include "reject_ledger.hpp"
 #include "rgbdmap/proto/envelope.hpp"
 #include "rgbdmap/server/map_server_config.hpp"
 #include "robot_registry.hpp"
@@ -24,11 +25,14 @@ class Inbox {
 
   uint64_t rejected() const { return rejects_.total(); }
   uint64_t unknownRobot() const { return unknown_robot_.load(); }
+  /// Rejections per claimed robot and reason (RejectLedger; "" = not a known robot), largest first.
+  std::vector<msg::RejectCount> rejectCounts() const { return ledger_.counts(); }
 
  private:
   bool admitted(const std::string& robot) const;  ///< in config.robots (or the list is empty)
   void onHello(const msg::OpenedEnvelope& opened, const std::string& robot);
   void onKeyframe(const msg::OpenedEnvelope& opened, const std::string& robot);
+  bool known(const std::string& robot) const;  ///< admitted and holds a key or said Hello
 
   const MapServerConfig& config_;
   const msg::KeyStore& keys_;
@@ -37,6 +41,7 @@ class Inbox {
   msg::ReplayGuard guard_;
   msg::RejectCounters rejects_;
   std::atomic<uint64_t> unknown_robot_{0};
+  RejectLedger ledger_;
 };
 
 }  // namespace rgbdmap
