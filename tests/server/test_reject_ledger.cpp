@@ -5,6 +5,7 @@
 #include <condition_variable>
 #include <mutex>
 #include <optional>
+#include <random>
 #include <thread>
 
 #include <gtest/gtest.h>
@@ -72,8 +73,9 @@ TEST(RejectLedger, HostileClaimedIdsCannotGrowTheTables) {
     lines +=
         !ledger.add("fake" + std::to_string(i), i % 2 ? "bad_signature" : "unknown_sender", "", t0).empty();
   EXPECT_NE(ledger.add("robot0", "replayed_seq", "", t0), "") << "a known robot is still counted on its own";
-  EXPECT_EQ(ledger.trackedClaimedIds(), 66u) << "64 invented ids, the known robot0 and one 'other'";
-  EXPECT_EQ(lines, 65) << "one line per tracked id and one for all the others in the interval";
+  EXPECT_EQ(ledger.trackedClaimedIds(), 65u)
+      << "64 invented ids and the known robot0 (the rest share 'other')";
+  EXPECT_EQ(lines, 1) << "lines about unknown claimed ids: at most unknown_lines_per_s overall";
   const std::vector<msg::RejectCount> counts = ledger.counts();
   EXPECT_EQ(countOf(counts, "", "bad_signature") + countOf(counts, "", "unknown_sender"), 100000);
   EXPECT_EQ(countOf(counts, "robot0", "replayed_seq"), 1);
@@ -165,6 +167,45 @@ TEST(MapServer, ARobotWithAWrongKeyIsCountedAsBadSignaturesOfThatRobotInStatsAnd
   ASSERT_TRUE(status);
   EXPECT_EQ(countOf(status->rejects, "robot1", "bad_signature"), 3);
   EXPECT_TRUE(status->robots.empty()) << "robot1 is not a registered robot";
+}
+
+TEST(MapServer, HundredThousandForgedMessagesAreCountedInBoundedBucketsAndNeverAccepted) {
+  MapServerConfig config = testing::serverTestConfig(testing::freshDir("forged"));
+  testing::ServerHarness h(config);
+  std::mt19937 rng(11);
+  constexpr int kMessages = 100000;
+  for (int i = 0; i < kMessages; ++i) {
+    msg::Bytes bytes;
+    if (i % 3 == 2) {
+      bytes.resize(16 + rng() % 200);
+      for (uint8_t& b : bytes) b = static_cast<uint8_t>(rng());
+    } else {  // an invented sender id (no key), or robot0 with a wrong key
+      msg::Heartbeat hb;
+      hb.robot_id = i % 3 == 0 ? "fake" + std::to_string(i) : "robot0";
+      msg::Signer signer(hb.robot_id, rgbdmap::testing::testKey(100 + static_cast<int>(rng() % 50)));
+      bytes = signer.seal(hb, 1).value();
+    }
+    ASSERT_TRUE(h.transport->publish(i % 2 ? "rgbdmap/robot0/heartbeat" : "rgbdmap/robot1/keyframe", bytes));
+  }
+  const auto deadline = std::chrono::steady_clock::now() + seconds(120);
+  MapServerStats s = h.server->stats();
+  while (s.messages_rejected < static_cast<uint64_t>(kMessages) &&
+         std::chrono::steady_clock::now() < deadline) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    s = h.server->stats();
+  }
+  EXPECT_EQ(s.messages_rejected, static_cast<uint64_t>(kMessages));
+  EXPECT_EQ(s.keyframes, 0);
+  EXPECT_TRUE(s.robots.empty()) << "no forged Hello registered anything";
+  int64_t total = 0;
+  for (const msg::RejectCount& r : s.rejects) {
+    total += r.count;
+    EXPECT_TRUE(r.robot_id.empty() || r.robot_id == "robot0" || r.robot_id == "robot1") << r.robot_id;
+  }
+  EXPECT_EQ(total, kMessages);
+  EXPECT_LE(s.rejects.size(), 3u * static_cast<size_t>(msg::RejectReason::kCount))
+      << "robot0, robot1, unknown";
+  EXPECT_EQ(countOf(s.rejects, "", "unknown_sender"), (kMessages + 2) / 3);
 }
 
 }  // namespace

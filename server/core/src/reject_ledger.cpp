@@ -64,6 +64,11 @@ std::string RejectLedger::add(const std::string& claimed, const std::string& rea
   const auto interval =
       std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(options_.log_interval_s));
   if (entry.logged && now - entry.last_line < interval) return "";
+  if (bucket.empty()) {
+    if (now < next_unknown_line_) return "";
+    next_unknown_line_ = now + std::chrono::duration_cast<Clock::duration>(
+                                   std::chrono::duration<double>(1.0 / options_.unknown_lines_per_s));
+  }
   std::string text = reason;
   std::replace(text.begin(), text.end(), '_', ' ');
   std::string line = "server: rejected a message claiming to be from '" + id + "'" +
@@ -95,7 +100,7 @@ std::vector<msg::RejectCount> RejectLedger::counts(size_t max_entries) const {
 
 size_t RejectLedger::trackedClaimedIds() const {
   std::lock_guard<std::mutex> lock(mutex_);
-  return log_.size() + (other_.logged ? 1 : 0);
+  return log_.size();
 }
 
 }  // namespace rgbdmap

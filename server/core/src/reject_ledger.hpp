@@ -4,7 +4,8 @@
 // and only robots the server knows (the `known` predicate: a key, the robot list, a Hello) get their own
 // counters; every other claimed id is counted in the "unknown" bucket (robot_id ""). For the log, the known
 // robots and at most max_claimed_ids other claimed ids are tracked (the rest share one "other" entry), each
-// named at most once per log_interval_s with the number of rejections since its last line. Thread-safe.
+// named at most once per log_interval_s with the number of rejections since its last line; lines about
+// claimed ids that are not known robots are also limited to unknown_lines_per_s overall. Thread-safe.
 #include <chrono>
 #include <cstdint>
 #include <functional>
@@ -22,6 +23,9 @@ struct RejectLedgerOptions {
   size_t max_claimed_ids = 256;  ///< distinct claimed ids named in the log; the rest are "other"
   size_t max_known = static_cast<size_t>(msg::kMaxRobots);  ///< known robots with their own counters
   double log_interval_s = 10.0;                             ///< per claimed id
+  /// Over all claimed ids that are not known robots (a flood of invented ids cannot flood the log); their
+  /// counts wait for a later line.
+  double unknown_lines_per_s = 1.0;
 };
 
 class RejectLedger {
@@ -36,7 +40,7 @@ class RejectLedger {
 
   /// The counters, largest first, at most `max_entries` (msg::kMaxRejectCounts for ServerStatus).
   std::vector<msg::RejectCount> counts(size_t max_entries = msg::kMaxRejectCounts) const;
-  size_t trackedClaimedIds() const;  ///< entries of the log table ("other" included)
+  size_t trackedClaimedIds() const;  ///< entries of the log table (besides the one shared "other")
 
   /// Printable ASCII ('?' for anything else), at most kMaxIdLength characters ("..." appended when cut).
   static std::string sanitize(const std::string& claimed);
@@ -56,8 +60,9 @@ class RejectLedger {
   const std::function<bool(const std::string&)> known_;
   mutable std::mutex mutex_;
   std::map<std::pair<std::string, std::string>, int64_t> counts_;  ///< (robot or "", reason) -> count
-  std::map<std::string, LogEntry> log_;      ///< sanitised claimed id -> log state (max_claimed_ids)
+  std::map<std::string, LogEntry> log_;      ///< sanitised claimed id -> log state (max_claimed_ids + known)
   LogEntry other_;                           ///< every claimed id beyond those
+  Clock::time_point next_unknown_line_{};    ///< for lines about claimed ids that are not known robots
   std::map<std::string, bool> known_cache_;  ///< robots given their own counters (at most max_known)
 };
 
