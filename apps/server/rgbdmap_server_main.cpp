@@ -33,7 +33,8 @@ const char* kUsage =
     "  --log-level L       debug|info|warn|error\n"
     "On SIGINT/SIGTERM it stops and writes keyframes_<robot>.txt (optimised, map frame) into the map "
     "directory,\n"
-    "server_summary.json (keyframes, loops, maps, ingest times, per-robot counters, merged_maps) and "
+    "server_summary.json (keyframes, loops, maps, ingest times, per-robot counters, merged_maps, "
+    "rejects_by_robot, rejects_unknown_robot) and "
     "(map.enabled)\n"
     "the map files: map.bt, map.ot, map.ply, map.png, slice_<robot>.pgm/.yaml.\n";
 
