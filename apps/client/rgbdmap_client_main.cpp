@@ -191,7 +191,7 @@ int run(int argc, char** argv) {
                config.robot_id.c_str(), config.robot_id.c_str());
   if (result.frames == 0 && result.unreadable_frames > 0)
     return log::error(a.dataset, ": none of the ", result.unreadable_frames, " frames could be read"), 1;
-  if (const DeliveryReport d = deliveryReport(result); d.unaccepted > 0)
+  if (const DeliveryReport d = deliveryReport(result, config.robot_id); d.unaccepted > 0)
     return log::error("robot ", config.robot_id, ": ", d.message), kExitKeyframesNotAccepted;
   return 0;
 }

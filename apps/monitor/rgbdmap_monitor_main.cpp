@@ -56,6 +56,8 @@ struct RobotView {
   std::unique_ptr<octomap::OcTree> map;
   int64_t map_revision = -1, map_saved_revision = -1;
   uint64_t map_updates = 0, map_errors = 0;
+  uint64_t status_bad_signatures =
+      0;  ///< server messages on this robot's channels the monitor could not verify
 };
 
 struct MonitorOptions {
@@ -126,7 +128,8 @@ class Monitor {
       if (stop_) break;
       if (Clock::now() >= deadline) {
         if (options_.once) {
-          std::fprintf(stderr, "rgbdmap-monitor: no status within %.1f s\n", options_.timeout_s);
+          std::fprintf(stderr, "rgbdmap-monitor: no status within %.1f s%s\n", options_.timeout_s,
+                       unverifiable().c_str());
           return 1;
         }
         break;
@@ -162,8 +165,12 @@ class Monitor {
     RobotView& view = robots_[robot];
     (msg::directionOf(type) == msg::Direction::kRobotToServer ? view.bytes_up : view.bytes_down) += size;
     if (type != msg::MessageType::kServerStatus && type != msg::MessageType::kMapUpdate) return;
-    auto opened = msg::openEnvelope(data, size, view.keys, &view.guard, &rejects_);
-    if (!opened) return;  // counted and logged (rate-limited) by openEnvelope
+    msg::RejectNote note;
+    auto opened = msg::openEnvelope(data, size, view.keys, &view.guard, &rejects_, &note);
+    if (!opened) {  // counted and logged (rate-limited) by openEnvelope
+      if (note.reason == msg::RejectReason::kBadSignature) ++view.status_bad_signatures;
+      return;
+    }
     if (opened->header.sender != msg::kServerId) {
       rejects_.add(msg::RejectReason::kUnknownSender, "monitor: " + opened->header.sender + " on " + robot);
       return;
@@ -199,6 +206,32 @@ class Monitor {
     }
   }
 
+  /// "" or why there is no status: "; cannot verify the server's status for a: N bad signatures (...)".
+  std::string unverifiable() const {
+    std::string out;
+    for (const auto& [robot, view] : robots_)
+      if (!view.has_status && view.status_bad_signatures > 0)
+        out += "; cannot verify the server's status for " + robot + ": " +
+               std::to_string(view.status_bad_signatures) + " bad signatures (wrong key in --keys-file?)";
+    return out;
+  }
+
+  /// What the server's status says about `robot`, or why there is none for it: "bad signature (12)" when the
+  /// server rejected messages from it with a bad signature; "cannot verify status (N bad signatures: wrong
+  /// key?)" when the monitor itself cannot verify the server's copies for it; "no status"; else "ok".
+  static std::string robotVerdict(const std::string& robot, const RobotView& view,
+                                  const msg::ServerStatus* status) {
+    int64_t bad = 0;
+    if (status)
+      for (const msg::RejectCount& r : status->rejects)
+        if (r.robot_id == robot && r.reason == "bad_signature") bad = r.count;
+    if (bad > 0) return "bad signature (" + std::to_string(bad) + ")";
+    if (!view.has_status && view.status_bad_signatures > 0)
+      return "cannot verify status (" + std::to_string(view.status_bad_signatures) +
+             " bad signatures: wrong key?)";
+    return status ? "ok" : "no status";
+  }
+
   /// The newest status any robot's copy carried (all copies describe the same server).
   const msg::ServerStatus* newestStatus() const {
     const msg::ServerStatus* best = nullptr;
@@ -216,11 +249,11 @@ class Monitor {
     if (table)
       std::printf(
           "rgbdmap-monitor  %.0f s   server %s, up %.0f s, graph revision %lld, rejected %llu\n\n"
-          "%-12s %9s %6s %10s %12s %12s %9s\n",
+          "%-12s %9s %6s %10s %12s %12s %9s  %s\n",
           t, status ? status->state.c_str() : "(no status yet)", status ? status->uptime_s : 0.0,
           static_cast<long long>(status ? status->graph_revision : 0),
           static_cast<unsigned long long>(rejects_.total()), "robot", "keyframes", "loops", "refused",
-          "up Mbit/s", "down Mbit/s", "map rev");
+          "up Mbit/s", "down Mbit/s", "map rev", "server says");
     else
       std::printf("monitor t=%.1fs state=%s graph_revision=%lld", t, status ? status->state.c_str() : "none",
                   static_cast<long long>(status ? status->graph_revision : 0));
@@ -233,15 +266,17 @@ class Monitor {
       const double down = 8e-6 * static_cast<double>(view.bytes_down - view.bytes_down_last) / dt;
       view.bytes_up_last = view.bytes_up;
       view.bytes_down_last = view.bytes_down;
+      const std::string verdict = robotVerdict(robot, view, status);
       if (table)
-        std::printf("%-12s %9d %6d %10lld %12.2f %12.2f %9lld\n", robot.c_str(), r ? r->keyframes : 0,
+        std::printf("%-12s %9d %6d %10lld %12.2f %12.2f %9lld  %s\n", robot.c_str(), r ? r->keyframes : 0,
                     r ? r->loop_closures : 0, static_cast<long long>(r ? r->rejected_messages : 0), up, down,
-                    static_cast<long long>(view.map_revision));
+                    static_cast<long long>(view.map_revision), verdict.c_str());
       else
-        std::printf(" | %s keyframes=%d loops=%d up_mbps=%.2f down_mbps=%.2f bytes_up=%llu map_rev=%lld",
-                    robot.c_str(), r ? r->keyframes : 0, r ? r->loop_closures : 0, up, down,
-                    static_cast<unsigned long long>(view.bytes_up),
-                    static_cast<long long>(view.map_revision));
+        std::printf(
+            " | %s keyframes=%d loops=%d up_mbps=%.2f down_mbps=%.2f bytes_up=%llu map_rev=%lld status=%s",
+            robot.c_str(), r ? r->keyframes : 0, r ? r->loop_closures : 0, up, down,
+            static_cast<unsigned long long>(view.bytes_up), static_cast<long long>(view.map_revision),
+            verdict.c_str());
     }
     std::printf("\n");
     std::fflush(stdout);

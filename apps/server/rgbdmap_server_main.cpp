@@ -33,7 +33,8 @@ const char* kUsage =
     "  --log-level L       debug|info|warn|error\n"
     "On SIGINT/SIGTERM it stops and writes keyframes_<robot>.txt (optimised, map frame) into the map "
     "directory,\n"
-    "server_summary.json (keyframes, loops, maps, ingest times, per-robot counters, merged_maps) and "
+    "server_summary.json (keyframes, loops, maps, ingest times, per-robot counters, merged_maps, "
+    "rejects_by_robot, rejects_unknown_robot) and "
     "(map.enabled)\n"
     "the map files: map.bt, map.ot, map.ply, map.png, slice_<robot>.pgm/.yaml.\n";
 
@@ -60,6 +61,9 @@ rgbdmap::Json summaryJson(const rgbdmap::MapServer& server) {
                       {"queue_full", r.queue_full},
                       {"throttled", r.throttled},
                       {"refused_before_decode", r.refused_before_decode}});
+  Json rejects_by_robot = Json::object(), rejects_unknown = Json::object();
+  for (const rgbdmap::msg::RejectCount& r : s.rejects)
+    (r.robot_id.empty() ? rejects_unknown : rejects_by_robot[r.robot_id])[r.reason] = r.count;
   return {{"keyframes", s.keyframes},
           {"loops", s.loops_accepted},
           {"loops_disabled", s.loops_disabled},
@@ -73,7 +77,9 @@ rgbdmap::Json summaryJson(const rgbdmap::MapServer& server) {
           {"ingest_ms_p90", jsonNumber(s.ingest_ms_p90)},
           {"ingest_cpu_ms_median", jsonNumber(s.ingest_cpu_ms_median)},
           {"robots", robots},
-          {"merged_maps", server.mergedMaps()}};
+          {"merged_maps", server.mergedMaps()},
+          {"rejects_by_robot", rejects_by_robot},       // claimed robot -> reason -> count (known robots)
+          {"rejects_unknown_robot", rejects_unknown}};  // reason -> count for every other claimed sender
 }
 
 /// SIGINT and SIGTERM, blocked in every thread (call before any thread starts: threads inherit the mask)

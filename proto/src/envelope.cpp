@@ -51,33 +51,39 @@ Result<Bytes> encodeEnvelope(MessageType type, const Header& header, const Bytes
 }
 
 Result<OpenedEnvelope> openEnvelope(const uint8_t* data, size_t size, const KeyStore& keys,
-                                    ReplayGuard* guard, RejectCounters* counters) {
+                                    ReplayGuard* guard, RejectCounters* counters, RejectNote* note) {
   static const size_t min_size = minimumEnvelopeSize();
-  if (size > static_cast<size_t>(kMaxEnvelopeBytes)) return reject(counters, RejectReason::kTooLarge);
-  if (size < min_size) return reject(counters, RejectReason::kTruncated, std::to_string(size) + " bytes");
+  std::string claimed;  // the header's sender, once decoded
+  auto fail = [&](RejectReason reason, const std::string& detail = "") {
+    if (note) *note = RejectNote{reason, claimed};
+    return reject(counters, reason, detail);
+  };
+  if (size > static_cast<size_t>(kMaxEnvelopeBytes)) return fail(RejectReason::kTooLarge);
+  if (size < min_size) return fail(RejectReason::kTruncated, std::to_string(size) + " bytes");
   Result<rgbdmap_lcm::envelope_t> e = detail::decodeWire<rgbdmap_lcm::envelope_t>(data, size);
-  if (!e) return reject(counters, classifyDecodeError(e.error()), e.error());
+  if (!e) return fail(classifyDecodeError(e.error()), e.error());
   OpenedEnvelope out;
   out.header = detail::fromWire(e->header);
+  claimed = out.header.sender;
   if (out.header.schema_version != kSchemaVersion)
-    return reject(counters, RejectReason::kWrongSchemaVersion, std::to_string(out.header.schema_version));
-  if (!isKnownType(e->type)) return reject(counters, RejectReason::kUnknownType, std::to_string(e->type));
+    return fail(RejectReason::kWrongSchemaVersion, std::to_string(out.header.schema_version));
+  if (!isKnownType(e->type)) return fail(RejectReason::kUnknownType, std::to_string(e->type));
   out.type = static_cast<MessageType>(e->type);
-  if (!isValidId(out.header.sender)) return reject(counters, RejectReason::kInvalidSender);
-  if (Status s = validate(out.header); !s) return reject(counters, RejectReason::kMalformed, s.error());
+  if (!isValidId(out.header.sender)) return fail(RejectReason::kInvalidSender);
+  if (Status s = validate(out.header); !s) return fail(RejectReason::kMalformed, s.error());
   const Bytes* key = keys.find(out.header.sender);
   if (key) {
     detail::Mac mac;
     if (!detail::hmacSha256(*key, data, size - kMacBytes, &mac) ||
         !detail::equalConstantTime(mac.data(), data + size - kMacBytes, kMacBytes))
-      return reject(counters, RejectReason::kBadSignature);
+      return fail(RejectReason::kBadSignature);
     out.authenticated = true;
   } else if (!keys.isOpen()) {
-    return reject(counters, RejectReason::kUnknownSender, out.header.sender);
+    return fail(RejectReason::kUnknownSender, out.header.sender);
   }
   if (guard) {
     if (Status s = guard->check(out.header, static_cast<int>(out.type)); !s)
-      return reject(counters, RejectReason::kReplayedSeq, s.error());
+      return fail(RejectReason::kReplayedSeq, s.error());
   }
   out.payload = std::move(e->payload);
   return out;

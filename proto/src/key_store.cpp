@@ -9,10 +9,11 @@
 
 namespace rgbdmap::msg {
 
-KeyStore KeyStore::openMode() {
-  log::warn(
-      "OPEN MODE: message signatures are NOT checked and unknown senders are accepted. "
-      "Use only for local demos.");
+KeyStore KeyStore::openMode(bool warn) {
+  if (warn)
+    log::warn(
+        "OPEN MODE: message signatures are NOT checked and unknown senders are accepted. "
+        "Use only for local demos.");
   KeyStore store;
   store.open_ = true;
   return store;

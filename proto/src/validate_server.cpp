@@ -95,6 +95,12 @@ Status validate(const ServerStatus& m) {
     if (r.keyframes < 0 || r.loop_closures < 0 || r.rejected_messages < 0 || r.last_utime < 0)
       return invalid("negative count");
   }
+  if (m.rejects.size() > static_cast<size_t>(kMaxRejectCounts)) return invalid("too many reject counts");
+  for (const RejectCount& r : m.rejects) {
+    if (!r.robot_id.empty() && !isRobotId(r.robot_id)) return invalid("invalid robot id");
+    if (!isValidId(r.reason)) return invalid("invalid reject reason");
+    if (r.count < 0) return invalid("negative count");
+  }
   return Status::success();
 }
 

@@ -3,12 +3,14 @@
 #include <gtest/gtest.h>
 
 #include <chrono>
+#include <functional>
 #include <future>
 #include <thread>
 
 #include "fake_map_server.hpp"
 #include "link_test_util.hpp"
 #include "rgbdmap/link/delivery_report.hpp"
+#include "rgbdmap/proto/channels.hpp"
 
 namespace rgbdmap {
 namespace {
@@ -161,6 +163,87 @@ TEST(RobotLink, DeliveryReportSaysWhetherAnyServerWasHeard) {
   EXPECT_NE(d.message.find("(it was heard): 2 still unanswered after link.final_wait_s, 1 not sent"),
             std::string::npos)
       << d.message;
+}
+
+TEST(RobotLink, DeliveryReportSaysWhyFromTheServersCountersForThisRobot) {
+  RobotRunResult run;
+  run.keyframes = 5;
+  run.link.keyframes_pending = 5;
+  run.link.bad_signatures = 7;
+  run.link.server_status_seen = true;
+  run.link.server_rejects = {{"bad_signature", 12}};
+  run.link.server_rejects_verified = false;  // a robot with a wrong key cannot verify the status
+  DeliveryReport d = deliveryReport(run, "robot0");
+  EXPECT_EQ(d.unaccepted, 5);
+  EXPECT_NE(d.message.find("5 of 5 keyframes not accepted: the server reports 12 bad signatures from robot0 "
+                           "(wrong key?)"),
+            std::string::npos)
+      << d.message;
+  EXPECT_NE(d.message.find("could not verify (7 bad signatures here)"), std::string::npos) << d.message;
+  // Heard, refused, with other rejects reported by the server.
+  run.link = RobotLinkStats{};
+  run.link.server_heard = true;
+  run.link.keyframes_acked = 3;
+  run.link.keyframes_refused = 2;
+  run.link.refused_by_reason = {{"camera mismatch", 2}};
+  run.link.server_rejects = {{"replayed_seq", 4}};
+  run.link.server_rejects_verified = true;
+  d = deliveryReport(run, "robot0");
+  EXPECT_NE(d.message.find("refused: 2 x \"camera mismatch\""), std::string::npos) << d.message;
+  EXPECT_NE(d.message.find("the server reports rejected messages from robot0: 4 replayed_seq"),
+            std::string::npos)
+      << d.message;
+  // Heard, nothing refused, nothing acknowledged in time.
+  run.link.keyframes_refused = 0;
+  run.link.refused_by_reason.clear();
+  run.link.server_rejects.clear();
+  run.link.keyframes_pending = 2;
+  d = deliveryReport(run, "robot0");
+  EXPECT_NE(d.message.find("server heard but no ack (loss?)"), std::string::npos) << d.message;
+}
+
+/// A ServerStatus naming `robot` with `bad` bad signatures, signed as the server with `key`.
+msg::Bytes statusWithBadSignatures(const std::string& robot, int64_t bad, const msg::Bytes& key) {
+  msg::ServerStatus status;
+  status.rejects = {{robot, "bad_signature", bad}, {"", "unknown_sender", 99}};
+  msg::Signer server(msg::kServerId, key);
+  return sealOrFail(server, status);
+}
+
+/// The link's stats once `done` holds for them (memq:// delivers on its own thread), or after 5 s.
+RobotLinkStats statsWhen(const RobotLink& link, const std::function<bool(const RobotLinkStats&)>& done) {
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(5);
+  RobotLinkStats st = link.stats();
+  while (!done(st) && std::chrono::steady_clock::now() < deadline) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
+    st = link.stats();
+  }
+  return st;
+}
+
+TEST(RobotLink, ReadsItsOwnCountersFromTheServerStatusVerifiedOrNot) {
+  auto transport = testing::makeMemq();
+  RobotLink link(*transport, linkOptions("robot0", linkKey(5)));
+  ASSERT_TRUE(link.start());
+  const std::string channel = *msg::channelFor(msg::MessageType::kServerStatus, "robot0");
+  // Signed with another key than the robot's: read as an unverified hint only.
+  ASSERT_TRUE(transport->publish(channel, statusWithBadSignatures("robot0", 12, linkKey(6))));
+  RobotLinkStats st = statsWhen(link, [](const RobotLinkStats& s) { return s.server_status_seen; });
+  EXPECT_FALSE(st.server_rejects_verified);
+  EXPECT_EQ(st.server_rejects, (std::map<std::string, int64_t>{{"bad_signature", 12}}));
+  EXPECT_EQ(st.bad_signatures, 1u);
+  EXPECT_FALSE(st.server_heard) << "an unverified status is not a server heard";
+  EXPECT_FALSE(link.latestServerStatus().has_value()) << "nor acted on";
+  // A verified one replaces it, and an unverified one never overrides a verified one.
+  ASSERT_TRUE(transport->publish(channel, statusWithBadSignatures("robot0", 3, linkKey(5))));
+  st = statsWhen(link, [](const RobotLinkStats& s) { return s.server_rejects_verified; });
+  EXPECT_EQ(st.server_rejects, (std::map<std::string, int64_t>{{"bad_signature", 3}}));
+  ASSERT_TRUE(transport->publish(channel, statusWithBadSignatures("robot0", 50, linkKey(6))));
+  st = statsWhen(link, [](const RobotLinkStats& s) { return s.bad_signatures >= 2; });
+  EXPECT_EQ(st.bad_signatures, 2u);
+  EXPECT_TRUE(st.server_rejects_verified);
+  EXPECT_EQ(st.server_rejects, (std::map<std::string, int64_t>{{"bad_signature", 3}}));
+  link.stop();
 }
 
 TEST(RobotLink, CorrectionsMoveEachSegmentIntoTheMap) {

@@ -32,6 +32,25 @@ TEST(Envelope, MacIsTheLastFieldAndCoversTheRest) {
   EXPECT_EQ(e.type, static_cast<int>(MessageType::kHeartbeat));
 }
 
+TEST(Envelope, ARejectionNotesTheReasonAndTheClaimedSender) {
+  Receiver rx;
+  RejectNote note;
+  Signer wrong_key("robot_1", testKey(2));
+  const Bytes bytes = wrong_key.seal(testing::sampleHeartbeat(), kT).value();
+  ASSERT_FALSE(openEnvelope(bytes, rx.keys, &rx.guard, &rx.counters, &note));
+  EXPECT_EQ(note.reason, RejectReason::kBadSignature);
+  EXPECT_EQ(note.claimed_sender, "robot_1");
+  note = RejectNote{};
+  ASSERT_FALSE(openEnvelope(Bytes(64, 0x11), rx.keys, &rx.guard, nullptr, &note));
+  EXPECT_EQ(note.reason, RejectReason::kTruncated);
+  EXPECT_EQ(note.claimed_sender, "") << "no header decoded";
+  note = RejectNote{};
+  Signer right("robot_1", testKey(1));
+  ASSERT_TRUE(
+      openEnvelope(right.seal(testing::sampleHeartbeat(), kT).value(), rx.keys, &rx.guard, nullptr, &note));
+  EXPECT_EQ(note.reason, RejectReason::kCount) << "untouched on success";
+}
+
 TEST(Envelope, WrongKeyUnknownSenderInvalidSender) {
   Receiver rx;
   Signer wrong_key("robot_1", testKey(2));

@@ -132,7 +132,7 @@ TEST_F(ProtoFuzz, ForgedHeadersAreRejected) {
       Header h = e.header;
       switch (round % 5) {
         case 0:
-          h.schema_version = static_cast<int>(rng() % 100) + 2;
+          h.schema_version = static_cast<int>(rng() % 100) + kSchemaVersion + 1;
           break;
         case 1:
           h.sender = "robot_2";

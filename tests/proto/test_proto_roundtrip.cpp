@@ -142,6 +142,19 @@ TEST(ProtoRoundTrip, OccupancyMapStatus) {
   EXPECT_EQ(st2.robots[1].last_utime, 1700000000000001);
 }
 
+TEST(ProtoRoundTrip, ServerStatusRejectCounts) {
+  ServerStatus st = testing::sampleStatus();
+  st.rejects = {{"robot_1", "bad_signature", 12}, {"robot_2", "replayed_seq", 1}, {"", "unknown_robot", 40}};
+  const ServerStatus st2 = throughEnvelope(st);
+  ASSERT_EQ(st2.rejects.size(), 3u);
+  for (size_t i = 0; i < st.rejects.size(); ++i) {
+    EXPECT_EQ(st2.rejects[i].robot_id, st.rejects[i].robot_id);
+    EXPECT_EQ(st2.rejects[i].reason, st.rejects[i].reason);
+    EXPECT_EQ(st2.rejects[i].count, st.rejects[i].count);
+  }
+  EXPECT_EQ(throughEnvelope(testing::sampleStatus()).rejects.size(), 0u);
+}
+
 TEST(ProtoRoundTrip, EmptyCollections) {
   Keyframe k = testing::sampleKeyframe(0);
   k.images = testing::sampleImages(16, 8, 0, ColorCodec::kNone);

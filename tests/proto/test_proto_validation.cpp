@@ -158,6 +158,18 @@ TEST(MessageValidation, ServerMessages) {
   st.header = serverHeader();
   st.robots[0].robot_id = "server";
   EXPECT_EQ(encodePayload(st).error(), "invalid robot id");
+  st = testing::sampleStatus();
+  st.header = serverHeader();
+  st.rejects = {{"", "unknown_robot", 1}};
+  EXPECT_TRUE(encodePayload(st)) << "\"\" is the unknown bucket";
+  st.rejects[0].reason = "bad signature";
+  EXPECT_EQ(encodePayload(st).error(), "invalid reject reason");
+  st.rejects[0] = {"robot 1", "bad_signature", 1};
+  EXPECT_EQ(encodePayload(st).error(), "invalid robot id");
+  st.rejects[0] = {"robot_1", "bad_signature", -1};
+  EXPECT_EQ(encodePayload(st).error(), "negative count");
+  st.rejects.assign(kMaxRejectCounts + 1, RejectCount{"robot_1", "malformed", 1});
+  EXPECT_EQ(encodePayload(st).error(), "too many reject counts");
   KeyframeAck a = testing::sampleAck();
   a.header = serverHeader();
   a.reason = "bad\nline";

@@ -26,29 +26,64 @@ std::string breakdown(const RobotRunResult& r) {
   return out;
 }
 
+/// The server's counters for this robot other than bad signatures, e.g. "3 replayed_seq, 1 malformed".
+std::string otherServerRejects(const RobotLinkStats& l) {
+  std::string out;
+  for (const auto& [reason, count] : l.server_rejects)
+    if (reason != "bad_signature" && count > 0)
+      out += (out.empty() ? "" : ", ") + std::to_string(count) + " " + reason;
+  return out;
+}
+
+int64_t serverBadSignatures(const RobotLinkStats& l) {
+  const auto it = l.server_rejects.find("bad_signature");
+  return it == l.server_rejects.end() ? 0 : it->second;
+}
+
+std::string noServerHeard(const RobotLinkStats& l) {
+  std::string out = "no server heard at all (no valid message for this robot arrived)";
+  if (l.bad_signatures > 0)
+    return out + "; " + std::to_string(l.bad_signatures) +
+           " messages with a bad signature arrived: the server holds another key for this robot";
+  return out +
+         ". Check that rgbdmap-server runs on the same transport (URL; CYCLONEDDS_URI for DDS; the multicast "
+         "route for LCM), serves this robot id and holds this robot's key (it ignores messages it cannot "
+         "verify, without answering)";
+}
+
+/// Why a server that was heard did not accept them all.
+std::string heardWhy(const RobotLinkStats& l) {
+  if (l.keyframes_refused > 0) return "refused: " + refusals(l);
+  if (l.keyframes_pending > 0 || l.keyframes_given_up > 0) return "server heard but no ack (loss?)";
+  return "";
+}
+
 }  // namespace
 
-DeliveryReport deliveryReport(const RobotRunResult& r) {
+DeliveryReport deliveryReport(const RobotRunResult& r, const std::string& robot_id) {
+  const RobotLinkStats& l = r.link;
   DeliveryReport d;
   d.keyframes = r.keyframes;
-  d.unaccepted = std::max(0, r.keyframes - static_cast<int>(r.link.keyframes_acked));
-  d.server_heard = r.link.server_heard;
+  d.unaccepted = std::max(0, r.keyframes - static_cast<int>(l.keyframes_acked));
+  d.server_heard = l.server_heard;
   if (d.unaccepted == 0) return d;
+  const std::string who = robot_id.empty() ? "this robot" : robot_id;
   const std::string count =
       std::to_string(d.unaccepted) + " of " + std::to_string(d.keyframes) + " keyframes not accepted";
-  if (!d.server_heard) {
-    d.message = count + ": no server heard at all (no valid message for this robot arrived)";
-    if (r.link.bad_signatures > 0)
-      d.message += "; " + std::to_string(r.link.bad_signatures) +
-                   " messages with a bad signature arrived: the server holds another key for this robot";
-    else
-      d.message +=
-          ". Check that rgbdmap-server runs on the same transport (URL; CYCLONEDDS_URI for DDS; the "
-          "multicast route for LCM), serves this robot id and holds this robot's key (it ignores messages "
-          "it cannot verify, without answering)";
+  if (const int64_t bad = serverBadSignatures(l); bad > 0) {
+    d.message = count + ": the server reports " + std::to_string(bad) + " bad signatures from " + who +
+                " (wrong key?)";
+    if (!l.server_rejects_verified)
+      d.message += "; read from a server status this robot could not verify (" +
+                   std::to_string(l.bad_signatures) + " bad signatures here): the keys differ";
+  } else if (!d.server_heard) {
+    d.message = count + ": " + noServerHeard(l);
   } else {
     d.message = count + " by the server (it was heard): " + breakdown(r);
+    if (const std::string why = heardWhy(l); !why.empty()) d.message += "; " + why;
   }
+  if (const std::string other = otherServerRejects(l); !other.empty())
+    d.message += "; the server reports rejected messages from " + who + ": " + other;
   return d;
 }
 

@@ -76,7 +76,9 @@ class RobotLink::Impl : public std::enable_shared_from_this<RobotLink::Impl> {
   void handle(const msg::OccupancySlice& slice);
   void handle(const msg::VelocityCommand& command);
   void handle(const msg::ServerStatus& status);
-  void updateSegmentAnchors(const msg::PoseCorrections& corrections);  ///< caller holds mutex_
+  void readUnverifiedStatus(const uint8_t* data, size_t size);  ///< one that failed its signature check
+  void noteServerRejects(const msg::ServerStatus& status, bool verified);  ///< caller holds mutex_
+  void updateSegmentAnchors(const msg::PoseCorrections& corrections);      ///< caller holds mutex_
 
   transport::Transport& transport_;
   const RobotLinkOptions options_;
@@ -84,6 +86,7 @@ class RobotLink::Impl : public std::enable_shared_from_this<RobotLink::Impl> {
   msg::KeyStore keys_;
   msg::ReplayGuard replay_guard_;
   msg::RejectCounters rejects_;
+  const msg::KeyStore unverified_keys_ = msg::KeyStore::openMode(false);  ///< readUnverifiedStatus only
   std::mutex signer_mutex_;
   msg::Signer signer_;
   transport::ReliableSender reliable_;

@@ -42,8 +42,14 @@ void RobotLink::Impl::onMessage(const uint8_t* data, size_t size) {
     }
   }
   bytes_received_ += size;
-  Result<msg::OpenedEnvelope> opened = msg::openEnvelope(data, size, keys_, &replay_guard_, &rejects_);
-  if (!opened) return;                            // counted and logged (rate-limited) by rejects_
+  msg::RejectNote note;
+  Result<msg::OpenedEnvelope> opened = msg::openEnvelope(data, size, keys_, &replay_guard_, &rejects_, &note);
+  if (!opened) {  // counted and logged (rate-limited) by rejects_
+    if constexpr (std::is_same_v<T, msg::ServerStatus>) {
+      if (note.reason == msg::RejectReason::kBadSignature) readUnverifiedStatus(data, size);
+    }
+    return;
+  }
   if (opened->header.sender != msg::kServerId) {  // open mode accepts any id: only the server talks to us
     rejects_.add(msg::RejectReason::kUnknownSender,
                  "robot " + options_.robot_id + " expects 'server', got '" + opened->header.sender + "'");
@@ -149,6 +155,26 @@ void RobotLink::Impl::handle(const msg::ServerStatus& status) {
   std::lock_guard<std::mutex> lock(mutex_);
   status_ = status;
   ++counts_.status_received;
+  noteServerRejects(status, true);
+}
+
+void RobotLink::Impl::readUnverifiedStatus(const uint8_t* data, size_t size) {
+  // No replay guard and no counters: nothing here is trusted or acted on; it only words the delivery report
+  // of a robot that cannot verify the server (a wrong key on one side).
+  Result<msg::OpenedEnvelope> opened = msg::openEnvelope(data, size, unverified_keys_, nullptr);
+  if (!opened || opened->header.sender != msg::kServerId) return;
+  Result<msg::ServerStatus> status = msg::decodeMessage<msg::ServerStatus>(*opened);
+  if (!status) return;
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (!counts_.server_rejects_verified) noteServerRejects(*status, false);
+}
+
+void RobotLink::Impl::noteServerRejects(const msg::ServerStatus& status, bool verified) {
+  counts_.server_status_seen = true;
+  counts_.server_rejects_verified = verified;
+  counts_.server_rejects.clear();
+  for (const msg::RejectCount& r : status.rejects)
+    if (r.robot_id == options_.robot_id) counts_.server_rejects[r.reason] = r.count;
 }
 
 }  // namespace rgbdmap

@@ -12,7 +12,9 @@ Inbox::Inbox(const MapServerConfig& config, const msg::KeyStore& keys, RobotRegi
       keys_(keys),
       registry_(registry),
       queue_(queue),
-      throttle_(config.robot_max_keyframes_per_s, config.robot_keyframe_burst) {}
+      throttle_(config.robot_max_keyframes_per_s, config.robot_keyframe_burst),
+
+      ledger_(RejectLedgerOptions{}, [this](const std::string& robot) { return known(robot); }) {}
 
 void Inbox::onMessage(const std::string& channel, const uint8_t* data, size_t size) {
   std::string robot, suffix;
@@ -21,14 +23,22 @@ void Inbox::onMessage(const std::string& channel, const uint8_t* data, size_t si
                          suffix == msg::channelSuffix(msg::MessageType::kHeartbeat) ||
                          suffix == msg::channelSuffix(msg::MessageType::kKeyframe);
   if (!to_server) return;  // our own messages (udpm:// loops them back under a "rgbdmap/*" subscription)
-  auto opened = msg::openEnvelope(data, size, keys_, &guard_, &rejects_);
-  if (!opened) return;  // counted and logged (rate-limited) by RejectCounters
+  msg::RejectNote note;
+  auto opened = msg::openEnvelope(data, size, keys_, &guard_, &rejects_, &note);
+  if (!opened) {  // counted and logged (rate-limited) by RejectCounters, and by claimed sender here
+    ledger_.add(note.claimed_sender.empty() ? robot : note.claimed_sender,
+                RejectLedger::reasonKey(note.reason));
+    return;
+  }
   if (opened->header.sender != robot) {
     rejects_.add(msg::RejectReason::kHeaderMismatch, "sender '" + opened->header.sender + "' on " + channel);
+    ledger_.add(opened->header.sender, RejectLedger::reasonKey(msg::RejectReason::kHeaderMismatch),
+                "on " + channel);
     return;
   }
   if (!admitted(robot)) {
     ++unknown_robot_;
+    ledger_.add(robot, "unknown_robot", "not in the server's robot list");
     return;
   }
   registry_.addBytesReceived(robot, size, opened->header.utime);
@@ -36,15 +46,21 @@ void Inbox::onMessage(const std::string& channel, const uint8_t* data, size_t si
     case msg::MessageType::kHello:
       return onHello(*opened, robot);
     case msg::MessageType::kHeartbeat:
-      (void)msg::decodeMessage<msg::Heartbeat>(*opened, &rejects_);
+      if (auto heartbeat = msg::decodeMessage<msg::Heartbeat>(*opened, &rejects_); !heartbeat)
+        ledger_.add(robot, RejectLedger::reasonKeyOf(heartbeat.error()));
       return;
     case msg::MessageType::kKeyframe:
       return onKeyframe(*opened, robot);
     default:
       rejects_.add(msg::RejectReason::kWrongType,
                    std::string(msg::toString(opened->type)) + " on " + channel);
+      ledger_.add(robot, RejectLedger::reasonKey(msg::RejectReason::kWrongType));
       return;
   }
+}
+
+bool Inbox::known(const std::string& robot) const {
+  return admitted(robot) && (keys_.find(robot) != nullptr || registry_.index(robot) >= 0);
 }
 
 bool Inbox::admitted(const std::string& robot) const {
@@ -54,9 +70,13 @@ bool Inbox::admitted(const std::string& robot) const {
 
 void Inbox::onHello(const msg::OpenedEnvelope& opened, const std::string& robot) {
   auto hello = msg::decodeMessage<msg::Hello>(opened, &rejects_);
-  if (!hello) return;
+  if (!hello) {
+    ledger_.add(robot, RejectLedger::reasonKeyOf(hello.error()));
+    return;
+  }
   if (hello->robot_id != robot) {
     rejects_.add(msg::RejectReason::kInvalidContent, "hello for '" + hello->robot_id + "' from " + robot);
+    ledger_.add(robot, RejectLedger::reasonKey(msg::RejectReason::kInvalidContent));
     return;
   }
   queue_.pushHello(std::move(*hello));
@@ -73,10 +93,14 @@ void Inbox::onKeyframe(const msg::OpenedEnvelope& opened, const std::string& rob
   const size_t bytes = opened.payload.size();
   if (!queue_.hasRoom(robot, bytes)) return countQueueFull(robot);
   auto keyframe = msg::decodeMessage<msg::Keyframe>(opened, &rejects_);
-  if (!keyframe) return;
+  if (!keyframe) {
+    ledger_.add(robot, RejectLedger::reasonKeyOf(keyframe.error()));
+    return;
+  }
   if (keyframe->robot_id != robot) {
     rejects_.add(msg::RejectReason::kInvalidContent,
                  "keyframe for '" + keyframe->robot_id + "' from " + robot);
+    ledger_.add(robot, RejectLedger::reasonKey(msg::RejectReason::kInvalidContent));
     return;
   }
   if (queue_.pushKeyframe(std::move(*keyframe), bytes) == IngestQueue::Pushed::kFull) countQueueFull(robot);

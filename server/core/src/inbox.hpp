@@ -10,6 +10,7 @@
 
 #include "ingest_queue.hpp"
 #include "keyframe_throttle.hpp"
+#include "reject_ledger.hpp"
 #include "rgbdmap/proto/envelope.hpp"
 #include "rgbdmap/server/map_server_config.hpp"
 #include "robot_registry.hpp"
@@ -29,12 +30,15 @@ class Inbox {
   uint64_t unknownRobot() const { return unknown_robot_.load(); }
   uint64_t throttled() const { return throttled_.load(); }
   uint64_t queueFull() const { return queue_full_.load(); }
+  /// Rejections per claimed robot and reason (RejectLedger; "" = not a known robot), largest first.
+  std::vector<msg::RejectCount> rejectCounts() const { return ledger_.counts(); }
 
  private:
   bool admitted(const std::string& robot) const;  ///< in config.robots (or the list is empty)
   void onHello(const msg::OpenedEnvelope& opened, const std::string& robot);
   void onKeyframe(const msg::OpenedEnvelope& opened, const std::string& robot);
   void countQueueFull(const std::string& robot);
+  bool known(const std::string& robot) const;  ///< admitted and holds a key or said Hello
 
   const MapServerConfig& config_;
   const msg::KeyStore& keys_;
@@ -46,6 +50,7 @@ class Inbox {
   KeyframeThrottle throttle_;
   std::atomic<uint64_t> throttled_{0};
   std::atomic<uint64_t> queue_full_{0};
+  RejectLedger ledger_;
 };
 
 }  // namespace rgbdmap

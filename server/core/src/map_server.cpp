@@ -43,7 +43,9 @@ struct MapServer::Impl {
         status(config.status_period_s, registry, publisher, [this] { return pipeline.graphRevision(); }),
         gate([this](const std::string& channel, const uint8_t* data, size_t size) {
           inbox.onMessage(channel, data, size);
-        }) {}
+        }) {
+    status.setRejectCounts([this] { return inbox.rejectCounts(); });
+  }
 
   Status openAndRestore();
   void startWorkers();
@@ -170,6 +172,7 @@ MapServerStats MapServer::stats() const {
     r.keyframes_queued_max = static_cast<int>(m.queue.queuedHighWater(r.robot_id));
   }
   s.unknown_robot_messages = m.inbox.unknownRobot();
+  s.rejects = m.inbox.rejectCounts();
   // Outside the server's state lock: counting the octree's leaves must not hold up the ingest worker.
   if (m.map_worker) m.map_worker->fillStats(&s);
   return s;

@@ -1,5 +1,7 @@
 #include "status_publisher.hpp"
 
+#include <set>
+#include <string>
 #include <utility>
 
 namespace rgbdmap {
@@ -11,6 +13,10 @@ StatusPublisher::StatusPublisher(double period_s, RobotRegistry& registry, Robot
       publisher_(publisher),
       graph_revision_(std::move(graph_revision)),
       worker_(SerialWorkerOptions{"rgbdmap-status", 0, period_s, [this] { publish(); }}) {}
+
+void StatusPublisher::setRejectCounts(std::function<std::vector<msg::RejectCount>()> reject_counts) {
+  reject_counts_ = std::move(reject_counts);
+}
 
 void StatusPublisher::start() {
   if (period_s_ > 0.0) worker_.start();
@@ -32,12 +38,17 @@ msg::ServerStatus StatusPublisher::status() const {
     status.robots.push_back(s);
   }
   status.state = "running";
+  if (reject_counts_) status.rejects = reject_counts_();
   return status;
 }
 
 void StatusPublisher::publish() {
   const msg::ServerStatus s = status();
-  for (const msg::RobotStatus& robot : s.robots) publisher_.publish(robot.robot_id, s);
+  std::set<std::string> sent;
+  for (const msg::RobotStatus& robot : s.robots)
+    if (sent.insert(robot.robot_id).second) publisher_.publish(robot.robot_id, s);
+  for (const msg::RejectCount& r : s.rejects)  // known robots only (RejectLedger), bounded by the status
+    if (!r.robot_id.empty() && sent.insert(r.robot_id).second) publisher_.publish(r.robot_id, s);
 }
 
 }  // namespace rgbdmap

@@ -4,6 +4,7 @@
 #include <chrono>
 #include <cstdint>
 #include <functional>
+#include <vector>
 
 #include "rgbdmap/common/serial_worker.hpp"
 #include "robot_publisher.hpp"
@@ -16,6 +17,10 @@ class StatusPublisher {
   /// graph_revision: the revision of the last applied optimisation.
   StatusPublisher(double period_s, RobotRegistry& registry, RobotPublisher& publisher,
                   std::function<int64_t()> graph_revision);
+
+  /// Where ServerStatus::rejects come from (call before start()). The status also goes to every robot
+  /// named there that has not said Hello (e.g. one whose signatures fail), so it can learn why.
+  void setRejectCounts(std::function<std::vector<msg::RejectCount>()> reject_counts);
 
   void start();  ///< no effect when the period is 0
   void stop();   ///< idempotent
@@ -30,6 +35,7 @@ class StatusPublisher {
   RobotRegistry& registry_;
   RobotPublisher& publisher_;
   const std::function<int64_t()> graph_revision_;
+  std::function<std::vector<msg::RejectCount>()> reject_counts_;
   const std::chrono::steady_clock::time_point started_ = std::chrono::steady_clock::now();
   SerialWorker worker_;  ///< last member
 };

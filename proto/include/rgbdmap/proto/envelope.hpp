@@ -74,8 +74,9 @@ class RejectCounters {
 class KeyStore {
  public:
   KeyStore() = default;
-  /// Accepts unsigned messages from anyone; logs a warning. For local demos only.
-  static KeyStore openMode();
+  /// Accepts unsigned messages from anyone; logs a warning. For local demos only (warn = false: for reading
+  /// a message that failed verification as an unverified diagnostic hint, never to act on it).
+  static KeyStore openMode(bool warn = true);
   /// Fails for an invalid id or a key shorter than kMinKeyBytes.
   Status add(const std::string& sender, const Bytes& key);
   const Bytes* find(const std::string& sender) const;
@@ -125,16 +126,25 @@ struct OpenedEnvelope {
   bool authenticated = false;  ///< false only in open mode
 };
 
+/// What openEnvelope saw of a message it rejected: the reason and the sender id the message claims (its
+/// header's sender, unverified and possibly not a valid id; empty when the header could not be decoded).
+struct RejectNote {
+  RejectReason reason = RejectReason::kCount;
+  std::string claimed_sender;
+};
+
 /// Builds and signs an envelope (mac all zero when `key` is empty: open mode only).
 Result<Bytes> encodeEnvelope(MessageType type, const Header& header, const Bytes& payload, const Bytes& key);
 
 /// Checks size, structure, schema version, type, sender id, key, signature and replay, in that order, and
 /// counts each rejection in `counters` (optional). The replay window is updated only for authentic messages.
+/// On a rejection, `note` (optional) receives the reason and the claimed sender.
 Result<OpenedEnvelope> openEnvelope(const uint8_t* data, size_t size, const KeyStore& keys,
-                                    ReplayGuard* guard, RejectCounters* counters = nullptr);
+                                    ReplayGuard* guard, RejectCounters* counters = nullptr,
+                                    RejectNote* note = nullptr);
 inline Result<OpenedEnvelope> openEnvelope(const Bytes& bytes, const KeyStore& keys, ReplayGuard* guard,
-                                           RejectCounters* counters = nullptr) {
-  return openEnvelope(bytes.data(), bytes.size(), keys, guard, counters);
+                                           RejectCounters* counters = nullptr, RejectNote* note = nullptr) {
+  return openEnvelope(bytes.data(), bytes.size(), keys, guard, counters, note);
 }
 
 /// Decodes and validates the payload as T; checks the type and that its header equals the envelope's.

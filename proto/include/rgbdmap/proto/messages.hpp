@@ -16,7 +16,7 @@ namespace rgbdmap::msg {
 using Bytes = std::vector<uint8_t>;
 
 /// Bumped whenever any .lcm file changes; a receiver rejects every other version.
-constexpr int kSchemaVersion = 1;
+constexpr int kSchemaVersion = 2;  ///< 2: ServerStatus::rejects
 
 enum class MessageType : int16_t {
   kHello = 1,
@@ -44,6 +44,7 @@ constexpr int kMaxKeypoints = 10000;
 constexpr int kDescriptorBytes = 32;     ///< ORB: 256 bits
 constexpr int kMaxCorrections = 100000;  ///< keyframes in one PoseCorrections
 constexpr int kMaxRobots = 1024;
+constexpr int kMaxRejectCounts = 256;  ///< ServerStatus::rejects entries
 constexpr int kMaxGridSide = 4096;
 constexpr int kMaxMapBytes = 64 << 20;        ///< octree bytes after decompression
 constexpr int kMaxEnvelopeBytes = 80 << 20;   ///< one encoded envelope
@@ -169,6 +170,13 @@ struct RobotStatus {
   int64_t last_utime = 0;
 };
 
+/// Messages the server rejected from one claimed sender for one reason (since the server started).
+struct RejectCount {
+  std::string robot_id;  ///< a robot the server knows; "" for every other claimed sender ("unknown")
+  std::string reason;    ///< [A-Za-z0-9_-]{1,32}, e.g. "bad_signature", "replayed_seq", "unknown_robot"
+  int64_t count = 0;
+};
+
 struct ServerStatus {
   static constexpr MessageType kType = MessageType::kServerStatus;
   Header header;
@@ -177,6 +185,7 @@ struct ServerStatus {
   int64_t graph_revision = 0;
   int64_t map_revision = 0;
   std::vector<RobotStatus> robots;
+  std::vector<RejectCount> rejects;  ///< at most kMaxRejectCounts, largest counts first
 };
 
 }  // namespace rgbdmap::msg

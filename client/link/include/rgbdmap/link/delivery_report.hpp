@@ -11,11 +11,14 @@ struct DeliveryReport {
   int keyframes = 0;   ///< made by the odometry
   int unaccepted = 0;  ///< not accepted by a server: refused, given up, unanswered at the end, or not sent
   bool server_heard = false;
-  /// "" when every keyframe was accepted; else the count and why: no server heard at all (transport,
-  /// robot id or key), or a server heard that refused keyframes (with its reasons) or did not answer them.
+  /// "" when every keyframe was accepted; else the count and why: the server reports bad signatures from
+  /// this robot (wrong key?), no server heard at all (transport, robot id or key), or a server heard that
+  /// refused keyframes ("refused: <reasons>") or did not answer them ("server heard but no ack (loss?)").
   std::string message;
 };
 
-DeliveryReport deliveryReport(const RobotRunResult& result);
+/// `robot_id` names the robot in the message ("this robot" when empty). The server's own counters for this
+/// robot (RobotLinkStats::server_rejects, from its status) come first: bad signatures mean the keys differ.
+DeliveryReport deliveryReport(const RobotRunResult& result, const std::string& robot_id = "");
 
 }  // namespace rgbdmap

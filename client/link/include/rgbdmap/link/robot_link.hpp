@@ -68,6 +68,13 @@ struct RobotLinkStats {
   bool server_heard = false;    ///< a valid message from the server for this robot has arrived
   uint64_t bad_signatures = 0;  ///< of messages_rejected: signature did not verify (another key?)
   std::map<std::string, uint64_t> refused_by_reason;  ///< KeyframeAck reason -> refused keyframes
+  /// This robot's entries in the latest ServerStatus::rejects (reason -> messages the server rejected that
+  /// claimed to be from this robot, e.g. "bad_signature"). A robot whose key differs from the server's
+  /// cannot verify the status: it is then read unverified, as a hint for the delivery report only
+  /// (server_rejects_verified false); a verified status always replaces an unverified one.
+  std::map<std::string, int64_t> server_rejects;
+  bool server_rejects_verified = false;
+  bool server_status_seen = false;  ///< any ServerStatus arrived, verified or not
 };
 
 class RobotLink {  // thread-safe; handlers never block the transport's receive thread

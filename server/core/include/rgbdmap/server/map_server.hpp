@@ -109,6 +109,9 @@ struct MapServerStats {
   uint64_t map_updates_sent = 0, map_bytes_sent = 0;  ///< MapUpdate messages and their compressed bytes
   MapStoreRecovery recovery;
   std::vector<ServerRobotStats> robots;
+  /// Rejected messages per claimed robot and reason, largest first (robot_id "" = every claimed sender
+  /// that is not a known robot); what ServerStatus::rejects carries.
+  std::vector<msg::RejectCount> rejects;
 };
 
 /// One optimised keyframe as the server holds it.
