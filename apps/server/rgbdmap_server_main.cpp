@@ -33,7 +33,8 @@ const char* kUsage =
     "  --log-level L       debug|info|warn|error\n"
     "On SIGINT/SIGTERM it stops and writes keyframes_<robot>.txt (optimised, map frame) into the map "
     "directory,\n"
-    "server_summary.json (keyframes, loops, maps, ingest times, per-robot counters, merged_maps) and "
+    "server_summary.json (keyframes, loops, maps, ingest times, per-robot counters, merged_maps, "
+    "store_state) and "
     "(map.enabled)\n"
     "the map files: map.bt, map.ot, map.ply, map.png, slice_<robot>.pgm/.yaml.\n";
 
@@ -68,7 +69,11 @@ rgbdmap::Json summaryJson(const rgbdmap::MapServer& server) {
           {"ingest_ms_p90", jsonNumber(s.ingest_ms_p90)},
           {"ingest_cpu_ms_median", jsonNumber(s.ingest_cpu_ms_median)},
           {"robots", robots},
-          {"merged_maps", server.mergedMaps()}};
+          {"merged_maps", server.mergedMaps()},
+          {"store_state", s.store_failed ? "failed" : "ok"},
+          {"store_failures", s.store_failures},
+          {"store_recoveries", s.store_recoveries},
+          {"keyframes_unacked_store_failed", s.keyframes_unacked_store_failed}};
 }
 
 /// SIGINT and SIGTERM, blocked in every thread (call before any thread starts: threads inherit the mask)
@@ -86,9 +91,10 @@ void printStatus(const rgbdmap::MapServer& server) {
   const rgbdmap::MapServerStats s = server.stats();
   std::fprintf(
       stderr,
-      "[server] robots %zu keyframes %d loops %d (disabled %d) maps %d ingest %.1f ms rejected %llu\n",
+      "[server] robots %zu keyframes %d loops %d (disabled %d) maps %d ingest %.1f ms rejected %llu%s\n",
       s.robots.size(), s.keyframes, s.loops_accepted, s.loops_disabled, s.maps, s.ingest_ms_median,
-      static_cast<unsigned long long>(s.messages_rejected));
+      static_cast<unsigned long long>(s.messages_rejected),
+      s.store_failed ? (" STORE FAILED: " + s.store_error).c_str() : "");
 }
 
 /// Sleeps until SIGINT or SIGTERM arrives, printing a status line every `status_every` seconds (0: never).

@@ -12,6 +12,8 @@ StatusPublisher::StatusPublisher(double period_s, RobotRegistry& registry, Robot
       graph_revision_(std::move(graph_revision)),
       worker_(SerialWorkerOptions{"rgbdmap-status", 0, period_s, [this] { publish(); }}) {}
 
+void StatusPublisher::setStateSource(std::function<std::string()> state) { state_ = std::move(state); }
+
 void StatusPublisher::start() {
   if (period_s_ > 0.0) worker_.start();
 }
@@ -31,7 +33,7 @@ msg::ServerStatus StatusPublisher::status() const {
     s.last_utime = r.last_utime;
     status.robots.push_back(s);
   }
-  status.state = "running";
+  status.state = state_ ? state_() : "running";
   return status;
 }
 

@@ -4,6 +4,7 @@
 #include <chrono>
 #include <cstdint>
 #include <functional>
+#include <string>
 
 #include "rgbdmap/common/serial_worker.hpp"
 #include "robot_publisher.hpp"
@@ -17,6 +18,8 @@ class StatusPublisher {
   StatusPublisher(double period_s, RobotRegistry& registry, RobotPublisher& publisher,
                   std::function<int64_t()> graph_revision);
 
+  /// The `state` text of the status ("running" when not set); set before start().
+  void setStateSource(std::function<std::string()> state);
   void start();  ///< no effect when the period is 0
   void stop();   ///< idempotent
 
@@ -30,6 +33,7 @@ class StatusPublisher {
   RobotRegistry& registry_;
   RobotPublisher& publisher_;
   const std::function<int64_t()> graph_revision_;
+  std::function<std::string()> state_;
   const std::chrono::steady_clock::time_point started_ = std::chrono::steady_clock::now();
   SerialWorker worker_;  ///< last member
 };

@@ -100,6 +100,12 @@ struct MapServerStats {
   uint64_t map_updates_sent = 0, map_bytes_sent = 0;  ///< MapUpdate messages and their compressed bytes
   MapStoreRecovery recovery;
   std::vector<ServerRobotStats> robots;
+  /// The map store now (MapStore::health): failed after an I/O error (a full disk) until a retry
+  /// (store_retry_s) recovers it; meanwhile keyframes are left unacknowledged.
+  bool store_failed = false;
+  std::string store_error;  ///< why it failed ("" when ok)
+  uint64_t store_failures = 0, store_recover_attempts = 0, store_recoveries = 0;
+  uint64_t keyframes_unacked_store_failed = 0;  ///< keyframes left unacknowledged while it was failed
 };
 
 /// One optimised keyframe as the server holds it.
