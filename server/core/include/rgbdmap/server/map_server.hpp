@@ -105,7 +105,7 @@ struct MapServerStats {
   bool store_failed = false;
   std::string store_error;  ///< why it failed ("" when ok)
   uint64_t store_failures = 0, store_recover_attempts = 0, store_recoveries = 0;
-  uint64_t keyframes_unacked_store_failed = 0;  ///< keyframes left unacknowledged while it was failed
+  uint64_t keyframes_unacked_store_failed = 0;  ///< keyframe messages (resent ones too) left unacked then
 };
 
 /// One optimised keyframe as the server holds it.
