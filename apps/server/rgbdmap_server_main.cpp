@@ -36,7 +36,9 @@ const char* kUsage =
     "server_summary.json (keyframes, loops, maps, ingest times, per-robot counters, merged_maps, "
     "store_state) and "
     "(map.enabled)\n"
-    "the map files: map.bt, map.ot, map.ply, map.png, slice_<robot>.pgm/.yaml.\n";
+    "the map files: map.bt, map.ot, map.ply, map.png, slice_<robot>.pgm/.yaml, each written to a temporary\n"
+    "name, synced and renamed. Exit status: 0 stopped and every file written; 1 start-up failure, or a file\n"
+    "could not be written (the previous one stays); 2 usage or configuration error.\n";
 
 /// server_summary.json in the map directory: what the deployment scripts and tests check after a run.
 rgbdmap::Json summaryJson(const rgbdmap::MapServer& server) {
@@ -118,6 +120,38 @@ void waitForStopSignal(const sigset_t& signals, double status_every, const rgbdm
   }
 }
 
+/// keyframes_<robot>.txt, server_summary.json and (map.enabled) the map files into the map directory, each
+/// written atomically. Returns how many writes failed (each logged); `map_files`: the map files were written.
+int writeFinalOutputs(const rgbdmap::MapServer& server, const rgbdmap::ServerAppConfig& config,
+                      bool* map_files) {
+  using namespace rgbdmap;
+  int failed = 0;
+  std::map<std::string, Trajectory> by_robot;
+  for (const ServerKeyframe& k : server.keyframes())
+    by_robot[k.robot_id].push_back({k.timestamp, k.T_map_kf});
+  for (const auto& [robot, traj] : by_robot) {
+    const std::string path = config.server.map_dir + "/keyframes_" + robot + ".txt";
+    if (const Status s = writeTumTrajectory(path, traj, "rgbdmap-server, optimised keyframes, map frame");
+        !s) {
+      log::error(s.error());
+      ++failed;
+    }
+  }
+  if (const Status w = writeJsonFile(config.server.map_dir + "/server_summary.json", summaryJson(server));
+      !w) {
+    log::error(w.error());
+    ++failed;
+  }
+  *map_files = false;
+  if (config.server.occupancy_enabled && !server.keyframes().empty()) {
+    const Status st = server.writeMapOutputs(config.server.map_dir);
+    if (!st) log::error("map files: ", st.error());
+    failed += st ? 0 : 1;
+    *map_files = st.ok();
+  }
+  return failed;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -192,23 +226,8 @@ int main(int argc, char** argv) {
   server.waitIdle(5.0);
   (*transport)->stop();
   server.stop();
-  std::map<std::string, Trajectory> by_robot;
-  for (const ServerKeyframe& k : server.keyframes())
-    by_robot[k.robot_id].push_back({k.timestamp, k.T_map_kf});
-  for (const auto& [robot, traj] : by_robot) {
-    const std::string path = config.server.map_dir + "/keyframes_" + robot + ".txt";
-    if (const Status s = writeTumTrajectory(path, traj, "rgbdmap-server, optimised keyframes, map frame"); !s)
-      log::error(s.error());
-  }
-  if (const Status w = writeJsonFile(config.server.map_dir + "/server_summary.json", summaryJson(server)); !w)
-    log::error(w.error());
   bool map_files = false;
-  if (config.server.occupancy_enabled && !server.keyframes().empty()) {
-    if (const Status st = server.writeMapOutputs(config.server.map_dir); !st)
-      log::error("map files: ", st.error());
-    else
-      map_files = true;
-  }
+  const int failed_writes = writeFinalOutputs(server, config, &map_files);
   const MapServerStats s = server.stats();
   std::fprintf(stderr,
                "[server] final: keyframes %d loops %d maps %d; octree %zu leaves (%zu occupied), %.1f MB, "
@@ -218,5 +237,9 @@ int main(int argc, char** argv) {
                static_cast<unsigned long long>(s.slices_sent),
                map_files ? ", map.bt, map.ot, map.ply, map.png, slice_<robot>.pgm/.yaml" : "",
                config.server.map_dir.c_str());
-  return 0;
+  if (failed_writes == 0) return 0;
+  log::error(failed_writes,
+             " output file(s) could not be written (the previous ones stay whole); every "
+             "acknowledged keyframe is in the map store");
+  return 1;
 }

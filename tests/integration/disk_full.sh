@@ -10,7 +10,7 @@
 #     store_state "ok", store_failures and store_recoveries >= 1); map.bt/.ot load, the summary parses,
 #     keyframes_robot0.txt has every keyframe;
 #   phase 2 (full at shutdown): the server restarted on the same directory, the disk filled completely, then
-#     SIGINT: writing the outputs fails (reported in the log), and every earlier output is still there, byte
+#     SIGINT: writing the outputs fails (reported in the log, exit 1), and every earlier output is still there, byte
 #     for byte (no truncated map.bt in place of a good one), and no temporary file is left;
 #   after both: the store reopens with no corrupt record and no truncated tail.
 # Exit 77 (skip) where the namespaces or the tmpfs mount are not permitted (needs root).
@@ -156,9 +156,9 @@ start_server "$tmp/server2.log"
 head -c $(( tmpfs_mb * 1048576 )) /dev/zero >"$map/filler" 2>/dev/null  # until ENOSPC
 echo "   $(( $(avail_bytes) / 1024 )) KB left"
 stop_server; rc=$?
-[ "$rc" -eq 0 ] && ok "server exit 0" || bad "server exit $rc"
-grep -q "No space left" "$tmp/server2.log" && ok "writing the outputs on a full disk failed and said so" \
-  || bad "no write failure reported in the log"
+[ "$rc" -eq 1 ] && ok "server exit 1: its outputs could not be written" || bad "server exit $rc, not 1"
+grep -q "No space left" "$tmp/server2.log" && grep -q "output file(s) could not be written" "$tmp/server2.log" \
+  && ok "writing the outputs on a full disk failed and said so" || bad "no write failure reported in the log"
 for f in map.bt map.ot server_summary.json keyframes_robot0.txt robots.txt; do
   cmp -s "$tmp/before/$f" "$map/$f" && ok "$f unchanged (the old file stays whole)" || bad "$f changed or is gone"
 done
