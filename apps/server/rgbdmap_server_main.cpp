@@ -34,9 +34,11 @@ const char* kUsage =
     "On SIGINT/SIGTERM it stops and writes keyframes_<robot>.txt (optimised, map frame) into the map "
     "directory,\n"
     "server_summary.json (keyframes, loops, maps, ingest times, per-robot counters, merged_maps, "
-    "rejects_by_robot, rejects_unknown_robot) and "
+    "rejects_by_robot, rejects_unknown_robot, store_state) and "
     "(map.enabled)\n"
-    "the map files: map.bt, map.ot, map.ply, map.png, slice_<robot>.pgm/.yaml.\n";
+    "the map files: map.bt, map.ot, map.ply, map.png, slice_<robot>.pgm/.yaml, each written to a temporary\n"
+    "name, synced and renamed. Exit status: 0 stopped and every file written; 1 start-up failure, or a file\n"
+    "could not be written (the previous one stays); 2 usage or configuration error.\n";
 
 /// server_summary.json in the map directory: what the deployment scripts and tests check after a run.
 rgbdmap::Json summaryJson(const rgbdmap::MapServer& server) {
@@ -78,8 +80,12 @@ rgbdmap::Json summaryJson(const rgbdmap::MapServer& server) {
           {"ingest_cpu_ms_median", jsonNumber(s.ingest_cpu_ms_median)},
           {"robots", robots},
           {"merged_maps", server.mergedMaps()},
-          {"rejects_by_robot", rejects_by_robot},       // claimed robot -> reason -> count (known robots)
-          {"rejects_unknown_robot", rejects_unknown}};  // reason -> count for every other claimed sender
+          {"rejects_by_robot", rejects_by_robot},      // claimed robot -> reason -> count (known robots)
+          {"rejects_unknown_robot", rejects_unknown},  // reason -> count for every other claimed sender
+          {"store_state", s.store_failed ? "failed" : "ok"},
+          {"store_failures", s.store_failures},
+          {"store_recoveries", s.store_recoveries},
+          {"keyframes_unacked_store_failed", s.keyframes_unacked_store_failed}};
 }
 
 /// SIGINT and SIGTERM, blocked in every thread (call before any thread starts: threads inherit the mask)
@@ -97,9 +103,10 @@ void printStatus(const rgbdmap::MapServer& server) {
   const rgbdmap::MapServerStats s = server.stats();
   std::fprintf(
       stderr,
-      "[server] robots %zu keyframes %d loops %d (disabled %d) maps %d ingest %.1f ms rejected %llu\n",
+      "[server] robots %zu keyframes %d loops %d (disabled %d) maps %d ingest %.1f ms rejected %llu%s\n",
       s.robots.size(), s.keyframes, s.loops_accepted, s.loops_disabled, s.maps, s.ingest_ms_median,
-      static_cast<unsigned long long>(s.messages_rejected));
+      static_cast<unsigned long long>(s.messages_rejected),
+      s.store_failed ? (" STORE FAILED: " + s.store_error).c_str() : "");
 }
 
 /// Sleeps until SIGINT or SIGTERM arrives, printing a status line every `status_every` seconds (0: never).
@@ -121,6 +128,38 @@ void waitForStopSignal(const sigset_t& signals, double status_every, const rgbdm
     printStatus(server);
     next_status += period;
   }
+}
+
+/// keyframes_<robot>.txt, server_summary.json and (map.enabled) the map files into the map directory, each
+/// written atomically. Returns how many writes failed (each logged); `map_files`: the map files were written.
+int writeFinalOutputs(const rgbdmap::MapServer& server, const rgbdmap::ServerAppConfig& config,
+                      bool* map_files) {
+  using namespace rgbdmap;
+  int failed = 0;
+  std::map<std::string, Trajectory> by_robot;
+  for (const ServerKeyframe& k : server.keyframes())
+    by_robot[k.robot_id].push_back({k.timestamp, k.T_map_kf});
+  for (const auto& [robot, traj] : by_robot) {
+    const std::string path = config.server.map_dir + "/keyframes_" + robot + ".txt";
+    if (const Status s = writeTumTrajectory(path, traj, "rgbdmap-server, optimised keyframes, map frame");
+        !s) {
+      log::error(s.error());
+      ++failed;
+    }
+  }
+  if (const Status w = writeJsonFile(config.server.map_dir + "/server_summary.json", summaryJson(server));
+      !w) {
+    log::error(w.error());
+    ++failed;
+  }
+  *map_files = false;
+  if (config.server.occupancy_enabled && !server.keyframes().empty()) {
+    const Status st = server.writeMapOutputs(config.server.map_dir);
+    if (!st) log::error("map files: ", st.error());
+    failed += st ? 0 : 1;
+    *map_files = st.ok();
+  }
+  return failed;
 }
 
 }  // namespace
@@ -197,23 +236,8 @@ int main(int argc, char** argv) {
   server.waitIdle(5.0);
   (*transport)->stop();
   server.stop();
-  std::map<std::string, Trajectory> by_robot;
-  for (const ServerKeyframe& k : server.keyframes())
-    by_robot[k.robot_id].push_back({k.timestamp, k.T_map_kf});
-  for (const auto& [robot, traj] : by_robot) {
-    const std::string path = config.server.map_dir + "/keyframes_" + robot + ".txt";
-    if (const Status s = writeTumTrajectory(path, traj, "rgbdmap-server, optimised keyframes, map frame"); !s)
-      log::error(s.error());
-  }
-  if (const Status w = writeJsonFile(config.server.map_dir + "/server_summary.json", summaryJson(server)); !w)
-    log::error(w.error());
   bool map_files = false;
-  if (config.server.occupancy_enabled && !server.keyframes().empty()) {
-    if (const Status st = server.writeMapOutputs(config.server.map_dir); !st)
-      log::error("map files: ", st.error());
-    else
-      map_files = true;
-  }
+  const int failed_writes = writeFinalOutputs(server, config, &map_files);
   const MapServerStats s = server.stats();
   std::fprintf(stderr,
                "[server] final: keyframes %d loops %d maps %d; octree %zu leaves (%zu occupied), %.1f MB, "
@@ -223,5 +247,9 @@ int main(int argc, char** argv) {
                static_cast<unsigned long long>(s.slices_sent),
                map_files ? ", map.bt, map.ot, map.ply, map.png, slice_<robot>.pgm/.yaml" : "",
                config.server.map_dir.c_str());
-  return 0;
+  if (failed_writes == 0) return 0;
+  log::error(failed_writes,
+             " output file(s) could not be written (the previous ones stay whole); every "
+             "acknowledged keyframe is in the map store");
+  return 1;
 }

@@ -3,12 +3,14 @@
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
-#include <fstream>
 #include <sstream>
+#include <string_view>
+#include <vector>
 
 #include <opencv2/core/utility.hpp>
 #include <opencv2/imgcodecs.hpp>
 
+#include "rgbdmap/common/atomic_file.hpp"
 #include "rgbdmap/common/logging.hpp"
 #include "rgbdmap/common/synth.hpp"
 
@@ -62,11 +64,16 @@ std::string fileList(const SynthConfig& c, bool depth) {
 }
 
 Status writeText(const fs::path& path, const std::string& text) {
-  std::ofstream f(path, std::ios::binary);
-  if (!f) return Status::failure(path.string() + ": cannot open for writing");
-  f << text;
-  if (!f) return Status::failure(path.string() + ": write failed");
-  return Status::success();
+  return writeFileAtomic(path.string(), text);
+}
+
+/// The image as PNG, written atomically; the reason on failure ("" on success).
+std::string writePng(const fs::path& path, const cv::Mat& image, const std::vector<int>& params) {
+  std::vector<uchar> png;
+  if (!cv::imencode(".png", image, png, params)) return path.string() + ": cannot encode PNG";
+  const Status s =
+      writeFileAtomic(path.string(), std::string_view(reinterpret_cast<const char*>(png.data()), png.size()));
+  return s ? std::string() : s.error();
 }
 
 Status prepareDirectories(const fs::path& out) {
@@ -94,8 +101,8 @@ std::string writeFrame(const SyntheticScene& scene, int i, const fs::path& out) 
     const RgbdFrame frame = scene.renderFrame(i);
     const fs::path rgb = out / "rgb" / (stamp(c.colorTimestamp(i)) + ".png");
     const fs::path depth = out / "depth" / (stamp(c.depthTimestamp(i)) + ".png");
-    if (!cv::imwrite(rgb.string(), frame.color, png)) return rgb.string() + ": cannot write PNG";
-    if (!cv::imwrite(depth.string(), frame.depth, png)) return depth.string() + ": cannot write PNG";
+    if (std::string e = writePng(rgb, frame.color, png); !e.empty()) return e;
+    if (std::string e = writePng(depth, frame.depth, png); !e.empty()) return e;
   } catch (const cv::Exception& e) {
     return "frame " + std::to_string(i) + ": " + e.what();
   }

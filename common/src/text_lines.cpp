@@ -1,15 +1,12 @@
 #include "rgbdmap/common/text_lines.hpp"
 
-#include <cerrno>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
-#include <cstring>
 #include <fstream>
 #include <sstream>
 
-#include <fcntl.h>
-#include <unistd.h>
+#include "rgbdmap/common/atomic_file.hpp"
 
 namespace rgbdmap {
 
@@ -53,44 +50,8 @@ Result<std::string> readTextFile(const std::string& path) {
   return ss.str();
 }
 
-namespace {
-
-Status writeAll(int fd, const std::string& text, const std::string& path) {
-  for (size_t done = 0; done < text.size();) {
-    const ssize_t n = ::write(fd, text.data() + done, text.size() - done);
-    if (n < 0 && errno == EINTR) continue;
-    if (n <= 0) return Status::failure(path + ": write failed: " + std::strerror(errno));
-    done += static_cast<size_t>(n);
-  }
-  if (::fsync(fd) != 0) return Status::failure(path + ": fsync failed: " + std::strerror(errno));
-  return Status::success();
-}
-
-void syncFolderOf(const std::string& path) {
-  const size_t slash = path.find_last_of('/');
-  const std::string dir = slash == std::string::npos ? "." : (slash == 0 ? "/" : path.substr(0, slash));
-  const int fd = ::open(dir.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC);
-  if (fd < 0) return;
-  (void)::fsync(fd);
-  ::close(fd);
-}
-
-}  // namespace
-
 Status writeTextFileAtomic(const std::string& path, const std::string& text) {
-  const std::string tmp = path + ".tmp" + std::to_string(::getpid());
-  const int fd = ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
-  if (fd < 0) return Status::failure(tmp + ": cannot open for writing: " + std::strerror(errno));
-  Status written = writeAll(fd, text, tmp);
-  if (::close(fd) != 0 && written) written = Status::failure(tmp + ": close failed: " + std::strerror(errno));
-  if (written && std::rename(tmp.c_str(), path.c_str()) != 0)
-    written = Status::failure("cannot rename " + tmp + " to " + path + ": " + std::strerror(errno));
-  if (!written) {
-    ::unlink(tmp.c_str());
-    return written;
-  }
-  syncFolderOf(path);
-  return Status::success();
+  return writeFileAtomic(path, text);
 }
 
 std::vector<std::string> splitList(const std::string& text) {

@@ -1,10 +1,10 @@
 #include "rgbdmap/common/trajectory.hpp"
 
+#include "rgbdmap/common/atomic_file.hpp"
 #include "rgbdmap/common/text_lines.hpp"
 
 #include <cmath>
 #include <cstdio>
-#include <fstream>
 
 namespace rgbdmap {
 
@@ -49,12 +49,9 @@ std::string formatTumTrajectory(const Trajectory& trajectory) {
 }
 
 Status writeTumTrajectory(const std::string& path, const Trajectory& trajectory, const std::string& header) {
-  std::ofstream f(path);
-  if (!f) return Status::failure(path + ": cannot open for writing");
-  if (!header.empty()) f << "# " << header << "\n";
-  f << "# timestamp tx ty tz qx qy qz qw\n" << formatTumTrajectory(trajectory);
-  if (!f) return Status::failure(path + ": write failed");
-  return Status::success();
+  std::string text = header.empty() ? std::string() : "# " + header + "\n";
+  text += "# timestamp tx ty tz qx qy qz qw\n" + formatTumTrajectory(trajectory);
+  return writeFileAtomic(path, text);
 }
 
 }  // namespace rgbdmap

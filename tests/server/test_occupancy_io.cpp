@@ -1,11 +1,12 @@
 // Occupancy map outputs: 2-D slices of a known scene, octree bytes (round trip, garbage, truncation),
-// .bt/.ot files re-read by OctoMap itself, partial map streams.
+// .bt/.ot files re-read by OctoMap itself (and left whole when a write fails), partial map streams.
 #include <cstdio>
 #include <filesystem>
 #include <random>
 
 #include <gtest/gtest.h>
 
+#include "common/file_size_limit.hpp"
 #include "occupancy_fixture.hpp"
 #include "rgbdmap/map/map_io.hpp"
 #include "rgbdmap/map/occupancy_slice.hpp"
@@ -205,6 +206,33 @@ TEST(OctreeFiles, BtAndOtAreReadByOctoMapItself) {
   }
   EXPECT_FALSE(readMapFile(dir + "/does_not_exist.bt").ok());
   EXPECT_FALSE(writeMapFiles(*tree, dir + "/no/such/dir/x.bt", "").ok());
+  std::remove(bt.c_str());
+  std::remove(ot.c_str());
+}
+
+TEST(OctreeFiles, AFailedWriteLeavesTheOldFilesWhole) {
+  // A full disk used to leave a truncated map.bt in place of the good one.
+  const auto tree = copyTree(*sweepMap().map, 0);
+  octomap::OcTree small(0.1);
+  small.updateNode(octomap::point3d(0.0f, 0.0f, 0.0f), true);
+  const std::string dir = ::testing::TempDir();
+  const std::string bt = dir + "/octree_full_disk.bt", ot = dir + "/octree_full_disk.ot";
+  ASSERT_TRUE(writeMapFiles(small, bt, ot).ok());
+  const auto bt_size = std::filesystem::file_size(bt), ot_size = std::filesystem::file_size(ot);
+  ASSERT_GT(serializeTree(*tree)->size(), 3 * bt_size);
+  {
+    testing::FileSizeLimit full(bt_size + 16);  // room for the small map, not the sweep's
+    ASSERT_TRUE(full.ok());
+    EXPECT_FALSE(writeMapFiles(*tree, bt, ""));
+    EXPECT_FALSE(writeMapFiles(*tree, "", ot));
+  }
+  EXPECT_EQ(std::filesystem::file_size(bt), bt_size);
+  EXPECT_EQ(std::filesystem::file_size(ot), ot_size);
+  for (const std::string& path : {bt, ot}) {
+    const auto old = readMapFile(path);
+    ASSERT_TRUE(old.ok()) << path << ": " << old.error();
+    EXPECT_EQ(countLeaves(**old), countLeaves(small)) << path;
+  }
   std::remove(bt.c_str());
   std::remove(ot.c_str());
 }

@@ -35,7 +35,10 @@ void IngestPipeline::onHello(const msg::Hello& hello) {
     return;
   }
   if (*registered) {
-    if (const Status s = registry_.save(store_->directory()); !s) log::error("server: ", s.error());
+    if (const Status s = registry_.save(store_->directory()); !s) {
+      registry_unsaved_ = true;  // saved again before the next keyframe is stored
+      log::error("server: ", s.error());
+    }
     detector_.setRobotCamera(registry_.index(hello.robot_id), hello.camera);
     log::info("server: robot ", hello.robot_id, " (", hello.software_version, ") joined, session ",
               hello.header.session);
@@ -60,6 +63,7 @@ void IngestPipeline::onKeyframe(const msg::Keyframe& kf) {
     registry_.countRefusedBeforeDecode(kf.robot_id);
     return refuseLocked(kf, key, why, lock);
   }
+  if (!storeWritableLocked()) return;  // not acknowledged: the robot sends it again
   KeyframeTiming timing;
   const auto t_decode = Clock::now();
   ++counters_.keyframes_decoded;
@@ -115,6 +119,22 @@ void IngestPipeline::refuseLocked(const msg::Keyframe& kf, const KeyframeKey& ke
   publisher_.acknowledge(kf.robot_id, kf.keyframe_id, false, reason);
 }
 
+bool IngestPipeline::storeWritableLocked() {
+  if (registry_unsaved_ && !store_->health().failed && registry_.save(store_->directory()))
+    registry_unsaved_ = false;
+  if (!registry_unsaved_ && !store_->health().failed) {
+    if (std::exchange(store_down_logged_, false)) log::info("server: storing keyframes again");
+    return true;
+  }
+  ++counters_.keyframes_unacked_store_failed;
+  if (!std::exchange(store_down_logged_, true))
+    log::warn(
+        "server: ",
+        registry_unsaved_ ? "robots.txt cannot be saved" : "the map store failed: " + store_->health().error,
+        "; keyframes are left unacknowledged until it works again");
+  return false;
+}
+
 Result<IngestPipeline::Decoded> IngestPipeline::decode(const msg::Keyframe& kf,
                                                        const CameraIntrinsics& camera) {
   auto images = msg::decodeKeyframeImages(kf);
@@ -160,8 +180,15 @@ int IngestPipeline::addDetectedLoopsLocked(const std::vector<LoopEdge>& edges, i
     if (index_.node(edge.to_id).robot != robot) registry_.countLoop(index_.node(edge.to_id).kf.robot_id);
   }
   // One write and one sync for all of this keyframe's loops (a lost loop edge costs accuracy, not data).
-  if (const Status s = store_->appendLoops(to_store); !s)
-    log::error("server: cannot store loops: ", s.error());
+  // Loops that could not be stored (a failed store) go with the next ones.
+  to_store.insert(to_store.begin(), loops_unsaved_.begin(), loops_unsaved_.end());
+  loops_unsaved_.clear();
+  if (const Status s = store_->appendLoops(to_store); !s) {
+    const bool later = store_->health().failed;
+    log::error("server: cannot store ", to_store.size(), " loop(s)", later ? ", kept for later: " : ": ",
+               s.error());
+    if (later) loops_unsaved_ = std::move(to_store);
+  }
   return added;
 }
 

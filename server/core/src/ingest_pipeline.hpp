@@ -78,6 +78,9 @@ class IngestPipeline {
   void refuseLocked(const msg::Keyframe& kf, const KeyframeKey& key, const std::string& reason, Lock& lock);
   /// Decodes the images (their headers were checked against the camera: image_admission.hpp) and features.
   static Result<Decoded> decode(const msg::Keyframe& kf, const CameraIntrinsics& camera);
+  /// False while the store takes no appends (failed; StoreRetry recovers it) or robots.txt could not be
+  /// saved: the keyframe is left unacknowledged (counted), so its robot sends it again later.
+  bool storeWritableLocked();
   /// Graph, loop detection, map worker (`images`, or read back from the store when null), loop edges,
   /// optimisation.
   void addLiveLocked(const StoredKeyframe& stored, const FrameFeatures& features,
@@ -145,6 +148,10 @@ class IngestPipeline {
   bool graph_joined_ = false;                     ///< a late predecessor joined a split chain: optimise
   MapServerStats counters_;  ///< the counting fields; the derived ones are filled in stats()
   IngestTimings timings_;
+  // A failed store (a full disk): what waits for it to work again.
+  bool registry_unsaved_ = false;          ///< robots.txt not written since a robot (camera) changed
+  bool store_down_logged_ = false;         ///< one log line per outage
+  std::vector<StoredLoop> loops_unsaved_;  ///< in the graph, not stored yet: stored with the next loops
 };
 
 }  // namespace rgbdmap

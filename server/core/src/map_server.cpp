@@ -17,6 +17,7 @@
 #include "robot_publisher.hpp"
 #include "robot_registry.hpp"
 #include "status_publisher.hpp"
+#include "store_retry.hpp"
 #include "transport_gate.hpp"
 
 namespace rgbdmap {
@@ -26,6 +27,14 @@ namespace {
 /// least every second.
 double reorderTick(const MapServerConfig& config) {
   return std::clamp(config.reorder_timeout_s / 4.0, 0.05, 1.0);
+}
+
+void fillStoreStats(const MapStoreHealth& h, MapServerStats* s) {
+  s->store_failed = h.failed;
+  s->store_error = h.error;
+  s->store_failures = h.failures;
+  s->store_recover_attempts = h.recover_attempts;
+  s->store_recoveries = h.recoveries;
 }
 }  // namespace
 
@@ -65,6 +74,7 @@ struct MapServer::Impl {
   std::unique_ptr<MapStore> store;
   std::unique_ptr<MapWorker> map_worker;  ///< null when occupancy is off
   std::unique_ptr<PoseGraphOptimizer> optimizer;
+  std::unique_ptr<StoreRetry> store_retry;  ///< MapStore::recover() while the store is failed
   bool started = false;
 };
 
@@ -99,7 +109,10 @@ void MapServer::Impl::startWorkers() {
       config.graph,
       [this](const std::shared_ptr<const OptimizedPoses>& result) { queue.pushOptimized(result); });
   queue.start();
+  status.setStateSource([this] { return store->health().failed ? "store failed" : "running"; });
   status.start();
+  store_retry = std::make_unique<StoreRetry>(config.store_retry_s, *store);
+  store_retry->start();
   started = true;
   pipeline.submitRestoredLoops();
 }
@@ -147,6 +160,7 @@ void MapServer::stop() {
   if (m.optimizer) m.optimizer->stop();
   m.queue.stop();
   m.status.stop();
+  if (m.store_retry) m.store_retry->stop();
   if (m.map_worker) m.map_worker->stop();
 }
 
@@ -173,6 +187,7 @@ MapServerStats MapServer::stats() const {
   }
   s.unknown_robot_messages = m.inbox.unknownRobot();
   s.rejects = m.inbox.rejectCounts();
+  if (m.store) fillStoreStats(m.store->health(), &s);
   // Outside the server's state lock: counting the octree's leaves must not hold up the ingest worker.
   if (m.map_worker) m.map_worker->fillStats(&s);
   return s;

@@ -63,7 +63,10 @@ const ConfigTable<C>& ownTable() {
           .add("map.stream_period_s", &C::map_stream_period_s, R::closed(0.0, 3600.0),
                "MapUpdate to every robot (its own map; full first and after rebuilds); 0: off")
           .add("slice.period_s", &C::slice_period_s, R::closed(0.0, 3600.0),
-               "at most one slice per robot per this period");
+               "at most one slice per robot per this period")
+          .add("server.store_retry_s", &C::store_retry_s, R::closed(0.05, 3600.0),
+               "a map store stopped by an I/O error (a full disk) is tried again this often (s); until it "
+               "recovers, keyframes are left unacknowledged and the robots resend them");
   return table;
 }
 

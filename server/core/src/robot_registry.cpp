@@ -1,12 +1,11 @@
 #include "robot_registry.hpp"
 
-#include <fcntl.h>
-#include <unistd.h>
 #include <cstdio>
 #include <fstream>
 #include <iomanip>
 #include <sstream>
 
+#include "rgbdmap/common/atomic_file.hpp"
 #include "rgbdmap/common/logging.hpp"
 
 namespace rgbdmap {
@@ -15,14 +14,6 @@ namespace {
 constexpr const char* kFileName = "robots.txt";
 constexpr const char* kHeader =
     "# rgbdmap robots v1: id index fx fy cx cy width height k1 k2 p1 p2 k3 depth_scale";
-
-Status syncPath(const std::string& path, int flags) {
-  const int fd = ::open(path.c_str(), flags);
-  if (fd < 0) return Status::failure("cannot open " + path + " to sync");
-  const int r = ::fsync(fd);
-  ::close(fd);
-  return r == 0 ? Status::success() : Status::failure("fsync " + path + " failed");
-}
 
 }  // namespace
 
@@ -71,17 +62,7 @@ Status RobotRegistry::save(const std::string& map_dir) const {
       out << " " << c.depth_scale << "\n";
     }
   }
-  const std::string path = map_dir + "/" + kFileName;
-  const std::string tmp = path + ".tmp";
-  {
-    std::ofstream f(tmp, std::ios::trunc);
-    f << out.str();
-    if (!f.flush()) return Status::failure("cannot write " + tmp);
-  }
-  if (const Status s = syncPath(tmp, O_RDONLY); !s) return s;
-  if (std::rename(tmp.c_str(), path.c_str()) != 0)
-    return Status::failure("cannot rename " + tmp + " to " + path);
-  return syncPath(map_dir, O_RDONLY | O_DIRECTORY);
+  return writeFileAtomic(map_dir + "/" + kFileName, out.str());
 }
 
 Status RobotRegistry::load(const std::string& map_dir) {

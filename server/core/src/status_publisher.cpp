@@ -18,6 +18,8 @@ void StatusPublisher::setRejectCounts(std::function<std::vector<msg::RejectCount
   reject_counts_ = std::move(reject_counts);
 }
 
+void StatusPublisher::setStateSource(std::function<std::string()> state) { state_ = std::move(state); }
+
 void StatusPublisher::start() {
   if (period_s_ > 0.0) worker_.start();
 }
@@ -37,7 +39,7 @@ msg::ServerStatus StatusPublisher::status() const {
     s.last_utime = r.last_utime;
     status.robots.push_back(s);
   }
-  status.state = "running";
+  status.state = state_ ? state_() : "running";
   if (reject_counts_) status.rejects = reject_counts_();
   return status;
 }

@@ -4,6 +4,7 @@
 #include <chrono>
 #include <cstdint>
 #include <functional>
+#include <string>
 #include <vector>
 
 #include "rgbdmap/common/serial_worker.hpp"
@@ -22,6 +23,8 @@ class StatusPublisher {
   /// named there that has not said Hello (e.g. one whose signatures fail), so it can learn why.
   void setRejectCounts(std::function<std::vector<msg::RejectCount>()> reject_counts);
 
+  /// The `state` text of the status ("running" when not set); set before start().
+  void setStateSource(std::function<std::string()> state);
   void start();  ///< no effect when the period is 0
   void stop();   ///< idempotent
 
@@ -36,6 +39,7 @@ class StatusPublisher {
   RobotPublisher& publisher_;
   const std::function<int64_t()> graph_revision_;
   std::function<std::vector<msg::RejectCount>()> reject_counts_;
+  std::function<std::string()> state_;
   const std::chrono::steady_clock::time_point started_ = std::chrono::steady_clock::now();
   SerialWorker worker_;  ///< last member
 };

@@ -1,33 +1,15 @@
 #include "atomic_file.hpp"
 
-#include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <system_error>
 
-#include <unistd.h>
+#include "rgbdmap/common/atomic_file.hpp"
 
 namespace rgbdmap::export_detail {
 
 Status writeFileAtomically(const std::string& path, const std::string& bytes) {
-  const std::string tmp = path + ".tmp" + std::to_string(::getpid());
-  {
-    std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
-    if (!out) return Status::failure("cannot create " + tmp);
-    out.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
-    out.flush();
-    if (!out) {
-      std::error_code ec;
-      std::filesystem::remove(tmp, ec);
-      return Status::failure("cannot write " + tmp);
-    }
-  }
-  if (std::rename(tmp.c_str(), path.c_str()) != 0) {
-    std::error_code ec;
-    std::filesystem::remove(tmp, ec);
-    return Status::failure("cannot rename " + tmp + " to " + path);
-  }
-  return Status::success();
+  return writeFileAtomic(path, bytes);
 }
 
 Result<std::string> readWholeFile(const std::string& path, size_t max_bytes) {

@@ -1,5 +1,6 @@
 #pragma once
-// Files that appear whole: written to a temporary name beside the target, then renamed over it.
+// Files that appear whole: written to a temporary name beside the target, synced, then renamed over it
+// (rgbdmap::writeFileAtomic); on failure the previous file stays.
 #include <string>
 
 #include "rgbdmap/common/result.hpp"

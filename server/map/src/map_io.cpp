@@ -6,9 +6,11 @@
 #include <fstream>
 #include <iterator>
 #include <sstream>
+#include <string_view>
 
 #include <octomap/OcTree.h>
 
+#include "rgbdmap/common/atomic_file.hpp"
 #include "rgbdmap/proto/messages.hpp"
 
 namespace rgbdmap {
@@ -153,19 +155,18 @@ Result<std::unique_ptr<octomap::OcTree>> deserializeTree(const std::vector<uint8
 }
 
 Status writeMapFiles(const octomap::OcTree& tree, const std::string& bt_path, const std::string& ot_path) {
+  // Serialised in memory first, then written atomically: a failed write (a full disk) leaves the previous
+  // file whole, never a truncated one in its place.
   if (!bt_path.empty()) {
     const Result<std::vector<uint8_t>> bytes = serializeTree(tree);
     if (!bytes) return Status::failure(bt_path + ": " + bytes.error());
-    std::ofstream out(bt_path, std::ios::binary);
-    if (!out ||
-        !out.write(reinterpret_cast<const char*>(bytes->data()),
-                   static_cast<std::streamsize>(bytes->size())) ||
-        !out.flush())
-      return Status::failure("cannot write " + bt_path);
+    const std::string_view view(reinterpret_cast<const char*>(bytes->data()), bytes->size());
+    if (const Status s = writeFileAtomic(bt_path, view); !s) return s;
   }
   if (!ot_path.empty()) {
-    std::ofstream out(ot_path, std::ios::binary);
-    if (!out || !tree.write(out) || !out.flush()) return Status::failure("cannot write " + ot_path);
+    std::ostringstream out(std::ios::binary);
+    if (!tree.write(out)) return Status::failure(ot_path + ": writing the octree failed");
+    if (const Status s = writeFileAtomic(ot_path, out.str()); !s) return s;
   }
   return Status::success();
 }

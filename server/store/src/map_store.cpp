@@ -1,5 +1,6 @@
 #include "rgbdmap/store/map_store.hpp"
 
+#include <algorithm>
 #include <atomic>
 #include <mutex>
 #include <unordered_map>
@@ -45,8 +46,10 @@ struct MapStore::State {
   std::vector<StoredLoop> loops;
   MapStoreRecovery recovery;
 
-  std::mutex append_mutex;  ///< serialises appends; guards `failed`
+  std::mutex append_mutex;  ///< serialises appends and recover(); guards `failed`
   std::string failed;       ///< set by an append that hit an I/O error: the log state is no longer known
+  mutable std::mutex health_mutex;  ///< `health` (taken inside append_mutex, never the other way)
+  MapStoreHealth health;
   mutable std::mutex index_mutex;
   std::unordered_map<int64_t, RecordLocation> index;  ///< node id -> keyframe record
 
@@ -58,6 +61,13 @@ struct MapStore::State {
   Status loadKeyframes();
   Status loadLoops();
   Status append(LogFile* log, const msg::Bytes& record);
+  // recover(): caller holds append_mutex
+  Status cutToEnd(LogFile* log);
+  Status probeSpace(LogFile* log);
+  void noteHealth(const std::string& error, bool new_failure, bool attempt);
+  Status failedStatus() const {
+    return Status::failure("map store failed (" + failed + "): no appends until it recovers");
+  }
 };
 
 Status MapStore::State::load(LogFile* log, store::RecordType type, const store::RecordVisitor& visit) {
@@ -112,11 +122,46 @@ Status MapStore::State::append(LogFile* log, const msg::Bytes& record) {
     // a failed fdatasync) what the file holds is not known, so this store takes no more appends.
     (void)store::truncateTo(log->fd.get(), offset, log->path);
     failed = s.error();
-    log::error("map store '", dir, "': append failed, no further appends: ", s.error());
+    noteHealth(failed, true, false);
+    log::error("map store '", dir, "': append failed, no further appends until it recovers: ", s.error());
     return s;
   }
   log->end = offset + static_cast<int64_t>(record.size());
   return Status::success();
+}
+
+void MapStore::State::noteHealth(const std::string& error, bool new_failure, bool attempt) {
+  std::lock_guard<std::mutex> lock(health_mutex);
+  health.failed = !error.empty();
+  health.error = error;
+  if (new_failure) ++health.failures;
+  if (attempt) ++health.recover_attempts;
+  if (attempt && error.empty()) ++health.recoveries;
+}
+
+/// Cuts whatever a failed append left past the last acknowledged record and makes the length durable.
+Status MapStore::State::cutToEnd(LogFile* log) {
+  const int64_t end = log->end;
+  if (Status s = store::truncateTo(log->fd.get(), end, log->path); !s) return s;
+  if (options.sync)
+    if (Status s = store::syncData(log->fd.get(), log->path); !s) return s;
+  Result<int64_t> size = store::fileSize(log->fd.get(), log->path);
+  if (!size) return Status::failure(size.error());
+  if (*size != end)
+    return Status::failure("'" + log->path + "' holds " + std::to_string(*size) +
+                           " bytes after cutting it to " + std::to_string(end));
+  return Status::success();
+}
+
+/// Writes and syncs zeros past the end, then cuts them off: fails while appends would not fit. (Killed in
+/// between, the zeros are a damaged tail that open() cuts off.)
+Status MapStore::State::probeSpace(LogFile* log) {
+  const int64_t end = log->end;
+  const std::vector<uint8_t> zeros(static_cast<size_t>(std::max<int64_t>(0, options.recover_probe_bytes)));
+  Status s = store::writeAt(log->fd.get(), zeros.data(), zeros.size(), end, log->path);
+  if (s && options.sync) s = store::syncData(log->fd.get(), log->path);
+  const Status cut = cutToEnd(log);
+  return s ? cut : s;
 }
 
 Result<std::unique_ptr<MapStore>> MapStore::open(const std::string& dir, MapStoreOptions options) {
@@ -158,7 +203,7 @@ MapStore::~MapStore() = default;
 Status MapStore::appendKeyframe(const StoredKeyframe& keyframe) {
   State& s = *state_;
   std::lock_guard<std::mutex> lock(s.append_mutex);
-  if (!s.failed.empty()) return Status::failure("map store failed earlier (" + s.failed + "); reopen it");
+  if (!s.failed.empty()) return s.failedStatus();
   if (keyframe.node_id < 0) return Status::failure("negative node id " + std::to_string(keyframe.node_id));
   if (s.hasNode(keyframe.node_id))
     return Status::failure("duplicate node id " + std::to_string(keyframe.node_id) + ": already stored");
@@ -180,7 +225,7 @@ Status MapStore::appendKeyframe(const StoredKeyframe& keyframe) {
 Status MapStore::appendLoop(const StoredLoop& loop) {
   State& s = *state_;
   std::lock_guard<std::mutex> lock(s.append_mutex);
-  if (!s.failed.empty()) return Status::failure("map store failed earlier (" + s.failed + "); reopen it");
+  if (!s.failed.empty()) return s.failedStatus();
   Result<msg::Bytes> payload = store::encodeLoopPayload(loop);
   if (!payload) return Status::failure(payload.error());
   for (int64_t node : {loop.from_node, loop.to_node})
@@ -195,7 +240,7 @@ Status MapStore::appendLoops(const std::vector<StoredLoop>& loops) {
   if (loops.empty()) return Status::success();
   State& s = *state_;
   std::lock_guard<std::mutex> lock(s.append_mutex);
-  if (!s.failed.empty()) return Status::failure("map store failed earlier (" + s.failed + "); reopen it");
+  if (!s.failed.empty()) return s.failedStatus();
   msg::Bytes records;
   for (const StoredLoop& loop : loops) {
     Result<msg::Bytes> payload = store::encodeLoopPayload(loop);
@@ -208,6 +253,28 @@ Status MapStore::appendLoops(const std::vector<StoredLoop>& loops) {
   if (Status st = s.append(&s.loop_log, records); !st) return st;
   s.loops.insert(s.loops.end(), loops.begin(), loops.end());
   return Status::success();
+}
+
+Status MapStore::recover() {
+  State& s = *state_;
+  std::lock_guard<std::mutex> lock(s.append_mutex);
+  if (s.failed.empty()) return Status::success();
+  Status st = s.cutToEnd(&s.keyframe_log);
+  if (st) st = s.cutToEnd(&s.loop_log);
+  if (st) st = s.probeSpace(&s.keyframe_log);
+  if (!st) {
+    s.noteHealth("recovery failed: " + st.error() + " (appends stopped on: " + s.failed + ")", false, true);
+    return st;
+  }
+  log::info("map store '", s.dir, "': appends work again (they stopped on: ", s.failed, ")");
+  s.failed.clear();
+  s.noteHealth("", false, true);
+  return Status::success();
+}
+
+MapStoreHealth MapStore::health() const {
+  std::lock_guard<std::mutex> lock(state_->health_mutex);
+  return state_->health;
 }
 
 Result<StoredKeyframe> MapStore::readKeyframe(int64_t node_id) const {

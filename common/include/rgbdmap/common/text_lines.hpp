@@ -28,6 +28,7 @@ Result<std::string> readTextFile(const std::string& path);
 
 /// Writes `text` to a temporary file beside `path`, syncs it, renames it over `path` and syncs the folder:
 /// readers see the old file or the whole new one, and a crash right after leaves the new one on disk.
+/// writeFileAtomic (atomic_file.hpp) under a name for text; on failure the old file stays.
 Status writeTextFileAtomic(const std::string& path, const std::string& text);
 
 /// "a, b,c" -> {"a", "b", "c"}: comma-separated items, blanks around them trimmed, empty items dropped.

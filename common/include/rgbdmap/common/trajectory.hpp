@@ -22,6 +22,7 @@ Result<Trajectory> readTumTrajectory(const std::string& path);
 
 /// Format with enough digits to round-trip (timestamps to 1 us, positions to 0.1 um).
 std::string formatTumTrajectory(const Trajectory& trajectory);
+/// "# header" (when given), the column line and formatTumTrajectory, written atomically (writeFileAtomic).
 Status writeTumTrajectory(const std::string& path, const Trajectory& trajectory,
                           const std::string& header_comment = "");
 

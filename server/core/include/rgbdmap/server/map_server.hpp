@@ -112,6 +112,12 @@ struct MapServerStats {
   /// Rejected messages per claimed robot and reason, largest first (robot_id "" = every claimed sender
   /// that is not a known robot); what ServerStatus::rejects carries.
   std::vector<msg::RejectCount> rejects;
+  /// The map store now (MapStore::health): failed after an I/O error (a full disk) until a retry
+  /// (store_retry_s) recovers it; meanwhile keyframes are left unacknowledged.
+  bool store_failed = false;
+  std::string store_error;  ///< why it failed ("" when ok)
+  uint64_t store_failures = 0, store_recover_attempts = 0, store_recoveries = 0;
+  uint64_t keyframes_unacked_store_failed = 0;  ///< keyframe messages (resent ones too) left unacked then
 };
 
 /// One optimised keyframe as the server holds it.

@@ -58,6 +58,9 @@ struct MapServerConfig {
   SliceConfig slice;
   double slice_period_s = 0.5;  ///< at most one OccupancySlice per robot per this period (after keyframes)
   double map_stream_period_s = 2.0;  ///< MapUpdate to every robot (its own map); 0 turns the stream off
+  /// A map store that stopped on an I/O error (a full disk) is tried again (MapStore::recover) this often;
+  /// meanwhile keyframes are left unacknowledged (their robots resend them).
+  double store_retry_s = 2.0;
 
   std::string validate() const;  ///< "" when valid, else every problem ("; "-separated)
 };

@@ -25,7 +25,8 @@ Result<std::vector<uint8_t>> serializeTree(const octomap::OcTree& tree);
 /// Parses binary-format bytes (serializeTree, a .bt file) or full-format bytes (a .ot file of an OcTree).
 /// Garbage, truncated or oversized input fails with the reason; never crashes.
 Result<std::unique_ptr<octomap::OcTree>> deserializeTree(const std::vector<uint8_t>& bytes);
-/// Writes `bt_path` (binary) and `ot_path` (full, with log-odds); an empty path is skipped.
+/// Writes `bt_path` (binary) and `ot_path` (full, with log-odds); an empty path is skipped. Each file is
+/// written atomically (writeFileAtomic): on failure the previous file stays whole.
 Status writeMapFiles(const octomap::OcTree& tree, const std::string& bt_path, const std::string& ot_path);
 /// Reads a .bt or .ot file (recognised by its header) through deserializeTree.
 Result<std::unique_ptr<octomap::OcTree>> readMapFile(const std::string& path);

@@ -38,6 +38,18 @@ struct StoredLoop {
 
 struct MapStoreOptions {
   bool sync = true;  ///< fdatasync after every append (durability); false only for benchmarks/tests
+  /// recover() writes this many bytes past the end of the keyframe log (and cuts them off again) to check
+  /// that appends fit again: about two 640x480 keyframe records.
+  int64_t recover_probe_bytes = 256 * 1024;
+};
+
+/// Whether appends work now, and how often they stopped and came back since open().
+struct MapStoreHealth {
+  bool failed = false;
+  std::string error;              ///< why appends stopped (or why the last recovery failed); "" when ok
+  uint64_t failures = 0;          ///< appends that hit an I/O error and stopped appends
+  uint64_t recover_attempts = 0;  ///< recover() calls on a failed store
+  uint64_t recoveries = 0;        ///< of which took the store back into service
 };
 
 /// What open() found.
@@ -61,7 +73,8 @@ class MapStore {
   MapStore& operator=(const MapStore&) = delete;
 
   /// Durable on return (when options.sync). Fails (nothing written) on a duplicate node_id, a negative
-  /// node_id or a keyframe that msg::validate rejects. After an I/O error every later append fails.
+  /// node_id or a keyframe that msg::validate rejects. After an I/O error every later append fails until
+  /// recover() succeeds.
   Status appendKeyframe(const StoredKeyframe& keyframe);
   /// Durable on return (when options.sync). Both nodes must be stored keyframes.
   Status appendLoop(const StoredLoop& loop);
@@ -76,6 +89,15 @@ class MapStore {
   /// Reads one keyframe (with images) back from disk; fails for an unknown id or a record that no longer
   /// verifies. Thread-safe with respect to concurrent appends.
   Result<StoredKeyframe> readKeyframe(int64_t node_id) const;
+
+  /// Takes a failed store back into service (success at once when it is not failed): both logs are cut
+  /// back to their last acknowledged record and synced, then a probe write past the end of the keyframe
+  /// log (options.recover_probe_bytes, cut off again) checks that appends fit. While the cause lasts (a
+  /// full disk) it fails and the store stays failed: call it again later. Nothing stored before is lost,
+  /// only the bytes of the append that failed (never acknowledged). Thread-safe.
+  Status recover();
+  /// A copy of the current health; thread-safe and never waits for an append's fdatasync.
+  MapStoreHealth health() const;
 
   const MapStoreRecovery& recovery() const;
   /// Bytes of the two log files (what the records occupy).
