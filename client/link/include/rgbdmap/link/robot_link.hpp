@@ -68,6 +68,10 @@ struct RobotLinkStats {
   bool server_heard = false;    ///< a valid message from the server for this robot has arrived
   uint64_t bad_signatures = 0;  ///< of messages_rejected: signature did not verify (another key?)
   std::map<std::string, uint64_t> refused_by_reason;  ///< KeyframeAck reason -> refused keyframes
+  /// Time from a keyframe's first transmission to its (first) accepting ack, over the accepted keyframes
+  /// (bounded reservoir, common/sample_reservoir.hpp); 0 before any.
+  uint64_t ack_latency_samples = 0;
+  double ack_latency_ms_median = 0.0, ack_latency_ms_p90 = 0.0, ack_latency_ms_max = 0.0;
 };
 
 class RobotLink {  // thread-safe; handlers never block the transport's receive thread
