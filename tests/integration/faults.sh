@@ -18,6 +18,8 @@
 #             map directory each time
 #   flood     a robot with a valid key floods keyframes next to a well-behaved one (HOOK)
 #   diskfull  the map directory's file system fills up, then space is freed (HOOK)
+# An acknowledged keyframe is never sent again, so "every keyframe sent is stored at the end" also shows
+# that no kill -9 lost a keyframe the server had acknowledged before it.
 # --check M: exit 1 unless every keyframe a robot sent is stored, every keyframe it had acknowledged is
 # stored, the two robots end in one merged map with ATE below M (clean, loss30, dgram5, kill9: and every
 # keyframe is acknowledged; loss60: stored within the robot's final wait is enough).
@@ -99,9 +101,9 @@ fault_kill9() {  # five SIGKILLs, each 0.4..2.0 s after the (re)start, restarted
   local k
   for k in 1 2 3 4 5; do
     sleep "$(awk -v r=$RANDOM 'BEGIN {printf "%.2f", 0.4 + 1.6 * r / 32767}')"
-    clients_running || echo "note: clients done before kill $k" >>"$out/logs/kills.txt"
+    local when="after the clients ended"; clients_running && when="during the run"
     kill -9 "$server_pid"; wait "$server_pid" 2>/dev/null
-    echo "kill $k at $(date +%T.%N)" >>"$out/logs/kills.txt"
+    echo "kill $k at $(date +%T.%N) $when" >>"$out/logs/kills.txt"
     sleep 0.2; start_server
   done
   wait_clients; stop_server
@@ -142,7 +144,8 @@ collect() {
     rows+=("$(jq -c --arg r "$r" --argjson sent "$sent" --argjson stored "$stored" --arg missing "$missing" \
       '{robot: $r, sent: $sent, keyframes_sent: .keyframes_sent, acked: .keyframes_acked, stored: $stored,
         missing: $missing, given_up: .keyframes_given_up, retransmissions: .retransmissions,
-        ack_ms_median: .ack_latency_ms_median, ack_ms_p90: .ack_latency_ms_p90, all_acked: .all_acked}' "$j")")
+        ack_ms_median: .ack_latency_ms_median, ack_ms_p90: .ack_latency_ms_p90, all_acked: .all_acked,
+        corrections: .corrections_received, final_correction: .final_correction_received}' "$j")")
   done
   cat "$out"/map/keyframes_robot*.txt 2>/dev/null | grep -v '^#' | sort -n >"$out/merged.txt"
   local ate
@@ -150,8 +153,10 @@ collect() {
     | awk '$1 == "ate_rmse_m" {print $2}')
   printf '%s\n' "${rows[@]}" | jq -s --arg fault "$fault" --arg t "$transport" --arg ate "${ate:-nan}" \
     --slurpfile s "$out/map/server_summary.json" --arg kills "$(grep -c '^kill' "$out/logs/kills.txt" 2>/dev/null)" \
+    --arg during "$(grep -c 'during the run' "$out/logs/kills.txt" 2>/dev/null)" \
     '{fault: $fault, transport: $t, robots: ., ate_m: $ate, maps: $s[0].maps, merged_maps: $s[0].merged_maps,
-      server_keyframes: $s[0].keyframes, kills: ($kills | tonumber? // 0)}' >"$out/result.json"
+      server_keyframes: $s[0].keyframes, kills: ($kills | tonumber? // 0),
+      kills_during_run: ($during | tonumber? // 0)}' >"$out/result.json"
 }
 
 check_result() {
@@ -168,6 +173,16 @@ check_result() {
     && echo "ok: one merged map" || { echo "FAIL: not one merged map: $(jq -c .merged_maps "$res")"; ok=0; }
   awk -v a="$(jq -r .ate_m "$res")" -v m="$check" 'BEGIN {exit !(a == a + 0 && a < m)}' \
     && echo "ok: merged ATE $(jq -r .ate_m "$res") m < $check m" || { echo "FAIL: ATE $(jq -r .ate_m "$res") m"; ok=0; }
+  if [ "$fault" = kill9 ]; then
+    jq -e '.kills_during_run == 5' "$res" >/dev/null && echo "ok: five kills -9 while the robots ran" \
+      || { echo "FAIL: only $(jq .kills_during_run "$res") of the kills hit a running robot"; ok=0; }
+    # A restarted server hears no Hello over LCM; it must still correct the robots' keyframes (before the
+    # fix in RobotRegistry::noteSession: no PoseCorrections at all after the first kill). Not required: one
+    # covering the last keyframe (lost when a kill falls between its ack and its correction; see README).
+    jq -e 'all(.robots[]; .corrections > 0)' "$res" >/dev/null \
+      && echo "ok: the robots got corrections" \
+      || { echo "FAIL: corrections after the restarts: $(jq -c '[.robots[] | {robot, corrections}]' "$res")"; ok=0; }
+  fi
   grep -q 'server exit 0' "$out/logs/exits.txt" || { echo "FAIL: the last server did not exit 0"; ok=0; }
   [ "$ok" = 1 ]
 }
@@ -178,7 +193,7 @@ declare -F "fault_$fault" >/dev/null || { echo "unknown fault '$fault'" >&2; exi
 "fault_$fault"
 trap - EXIT
 collect || exit 1
-echo "== $fault over $transport: $(( $(date +%s) - start_s )) s; $(jq -c '{ate_m, maps, kills, robots: [.robots[] |
+echo "== $fault over $transport: $(( $(date +%s) - start_s )) s; $(jq -c '{ate_m, maps, kills_during_run, robots: [.robots[] |
   {robot, sent, acked, stored, retransmissions, ack_ms_median, ack_ms_p90}]}' "$out/result.json")"
 [ -z "$check" ] && exit 0
 check_result && exit 0
