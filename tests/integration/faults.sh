@@ -89,7 +89,10 @@ start_clients() {
 }
 clients_running() { local p; for p in "${client_pids[@]}"; do kill -0 "$p" 2>/dev/null && return 0; done; return 1; }
 wait_clients() { local p; for p in "${client_pids[@]}"; do wait "$p"; echo "client exit $?" >>"$out/logs/exits.txt"; done; }
-stop_server() { kill -INT "$server_pid"; wait "$server_pid"; echo "server exit $?" >>"$out/logs/exits.txt"; }
+stop_server() {
+  kill -0 "$server_pid" 2>/dev/null || echo "server $server_pid no longer running at the end" >>"$out/logs/exits.txt"
+  kill -INT "$server_pid"; wait "$server_pid"; echo "server exit $?" >>"$out/logs/exits.txt"
+}
 run_plain() { start_server; sleep 1; start_clients; wait_clients; stop_server; }
 
 # --- faults --------------------------------------------------------------------------------------------------
@@ -147,6 +150,8 @@ collect() {
         ack_ms_median: .ack_latency_ms_median, ack_ms_p90: .ack_latency_ms_p90, all_acked: .all_acked,
         corrections: .corrections_received, final_correction: .final_correction_received}' "$j")")
   done
+  [ -s "$out/map/server_summary.json" ] || { echo "FAIL: no server_summary.json (the last server did not stop cleanly)"
+    cat "$out/logs/exits.txt"; return 1; }
   cat "$out"/map/keyframes_robot*.txt 2>/dev/null | grep -v '^#' | sort -n >"$out/merged.txt"
   local ate
   ate=$("$bin/rgbdmap" eval --gt "$ds/groundtruth.txt" --est "$out/merged.txt" 2>/dev/null \
@@ -192,7 +197,7 @@ trap 'kill $server_pid "${client_pids[@]}" 2>/dev/null' EXIT
 declare -F "fault_$fault" >/dev/null || { echo "unknown fault '$fault'" >&2; exit 2; }
 "fault_$fault"
 trap - EXIT
-collect || exit 1
+collect || { tail -n 25 "$out"/logs/*; exit 1; }
 echo "== $fault over $transport: $(( $(date +%s) - start_s )) s; $(jq -c '{ate_m, maps, kills_during_run, robots: [.robots[] |
   {robot, sent, acked, stored, retransmissions, ack_ms_median, ack_ms_p90}]}' "$out/result.json")"
 [ -z "$check" ] && exit 0
