@@ -60,6 +60,11 @@ TEST(RobotLink, SignedKeyframesAreAckedHelloAndHeartbeatsArrive) {
   EXPECT_EQ(st.keyframes_sent, 5u);
   EXPECT_EQ(st.keyframes_acked, 5u);
   EXPECT_EQ(st.keyframes_pending, 0u);
+  EXPECT_EQ(st.ack_latency_samples, 5u);  // first send to ack, one sample per accepted keyframe
+  EXPECT_GT(st.ack_latency_ms_median, 0.0);
+  EXPECT_LE(st.ack_latency_ms_median, st.ack_latency_ms_p90);
+  EXPECT_LE(st.ack_latency_ms_p90, st.ack_latency_ms_max);
+  EXPECT_LT(st.ack_latency_ms_max, 5000.0);
   EXPECT_EQ(st.messages_rejected, 0u);
   EXPECT_GT(st.bytes_sent, 5u * 1000u);
   EXPECT_GT(st.bytes_received, 0u);

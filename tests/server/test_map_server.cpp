@@ -3,6 +3,7 @@
 // loops, and bad input.
 #include <filesystem>
 #include <random>
+#include <thread>
 
 #include <gtest/gtest.h>
 
@@ -124,6 +125,41 @@ TEST(MapServer, RestartOnTheSameMapDirectoryLosesNoAcknowledgedKeyframe) {
   const double odo = ateOf(seg.gt, testing::odometryTrajectory(seg));
   std::printf("[ measured ] restart mid-run: ATE %.4f m (odometry %.4f m)\n", slam, odo);
   EXPECT_LE(slam, 0.65 * odo) << "same bound as without a restart (measured 0.0045 m both ways)";
+}
+
+TEST(MapServer, AfterARestartARobotThatSaysNoHelloAgainStillGetsCorrections) {
+  // Over LCM a robot that heard the killed server does not say Hello to the restarted one (issue #11,
+  // faults.kill9.lcm: no PoseCorrections at all after the first kill -9): its keyframes name its session.
+  const OdometrySegment& seg = loopSegment(kLoopFrames, 0, kLoopFrames);
+  const std::string dir = freshDir("restart_no_hello");
+  const size_t half = seg.keyframes.size() / 2;
+  Harness h(dir);
+  {
+    ScriptedRobot robot(*h.transport, "robot0", rgbdmap::testing::testKey(1), 100);
+    testing::driveRobot(*h.server, robot, seg, 0, half);
+  }
+  h.server->stop();
+  h.server.reset();
+  h.start(serverTestConfig(dir));
+  ScriptedRobot robot(*h.transport, "robot0", rgbdmap::testing::testKey(1), 100);
+  std::set<int> ids;
+  for (size_t i = half; i < seg.keyframes.size(); ++i) {
+    robot.send(seg.keyframes[i]);
+    ids.insert(seg.keyframes[i].keyframe_id);
+  }
+  EXPECT_TRUE(robot.waitAcked(ids, 120.0));
+  EXPECT_TRUE(h.server->waitIdle(120.0));
+  ASSERT_TRUE(robot.corrections(10.0)) << "no PoseCorrections for a robot without a Hello after the restart";
+  const auto covers_last = [&] {  // corrections arrive asynchronously after the optimisation
+    const std::optional<msg::PoseCorrections> c = robot.correctionsNow();
+    return std::any_of(c->keyframes.begin(), c->keyframes.end(), [&](const msg::CorrectedPose& p) {
+      return p.keyframe_id == seg.keyframes.back().keyframe_id;
+    });
+  };
+  for (int i = 0; i < 100 && !covers_last(); ++i) std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  EXPECT_TRUE(covers_last());
+  ASSERT_EQ(h.server->stats().robots.size(), 1u);
+  EXPECT_EQ(h.server->stats().robots[0].sessions, 1);
 }
 
 TEST(MapServer, ARestartedRobotContinuesAsANewChainAndIsReAnchoredByLoopClosure) {

@@ -199,6 +199,7 @@ Status RobotLink::Impl::sendKeyframe(const Keyframe& keyframe, const RgbdFrame& 
   entry.segment = keyframe.segment;
   entry.T_odom_cam = keyframe.T_odom_cam;
   entry.message = std::make_unique<msg::Keyframe>(std::move(*message));
+  entry.first_sent = Clock::now();
   lock.unlock();  // submit() transmits on this thread (transmitKeyframe takes mutex_)
   if (Status s = reliable_.submit(static_cast<uint64_t>(keyframe.id)); !s) {
     lock.lock();
@@ -290,6 +291,10 @@ RobotLinkStats RobotLink::Impl::stats() const {
   s.graph_revision = graph_revision_;
   s.server_heard = heard_from_server_;
   s.bad_signatures = rejects_.get(msg::RejectReason::kBadSignature);
+  s.ack_latency_samples = ack_latency_ms_.count();
+  s.ack_latency_ms_median = ack_latency_ms_.median();
+  s.ack_latency_ms_p90 = ack_latency_ms_.quantile(0.9);
+  s.ack_latency_ms_max = ack_latency_ms_.max();
   return s;
 }
 

@@ -12,6 +12,7 @@
 #include <string>
 #include <thread>
 
+#include "rgbdmap/common/sample_reservoir.hpp"
 #include "rgbdmap/link/robot_link.hpp"
 #include "rgbdmap/proto/envelope.hpp"
 
@@ -53,6 +54,7 @@ class RobotLink::Impl : public std::enable_shared_from_this<RobotLink::Impl> {
     std::unique_ptr<msg::Keyframe> message;  ///< encoded, unsealed; dropped once answered or last sent
     int transmissions = 0;
     Answer answer = Answer::kPending;
+    Clock::time_point first_sent{};  ///< submitted (its first transmission follows at once)
   };
 
   // Sending (robot_link.cpp).
@@ -101,6 +103,7 @@ class RobotLink::Impl : public std::enable_shared_from_this<RobotLink::Impl> {
   int64_t graph_revision_ = -1, corrections_session_ = 0;
   int last_keyframe_id_ = -1, segment_ = 0;
   TrackingState tracking_state_ = TrackingState::kInitialized;
+  SampleReservoir ack_latency_ms_{1024};
   RobotLinkStats counts_;  ///< the counters kept here (the rest come from the sender and rejects_)
   std::atomic<uint64_t> bytes_sent_{0}, bytes_received_{0};
   /// Hashes of the last commands this link published: their echo on the subscribed cmd_vel channel is

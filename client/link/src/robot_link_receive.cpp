@@ -89,6 +89,9 @@ void RobotLink::Impl::handle(const msg::KeyframeAck& ack) {
       entry.answer = ack.accepted ? Answer::kAccepted : Answer::kRefused;
       entry.message.reset();
       ++(ack.accepted ? counts_.keyframes_acked : counts_.keyframes_refused);
+      if (ack.accepted)
+        ack_latency_ms_.add(
+            std::chrono::duration<double, std::milli>(Clock::now() - entry.first_sent).count());
       if (!ack.accepted) {
         ++counts_.refused_by_reason[ack.reason.empty() ? "no reason given" : ack.reason];
         log::warn("robot ", options_.robot_id, ": server refused keyframe ", ack.keyframe_id, ": ",

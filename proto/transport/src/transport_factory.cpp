@@ -2,6 +2,7 @@
 #include <cstdlib>
 
 #include "dds_transport.hpp"
+#include "fault_transport.hpp"
 #include "lcm_transport.hpp"
 
 namespace rgbdmap::transport {
@@ -42,15 +43,26 @@ TransportResult makeDds(const TransportOptions& options) {
   return DdsTransport::create(options, static_cast<int>(domain));
 }
 
-}  // namespace
-
-TransportResult makeTransport(const TransportOptions& options) {
+TransportResult makeAdapter(const TransportOptions& options) {
   if (startsWith(options.url, "memq://") || startsWith(options.url, "udpm://")) {
     return LcmTransport::create(options);
   }
   if (startsWith(options.url, "dds://")) return makeDds(options);
   return TransportResult::failure("unknown transport URL '" + options.url +
                                   "' (expected memq://, udpm://... or dds://?domain=N)");
+}
+
+}  // namespace
+
+TransportResult makeTransport(const TransportOptions& options) {
+  TransportOptions inner = options;
+  FaultOptions faults;
+  if (const std::string e = parseFaultOptions(&inner.url, &faults); !e.empty())
+    return TransportResult::failure(e + " in " + options.url);
+  TransportResult adapter = makeAdapter(inner);
+  if (!adapter || !faults.enabled()) return adapter;
+  return TransportResult(
+      std::unique_ptr<Transport>(new FaultInjectingTransport(std::move(*adapter), faults)));
 }
 
 TransportResult makeTransport(const std::string& url) {

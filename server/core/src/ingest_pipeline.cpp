@@ -56,6 +56,7 @@ void IngestPipeline::onKeyframe(const msg::Keyframe& kf) {
     registry_.countWaitingForHello(kf.robot_id);
     return;
   }
+  registry_.noteSession(kf.robot_id, kf.header.session);  // a restarted server heard no Hello
   const KeyframeKey key{robot, kf.header.session, kf.segment_id, kf.keyframe_id};
   if (!admitLocked(kf, key, lock)) return;
   const ImageLimits limits{config_.max_image_pixels, config_.max_image_bytes};

@@ -44,6 +44,14 @@ Result<bool> RobotRegistry::hello(const std::string& robot_id, int64_t session,
   return changed;
 }
 
+void RobotRegistry::noteSession(const std::string& robot_id, int64_t session) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  const auto it = robots_.find(robot_id);
+  if (it == robots_.end() || it->second.index < 0 || session <= it->second.session) return;
+  it->second.session = session;
+  ++it->second.stats.sessions;
+}
+
 Status RobotRegistry::save(const std::string& map_dir) const {
   std::ostringstream out;
   out << kHeader << "\n" << std::setprecision(17);

@@ -20,6 +20,11 @@ class RobotRegistry {
  public:
   /// Registers a Hello. Returns true when something to persist changed (new robot or new camera).
   Result<bool> hello(const std::string& robot_id, int64_t session, const CameraIntrinsics& camera);
+  /// A keyframe of `session` from a known robot: a newer session than the registry's becomes the current
+  /// one (counted like a Hello's). After a restart the registry comes back without sessions and a robot
+  /// that heard the old server does not say Hello again (LCM has no durable Hello): without this its
+  /// keyframes would never be in the PoseCorrections, which cover the current session only.
+  void noteSession(const std::string& robot_id, int64_t session);
   Status save(const std::string& map_dir) const;
   /// Reads robots.txt if present (a missing file is an empty registry).
   Status load(const std::string& map_dir);

@@ -75,6 +75,10 @@ struct RobotLinkStats {
   std::map<std::string, int64_t> server_rejects;
   bool server_rejects_verified = false;
   bool server_status_seen = false;  ///< any ServerStatus arrived, verified or not
+  /// Time from a keyframe's first transmission to its (first) accepting ack, over the accepted keyframes
+  /// (bounded reservoir, common/sample_reservoir.hpp); 0 before any.
+  uint64_t ack_latency_samples = 0;
+  double ack_latency_ms_median = 0.0, ack_latency_ms_p90 = 0.0, ack_latency_ms_max = 0.0;
 };
 
 class RobotLink {  // thread-safe; handlers never block the transport's receive thread

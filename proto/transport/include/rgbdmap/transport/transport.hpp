@@ -22,6 +22,9 @@ struct TransportStats {
   uint64_t bytes_sent = 0;
   uint64_t bytes_received = 0;
   uint64_t dropped = 0;
+  /// Dropped on purpose by fault injection (drop= / drop_rx= in the URL; tests and benchmarks only).
+  uint64_t fault_dropped_published = 0;
+  uint64_t fault_dropped_received = 0;
 };
 
 /// publish() is thread-safe; handlers run on the transport's receive thread, one at a time, and may
@@ -47,6 +50,8 @@ class Transport {
 
 struct TransportOptions {
   /// memq:// (in-process LCM), udpm://group:port?ttl=..&recv_buf_size=.. (LCM), dds://?domain=N (Cyclone).
+  /// Fault injection on any of them (tests, benchmarks): drop=P drops published messages, drop_rx=P
+  /// received ones, each with probability P, seeded by drop_seed=N (default 1); logged as a warning.
   std::string url = "memq://";
   /// Channels whose last message reaches late joiners (DDS: TRANSIENT_LOCAL, keep-last 1), in addition
   /// to names ending in /map, /slice, /status, /pose_corrections or /hello. LCM has no durability: wrap an

@@ -1,0 +1,206 @@
+#!/usr/bin/env bash
+# Fault harness (issue #11): one rgbdmap-server and two rgbdmap-client processes (robot0 frames 0:113, robot1
+# 87:200 of a synthetic 200-frame loop, --fast) over LCM or Cyclone DDS, inside a private loopback-only
+# network namespace, under one fault; then it compares what the robots sent and had acknowledged
+# (client_<R>.json, keyframes_<R>.txt) with what the server stored (map/keyframes_<R>.txt, written from the
+# map store at the end) and writes OUT/result.json. Used by the ctest entries faults.* (with --check) and by
+# deploy/bench_faults.sh (without).
+#
+# Usage: faults.sh --fault F --transport lcm|dds --bin BIN_DIR --dataset DIR --out DIR [--check MAX_ATE_M]
+#          [--seed N]
+# Faults (fault_<name> below; hooks for the other helpers' work are marked HOOK):
+#   clean     no fault
+#   loss30    30 % of the messages every process publishes are dropped (drop=0.3 on every transport URL)
+#   loss60    60 % likewise
+#   dgram5    5 % of the UDP datagrams: DDS via Cyclone's Internal/Test/XmitLossiness (a test config
+#             derived from deploy/dds/cyclonedds-loopback.xml); LCM via rgbdmap-lossy-relay (HOOK)
+#   kill9     the server is killed (SIGKILL) at five random moments of the run and restarted on the same
+#             map directory each time
+#   flood     a robot with a valid key floods keyframes next to a well-behaved one (HOOK)
+#   diskfull  the map directory's file system fills up, then space is freed (HOOK)
+# An acknowledged keyframe is never sent again, so "every keyframe sent is stored at the end" also shows
+# that no kill -9 lost a keyframe the server had acknowledged before it.
+# --check M: exit 1 unless every keyframe a robot sent is stored, every keyframe it had acknowledged is
+# stored, the two robots end in one merged map with ATE below M (clean, loss30, dgram5, kill9: and every
+# keyframe is acknowledged; loss60: stored within the robot's final wait is enough).
+# Exit 0 ok, 1 a check failed, 2 usage, 77 skipped (no network namespace, or a HOOK not implemented yet).
+set -u
+fault="" transport="" bin="" ds="" out="" check="" seed=7
+while [ $# -gt 0 ]; do
+  case "$1" in
+    --fault) fault="$2"; shift 2 ;;
+    --transport) transport="$2"; shift 2 ;;
+    --bin) bin="$2"; shift 2 ;;
+    --dataset) ds="$2"; shift 2 ;;
+    --out) out="$2"; shift 2 ;;
+    --check) check="$2"; shift 2 ;;
+    --seed) seed="$2"; shift 2 ;;
+    *) echo "unknown argument: $1" >&2; exit 2 ;;
+  esac
+done
+case "$transport" in lcm|dds) ;; *) echo "--transport must be lcm or dds" >&2; exit 2 ;; esac
+[ -n "$fault" ] && [ -x "$bin/rgbdmap-server" ] && [ -s "$ds/groundtruth.txt" ] && [ -n "$out" ] \
+  || { echo "usage: faults.sh --fault F --transport T --bin DIR --dataset DIR --out DIR" >&2; exit 2; }
+repo="$(cd "$(dirname "$0")/../.." && pwd)"
+if [ -z "${RGBDMAP_TRANSPORT_NETNS:-}" ]; then  # re-run inside the namespace (exit 77 where not permitted)
+  exec bash "$repo/tests/transport/run_in_netns.sh" bash "$0" --fault "$fault" --transport "$transport" \
+    --bin "$bin" --dataset "$ds" --out "$out" ${check:+--check "$check"} --seed "$seed"
+fi
+RANDOM=$seed
+robots=(robot0 robot1) ranges=(0:113 87:200)
+drop="" final_wait=20 server_pid="" client_pids=()
+lcm_url='udpm://239.255.76.67:7667?ttl=0&recv_buf_size=8388608'
+dds_url='dds://?domain=0'
+export CYCLONEDDS_URI="file://$repo/deploy/dds/cyclonedds-loopback.xml"
+
+# --- processes -----------------------------------------------------------------------------------------------
+url_for() {  # url_for INDEX: the base URL, plus message loss with a seed of its own per process
+  local u; u=$([ "$transport" = lcm ] && echo "$lcm_url" || echo "$dds_url")
+  [ -n "$drop" ] && u="$u&drop=$drop&drop_seed=$((seed * 10 + $1))"
+  echo "$u"
+}
+write_configs() {
+  rm -rf "$out"; mkdir -p "$out/keys" "$out/logs"; chmod 700 "$out/keys"
+  : >"$out/keys/server_keys.txt"
+  local i=0 r
+  for r in "${robots[@]}"; do
+    i=$((i + 1))
+    od -An -tx1 -N32 /dev/urandom | tr -d ' \n' >"$out/keys/$r.key"
+    echo "$r $(cat "$out/keys/$r.key")" >>"$out/keys/server_keys.txt"
+    printf 'robot:\n  id: %s\n  key_file: keys/%s.key\ntransport:\n  url: "%s"\nlink:\n  final_wait_s: %s\n' \
+      "$r" "$r" "$(url_for "$i")" "$final_wait" >"$out/client_$r.yaml"
+  done
+  chmod 600 "$out/keys/"*
+  printf 'server:\n  map_dir: %s\n  robots: "robot0,robot1"\n  transport: "%s"\n  keys_file: %s\n' \
+    "$out/map" "$(url_for 0)" "$out/keys/server_keys.txt" >"$out/server.yaml"
+}
+start_server() {  # appends to logs/server.log (a restarted server continues the same log)
+  echo "=== server start $(date +%T.%N)" >>"$out/logs/server.log"
+  "$bin/rgbdmap-server" --config "$out/server.yaml" --status-every 0 >>"$out/logs/server.log" 2>&1 &
+  server_pid=$!
+}
+start_clients() {
+  local i
+  for i in "${!robots[@]}"; do
+    "$bin/rgbdmap-client" --config "$out/client_${robots[$i]}.yaml" --dataset "$ds" --fast \
+      --frames "${ranges[$i]}" --out "$out/robots/${robots[$i]}" >"$out/logs/client_${robots[$i]}.log" 2>&1 &
+    client_pids+=($!)
+  done
+}
+clients_running() { local p; for p in "${client_pids[@]}"; do kill -0 "$p" 2>/dev/null && return 0; done; return 1; }
+wait_clients() { local p; for p in "${client_pids[@]}"; do wait "$p"; echo "client exit $?" >>"$out/logs/exits.txt"; done; }
+stop_server() {
+  kill -0 "$server_pid" 2>/dev/null || echo "server $server_pid no longer running at the end" >>"$out/logs/exits.txt"
+  kill -INT "$server_pid"; wait "$server_pid"; echo "server exit $?" >>"$out/logs/exits.txt"
+}
+run_plain() { start_server; sleep 1; start_clients; wait_clients; stop_server; }
+
+# --- faults --------------------------------------------------------------------------------------------------
+fault_clean() { write_configs; run_plain; }
+fault_loss30() { drop=0.3; write_configs; run_plain; }
+fault_loss60() { drop=0.6; write_configs; run_plain; }
+fault_kill9() {  # five SIGKILLs, each 0.4..2.0 s after the (re)start, restarted 0.2 s later
+  write_configs; start_server; sleep 1; start_clients
+  local k
+  for k in 1 2 3 4 5; do
+    sleep "$(awk -v r=$RANDOM 'BEGIN {printf "%.2f", 0.4 + 1.6 * r / 32767}')"
+    local when="after the clients ended"; clients_running && when="during the run"
+    kill -9 "$server_pid"; wait "$server_pid" 2>/dev/null
+    echo "kill $k at $(date +%T.%N) $when" >>"$out/logs/kills.txt"
+    sleep 0.2; start_server
+  done
+  wait_clients; stop_server
+}
+fault_dgram5() { if [ "$transport" = dds ]; then fault_dgram5_dds; else fault_dgram5_lcm; fi; }
+fault_dgram5_dds() {  # 50 per mille of Cyclone's outgoing datagrams dropped, in every process
+  write_configs
+  sed 's|^    <Internal>|    <Internal>\n      <Test><XmitLossiness>50</XmitLossiness></Test>|' \
+    "$repo/deploy/dds/cyclonedds-loopback.xml" >"$out/cyclonedds-lossy.xml"
+  grep -q '<XmitLossiness>50<' "$out/cyclonedds-lossy.xml" || { echo "FAIL: lossy DDS config"; exit 1; }
+  export CYCLONEDDS_URI="file://$out/cyclonedds-lossy.xml"
+  run_plain
+}
+# HOOK (helper "chunk"): LCM through rgbdmap-lossy-relay dropping 5 % of the datagrams between the robots'
+# and the server's multicast groups. Fill in: robots on one group/port, server on another, the relay between.
+fault_dgram5_lcm() {
+  [ -x "$bin/rgbdmap-lossy-relay" ] || { echo "SKIP: HOOK dgram5 over LCM needs rgbdmap-lossy-relay"; exit 77; }
+  echo "SKIP: HOOK dgram5 over LCM: relay wiring not written yet"; exit 77
+}
+# HOOK (helper "fair"): a third robot with a valid key floods keyframes; check robot0's ack latency p90 < 1 s,
+# all its keyframes stored, and the server's peak RSS under a stated bound.
+fault_flood() { echo "SKIP: HOOK flood (helper fair) not written yet"; exit 77; }
+# HOOK (helper "durable"): the map directory on a small tmpfs/loop file system filled up mid-run, then freed;
+# check the server recovers on its own and no truncated file replaces a good one.
+fault_diskfull() { echo "SKIP: HOOK diskfull (helper durable) not written yet"; exit 77; }
+
+# --- what was sent, acknowledged, stored ---------------------------------------------------------------------
+stamps() { [ -s "$1" ] && grep -v '^#' "$1" | awk '{print $1}' | sort -u; }
+collect() {
+  local r j sent acked stored missing acked_missing rows=()
+  for r in "${robots[@]}"; do
+    j="$out/robots/$r/client_$r.json"
+    [ -s "$j" ] || { echo "FAIL: $r wrote no client_$r.json"; tail -n 5 "$out/logs/client_$r.log"; return 1; }
+    stamps "$out/robots/$r/keyframes_$r.txt" >"$out/sent_$r.txt"
+    stamps "$out/map/keyframes_$r.txt" >"$out/stored_$r.txt"
+    sent=$(wc -l <"$out/sent_$r.txt"); stored=$(comm -12 "$out/sent_$r.txt" "$out/stored_$r.txt" | wc -l)
+    missing=$(comm -23 "$out/sent_$r.txt" "$out/stored_$r.txt" | head -n 5 | tr '\n' ' ')
+    rows+=("$(jq -c --arg r "$r" --argjson sent "$sent" --argjson stored "$stored" --arg missing "$missing" \
+      '{robot: $r, sent: $sent, keyframes_sent: .keyframes_sent, acked: .keyframes_acked, stored: $stored,
+        missing: $missing, given_up: .keyframes_given_up, retransmissions: .retransmissions,
+        ack_ms_median: .ack_latency_ms_median, ack_ms_p90: .ack_latency_ms_p90, all_acked: .all_acked,
+        corrections: .corrections_received, final_correction: .final_correction_received}' "$j")")
+  done
+  [ -s "$out/map/server_summary.json" ] || { echo "FAIL: no server_summary.json (the last server did not stop cleanly)"
+    cat "$out/logs/exits.txt"; return 1; }
+  cat "$out"/map/keyframes_robot*.txt 2>/dev/null | grep -v '^#' | sort -n >"$out/merged.txt"
+  local ate
+  ate=$("$bin/rgbdmap" eval --gt "$ds/groundtruth.txt" --est "$out/merged.txt" 2>/dev/null \
+    | awk '$1 == "ate_rmse_m" {print $2}')
+  printf '%s\n' "${rows[@]}" | jq -s --arg fault "$fault" --arg t "$transport" --arg ate "${ate:-nan}" \
+    --slurpfile s "$out/map/server_summary.json" --arg kills "$(grep -c '^kill' "$out/logs/kills.txt" 2>/dev/null)" \
+    --arg during "$(grep -c 'during the run' "$out/logs/kills.txt" 2>/dev/null)" \
+    '{fault: $fault, transport: $t, robots: ., ate_m: $ate, maps: $s[0].maps, merged_maps: $s[0].merged_maps,
+      server_keyframes: $s[0].keyframes, kills: ($kills | tonumber? // 0),
+      kills_during_run: ($during | tonumber? // 0)}' >"$out/result.json"
+}
+
+check_result() {
+  local res="$out/result.json" ok=1 need_acked=1
+  [ "$fault" = loss60 ] && need_acked=0
+  jq -e 'all(.robots[]; .stored == .sent and .sent > 0 and .sent == .keyframes_sent)' "$res" >/dev/null \
+    && echo "ok: every keyframe sent is stored" \
+    || { echo "FAIL: keyframes not stored: $(jq -c '[.robots[] | {robot, sent, stored, missing}]' "$res")"; ok=0; }
+  if [ "$need_acked" = 1 ]; then
+    jq -e 'all(.robots[]; .acked == .sent and .all_acked)' "$res" >/dev/null && echo "ok: every keyframe acknowledged" \
+      || { echo "FAIL: not all acknowledged: $(jq -c '[.robots[] | {robot, sent, acked}]' "$res")"; ok=0; }
+  fi
+  jq -e '.maps == 1 and (.merged_maps | length == 1 and (.[0] | sort) == ["robot0", "robot1"])' "$res" >/dev/null \
+    && echo "ok: one merged map" || { echo "FAIL: not one merged map: $(jq -c .merged_maps "$res")"; ok=0; }
+  awk -v a="$(jq -r .ate_m "$res")" -v m="$check" 'BEGIN {exit !(a == a + 0 && a < m)}' \
+    && echo "ok: merged ATE $(jq -r .ate_m "$res") m < $check m" || { echo "FAIL: ATE $(jq -r .ate_m "$res") m"; ok=0; }
+  if [ "$fault" = kill9 ]; then
+    jq -e '.kills_during_run == 5' "$res" >/dev/null && echo "ok: five kills -9 while the robots ran" \
+      || { echo "FAIL: only $(jq .kills_during_run "$res") of the kills hit a running robot"; ok=0; }
+    # A restarted server hears no Hello over LCM; it must still correct the robots' keyframes (before the
+    # fix in RobotRegistry::noteSession: no PoseCorrections at all after the first kill). Not required: one
+    # covering the last keyframe (lost when a kill falls between its ack and its correction; see README).
+    jq -e 'all(.robots[]; .corrections > 0)' "$res" >/dev/null \
+      && echo "ok: the robots got corrections" \
+      || { echo "FAIL: corrections after the restarts: $(jq -c '[.robots[] | {robot, corrections}]' "$res")"; ok=0; }
+  fi
+  grep -q 'server exit 0' "$out/logs/exits.txt" || { echo "FAIL: the last server did not exit 0"; ok=0; }
+  [ "$ok" = 1 ]
+}
+
+start_s=$(date +%s)
+trap 'kill $server_pid "${client_pids[@]}" 2>/dev/null' EXIT
+declare -F "fault_$fault" >/dev/null || { echo "unknown fault '$fault'" >&2; exit 2; }
+"fault_$fault"
+trap - EXIT
+collect || { tail -n 25 "$out"/logs/*; exit 1; }
+echo "== $fault over $transport: $(( $(date +%s) - start_s )) s; $(jq -c '{ate_m, maps, kills_during_run, robots: [.robots[] |
+  {robot, sent, acked, stored, retransmissions, ack_ms_median, ack_ms_p90}]}' "$out/result.json")"
+[ -z "$check" ] && exit 0
+check_result && exit 0
+tail -n 20 "$out"/logs/*.log
+exit 1
