@@ -2,6 +2,7 @@
 #include <algorithm>
 
 #include "convert_common.hpp"
+#include "rgbdmap/proto/chunking.hpp"
 #include "rgbdmap/proto/codec.hpp"
 #include "rgbdmap_lcm/chunk_ack_t.hpp"
 #include "rgbdmap_lcm/keyframe_chunk_t.hpp"
@@ -97,6 +98,34 @@ Status validate(const ChunkAck& m) {
   if (m.chunk_count < 1 || m.chunk_count > kMaxChunkCount) return fail("chunk count out of range");
   if (m.received.size() != static_cast<size_t>((m.chunk_count + 7) / 8)) return fail("bitmap size != count");
   return Status::success();
+}
+
+int chunkCount(size_t total_bytes, int chunk_bytes) {
+  if (chunk_bytes < kMinChunkBytes || chunk_bytes > kMaxChunkBytes || total_bytes == 0 ||
+      total_bytes > static_cast<size_t>(kMaxChunkedBytes))
+    return 0;
+  return static_cast<int>((total_bytes + static_cast<size_t>(chunk_bytes) - 1) /
+                          static_cast<size_t>(chunk_bytes));
+}
+
+Result<KeyframeChunk> makeChunk(const Bytes& envelope, int chunk_bytes, int index,
+                                const std::string& robot_id, int keyframe_id, int64_t transfer_id) {
+  const int count = chunkCount(envelope.size(), chunk_bytes);
+  if (count == 0 || index < 0 || index >= count)
+    return Result<KeyframeChunk>::failure("chunk arguments out of range");
+  KeyframeChunk c;
+  c.robot_id = robot_id;
+  c.transfer_id = transfer_id;
+  c.keyframe_id = keyframe_id;
+  c.chunk_index = index;
+  c.chunk_count = count;
+  c.chunk_bytes = chunk_bytes;
+  c.total_bytes = static_cast<int>(envelope.size());
+  const size_t begin = static_cast<size_t>(index) * static_cast<size_t>(chunk_bytes);
+  const size_t end = std::min(envelope.size(), begin + static_cast<size_t>(chunk_bytes));
+  c.data.assign(envelope.begin() + static_cast<std::ptrdiff_t>(begin),
+                envelope.begin() + static_cast<std::ptrdiff_t>(end));
+  return c;
 }
 
 RGBDMAP_PROTO_CODEC(KeyframeChunk, toWireChunk, fromWireChunk)
