@@ -11,6 +11,7 @@
 #include <optional>
 #include <string>
 #include <thread>
+#include <vector>
 
 #include "rgbdmap/link/robot_link.hpp"
 #include "rgbdmap/proto/envelope.hpp"
@@ -47,12 +48,18 @@ class RobotLink::Impl : public std::enable_shared_from_this<RobotLink::Impl> {
 
  private:
   enum class Answer { kPending, kAccepted, kRefused };
+  struct ChunkTransfer {  ///< the sealed keyframe envelope being sent in chunks
+    std::shared_ptr<const msg::Bytes> envelope;
+    int64_t transfer_id = -1;
+    std::vector<bool> received;  ///< per chunk, from the server's ChunkAcks
+  };
   struct SentKeyframe {
     int segment = 0;
     SE3 T_odom_cam = SE3::Identity();
     std::unique_ptr<msg::Keyframe> message;  ///< encoded, unsealed; dropped once answered or last sent
     int transmissions = 0;
     Answer answer = Answer::kPending;
+    ChunkTransfer transfer;  ///< chunk_bytes > 0 only
   };
 
   // Sending (robot_link.cpp).
@@ -63,6 +70,13 @@ class RobotLink::Impl : public std::enable_shared_from_this<RobotLink::Impl> {
   Status sendHello();
   Status sendHeartbeat();
   bool allAnswered() const;  ///< caller holds mutex_
+
+  // Chunked keyframes (robot_link_chunks.cpp).
+  bool chunking() const { return options_.chunk_bytes > 0; }
+  Status transmitChunked(int keyframe_id);  ///< the missing chunks, or a new transfer when none are missing
+  Status sendChunks(int keyframe_id, const std::shared_ptr<const msg::Bytes>& envelope, int64_t transfer_id,
+                    const std::vector<int>& indices);
+  void handle(const msg::ChunkAck& ack);
 
   // Receiving (robot_link_receive.cpp).
   Status subscribeAll();
@@ -86,6 +100,11 @@ class RobotLink::Impl : public std::enable_shared_from_this<RobotLink::Impl> {
   msg::RejectCounters rejects_;
   std::mutex signer_mutex_;
   msg::Signer signer_;
+  /// Keyframe envelopes sent in chunks: their own seq stream, so the server's replay window (64 per message
+  /// type) is not pushed past a keyframe by the hundred chunk envelopes of the next ones.
+  std::mutex keyframe_signer_mutex_;
+  msg::Signer keyframe_signer_;
+  std::string chunk_channel_;
   transport::ReliableSender reliable_;
   const Clock::time_point created_ = Clock::now();
 

@@ -4,8 +4,10 @@
 // queue drops (the robot resends). Rejections are counted (and logged, rate-limited) by RejectCounters.
 #include <atomic>
 #include <cstdint>
+#include <functional>
 #include <string>
 
+#include "chunk_reassembly.hpp"
 #include "ingest_queue.hpp"
 #include "rgbdmap/proto/envelope.hpp"
 #include "rgbdmap/server/map_server_config.hpp"
@@ -22,6 +24,10 @@ class Inbox {
   /// A transport handler (one call at a time, on the receive thread).
   void onMessage(const std::string& channel, const uint8_t* data, size_t size);
 
+  /// Where ChunkAcks go (the server's RobotPublisher); chunked keyframes are refused without one.
+  using ChunkAckSink = std::function<void(const std::string& robot, const msg::ChunkAck& ack)>;
+  void setChunkAckSink(ChunkAckSink sink) { chunk_ack_sink_ = std::move(sink); }
+
   uint64_t rejected() const { return rejects_.total(); }
   uint64_t unknownRobot() const { return unknown_robot_.load(); }
 
@@ -29,6 +35,8 @@ class Inbox {
   bool admitted(const std::string& robot) const;  ///< in config.robots (or the list is empty)
   void onHello(const msg::OpenedEnvelope& opened, const std::string& robot);
   void onKeyframe(const msg::OpenedEnvelope& opened, const std::string& robot);
+  void onChunk(const msg::OpenedEnvelope& opened, const std::string& robot);  ///< inbox_chunks.cpp
+  void onReassembled(const std::string& robot, const msg::Bytes& envelope);
 
   const MapServerConfig& config_;
   const msg::KeyStore& keys_;
@@ -37,6 +45,8 @@ class Inbox {
   msg::ReplayGuard guard_;
   msg::RejectCounters rejects_;
   std::atomic<uint64_t> unknown_robot_{0};
+  ChunkReassembly chunks_;
+  ChunkAckSink chunk_ack_sink_;
 };
 
 }  // namespace rgbdmap

@@ -42,7 +42,10 @@ struct MapServer::Impl {
         status(config.status_period_s, registry, publisher, [this] { return pipeline.graphRevision(); }),
         gate([this](const std::string& channel, const uint8_t* data, size_t size) {
           inbox.onMessage(channel, data, size);
-        }) {}
+        }) {
+    inbox.setChunkAckSink(
+        [this](const std::string& robot, const msg::ChunkAck& ack) { publisher.publish(robot, ack); });
+  }
 
   Status openAndRestore();
   void startWorkers();
@@ -108,8 +111,8 @@ Status MapServer::Impl::subscribe() {
     patterns.push_back("rgbdmap/*");
   } else {
     for (const std::string& robot : config.robots)
-      for (const auto type :
-           {msg::MessageType::kHello, msg::MessageType::kHeartbeat, msg::MessageType::kKeyframe})
+      for (const auto type : {msg::MessageType::kHello, msg::MessageType::kHeartbeat,
+                              msg::MessageType::kKeyframe, msg::MessageType::kKeyframeChunk})
         patterns.push_back(*msg::channelFor(type, robot));
   }
   for (const std::string& p : patterns)
