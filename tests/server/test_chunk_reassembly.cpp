@@ -127,6 +127,16 @@ TEST(ChunkReassembly, BoundsPerRobotEvictOldestAndTimeOut) {
   const auto good = split(envelopeBytes(3000, 10), 1200, 1, 1);
   for (const auto& c : good) r.add("good", c, now, &out);
   EXPECT_EQ(out.size(), 3000u);
+  // All robots together: a new transfer beyond max_total_bytes is refused.
+  ChunkReassemblyOptions tight = options;
+  tight.max_total_bytes = 500000;
+  ChunkReassembly shared(tight);
+  for (int robot = 0; robot < 10; ++robot) {
+    const auto chunks = split(envelopeBytes(150000, 1), 1200, 1, 1);
+    const Outcome o = shared.add("robot" + std::to_string(robot), chunks[0], now, &out);
+    EXPECT_EQ(o, robot < 3 ? Outcome::kStored : Outcome::kRefused) << robot;
+  }
+  EXPECT_LE(shared.bytesInProgress(), tight.max_total_bytes);
   // Idle transfers time out.
   r.evictStale(now + std::chrono::seconds(3));
   EXPECT_EQ(r.transfersInProgress(), 0u);

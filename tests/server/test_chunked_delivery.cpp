@@ -53,29 +53,31 @@ class DroppingTransport : public transport::Transport {
   std::mt19937_64 rng_;
 };
 
-/// A 320x240 frame of colour noise: ~100-200 KB per keyframe, like a real one on the wire.
-RgbdFrame noiseFrame(int seed) {
+/// A frame of colour noise: 320x240 ~70 KB per keyframe on the wire, 448x336 ~140 KB (a real keyframe).
+RgbdFrame noiseFrame(int seed, int width, int height) {
   RgbdFrame f;
   f.timestamp = 100.0 + seed;
-  f.color.create(240, 320, CV_8UC3);
+  f.color.create(height, width, CV_8UC3);
   cv::theRNG().state = static_cast<uint64_t>(seed + 1);
   cv::randu(f.color, cv::Scalar::all(0), cv::Scalar::all(255));
-  f.depth = cv::Mat(240, 320, CV_16UC1, cv::Scalar(7500));
+  f.depth = cv::Mat(height, width, CV_16UC1, cv::Scalar(7500));
   return f;
 }
 
-RobotLinkOptions chunkedOptions(const std::string& robot, const msg::Bytes& key, int chunk_bytes) {
+RobotLinkOptions chunkedOptions(const std::string& robot, const msg::Bytes& key, int chunk_bytes,
+                                int width = 320, int height = 240) {
   RobotLinkOptions o = linkOptions(robot, key);
-  o.camera = CameraIntrinsics{525.0, 525.0, 159.5, 119.5, 320, 240, {0, 0, 0, 0, 0}, 5000.0};
+  o.camera = CameraIntrinsics{525.0, 525.0,  0.5 * (width - 1), 0.5 * (height - 1),
+                              width, height, {0, 0, 0, 0, 0},   5000.0};
   o.chunk_bytes = chunk_bytes;
   o.reliable.max_attempts = 1000;  // bounded by the test's wait, not by attempts
   return o;
 }
 
 /// Sends `count` keyframes (a chain) and waits up to `timeout_s` for their acks; returns the acked count.
-uint64_t sendAndWait(RobotLink& link, int count, double timeout_s) {
+uint64_t sendAndWait(RobotLink& link, int count, double timeout_s, int width = 320, int height = 240) {
   for (int i = 0; i < count; ++i) {
-    const Status s = link.sendKeyframe(smallKeyframe(i, 0, testPose(i), i - 1), noiseFrame(i));
+    const Status s = link.sendKeyframe(smallKeyframe(i, 0, testPose(i), i - 1), noiseFrame(i, width, height));
     EXPECT_TRUE(s) << s.error();
   }
   link.waitAllAcked(timeout_s);
@@ -175,22 +177,22 @@ TEST(NetChunk, EveryKeyframeAcknowledgedThroughFivePercentPacketLoss) {
   ASSERT_TRUE(server.start());
   ASSERT_TRUE(server_transport->start());
   auto robot_transport = transport::makeTransport(robots_url).value();
-  RobotLinkOptions options = chunkedOptions("robot0", testKey(1), chunk_bytes);
-  options.reliable.max_backoff = std::chrono::milliseconds(500);
+  RobotLinkOptions options = chunkedOptions("robot0", testKey(1), chunk_bytes, 448, 336);
+  options.reliable = transport::ReliableSenderOptions{};  // the production timers: 100 ms .. 2 s, 20 attempts
   RobotLink link(*robot_transport, options);
   ASSERT_TRUE(link.start());
   const int count = 10;
   const auto t0 = std::chrono::steady_clock::now();
-  const uint64_t acked = sendAndWait(link, count, 20.0);
+  const uint64_t acked = sendAndWait(link, count, 20.0, 448, 336);
   const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   const RobotLinkStats s = link.stats();
   std::printf(
       "udpm %s packet loss, chunk_bytes %d: %llu/%d keyframes acked in %.2f s; %llu bytes sent, "
-      "%llu chunks (%llu resent), %llu keyframe retransmissions, server stored %d\n",
+      "%llu chunks (%llu resent), %llu keyframe retransmissions, %llu given up, server stored %d\n",
       loss.c_str(), chunk_bytes, static_cast<unsigned long long>(acked), count, seconds,
       static_cast<unsigned long long>(s.bytes_sent), static_cast<unsigned long long>(s.chunks_sent),
       static_cast<unsigned long long>(s.chunks_resent), static_cast<unsigned long long>(s.retransmissions),
-      server.stats().keyframes);
+      static_cast<unsigned long long>(s.keyframes_given_up), server.stats().keyframes);
   if (chunk_bytes > 0) {
     EXPECT_EQ(acked, static_cast<uint64_t>(count));
   }

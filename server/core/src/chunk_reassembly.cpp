@@ -39,6 +39,7 @@ ChunkReassembly::Outcome ChunkReassembly::add(const std::string& robot, const ms
     t.data.resize(bytes);
     t.received.assign(static_cast<size_t>(chunk.chunk_count), false);
     state.bytes += bytes;
+    total_bytes_ += bytes;
     it = state.transfers.emplace(chunk.transfer_id, std::move(t)).first;
   }
   Transfer& t = it->second;
@@ -76,11 +77,12 @@ bool ChunkReassembly::makeRoom(RobotState& state, size_t bytes) {
     erase(state, oldest);
     ++stats_.evicted;
   }
-  return true;
+  return total_bytes_ + bytes <= options_.max_total_bytes;
 }
 
 void ChunkReassembly::erase(RobotState& state, std::map<int64_t, Transfer>::iterator it) {
   state.bytes -= static_cast<size_t>(it->second.total_bytes);
+  total_bytes_ -= static_cast<size_t>(it->second.total_bytes);
   state.transfers.erase(it);
 }
 
@@ -121,10 +123,6 @@ size_t ChunkReassembly::transfersInProgress() const {
   return n;
 }
 
-size_t ChunkReassembly::bytesInProgress() const {
-  size_t n = 0;
-  for (const auto& [robot, state] : robots_) n += state.bytes;
-  return n;
-}
+size_t ChunkReassembly::bytesInProgress() const { return total_bytes_; }
 
 }  // namespace rgbdmap

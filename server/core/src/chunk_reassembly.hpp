@@ -2,9 +2,10 @@
 // Reassembly of chunked keyframe transfers (msg::KeyframeChunk, udpm:// robots), on the inbox's receive
 // thread. Chunks arrive authenticated and validated (consistent count/size/index); this class bounds what a
 // robot can make the server hold: at most `max_transfers_per_robot` transfers in progress and
-// `max_bytes_per_robot` declared bytes (the oldest transfer is evicted to make room), and a transfer with no
-// new chunk for `timeout_s` is dropped. Completed transfers are remembered (a few per robot) so late
-// duplicates are answered "all received" rather than starting a new transfer. Not thread-safe.
+// `max_bytes_per_robot` declared bytes (the oldest transfer is evicted to make room; a new transfer is
+// refused while all robots together hold `max_total_bytes`), and a transfer with no new chunk for `timeout_s`
+// is dropped. Completed transfers are remembered (a few per robot) so late duplicates are answered "all
+// received" rather than starting a new transfer. Not thread-safe.
 #include <chrono>
 #include <cstdint>
 #include <deque>
@@ -19,7 +20,8 @@ namespace rgbdmap {
 
 struct ChunkReassemblyOptions {
   size_t max_transfers_per_robot = 4;
-  size_t max_bytes_per_robot = 8u << 20;
+  size_t max_bytes_per_robot = 4u << 20;
+  size_t max_total_bytes = 256u << 20;  ///< all robots (open mode lets anyone claim a robot id)
   double timeout_s = 10.0;
   size_t completed_remembered = 32;  ///< per robot
 };
@@ -66,6 +68,7 @@ class ChunkReassembly {
 
   ChunkReassemblyOptions options_;
   std::map<std::string, RobotState> robots_;
+  size_t total_bytes_ = 0;
   ChunkReassemblyStats stats_;
 };
 
