@@ -32,6 +32,25 @@ TEST(ProtoChunk, RoundTripThroughSignedEnvelope) {
   EXPECT_LT(bytes.size(), 1400u) << "a 1,200-byte chunk must fit one Ethernet datagram with its envelope";
 }
 
+TEST(ProtoChunk, DefaultChunkFitsOneEthernetDatagramForTheLongestRobotId) {
+  const std::string robot(kMaxIdLength, 'r');
+  Signer signer(robot, testing::testKey(1), 1732500000000000);
+  KeyframeChunk c = testing::sampleChunk();
+  c.robot_id = robot;
+  c.chunk_index = 0;
+  c.chunk_bytes = 1100;
+  c.chunk_count = 3;
+  c.data.assign(1100, 0x11);
+  c.transfer_id = c.keyframe_id = 2000000000;
+  const Result<Bytes> sealed = signer.seal(c, 1732500000000000);
+  ASSERT_TRUE(sealed) << sealed.error();
+  const Bytes& bytes = *sealed;
+  // The default chunk_bytes (resolveChunkBytes). LCM: 8-byte short-message header (or 20-byte fragment header) + channel name + NUL + payload; one
+  // datagram at MTU 1500 carries 1472 bytes of UDP payload.
+  const size_t channel = std::string("rgbdmap/" + robot + "/keyframe_chunk").size() + 1;
+  EXPECT_LE(bytes.size() + 20 + channel, 1472u) << bytes.size();
+}
+
 TEST(ProtoChunk, InconsistentHeadersAreRefused) {
   const std::vector<std::pair<const char*, std::function<void(KeyframeChunk&)>>> cases = {
       {"index past count", [](KeyframeChunk& c) { c.chunk_index = 3; }},

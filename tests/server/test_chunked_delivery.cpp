@@ -88,7 +88,7 @@ TEST(ChunkedDelivery, LostChunksAreResentUntilEveryKeyframeIsStored) {
   const std::string dir = freshDir("chunked_loss");
   ServerHarness harness(serverTestConfig(dir, {"robot0"}));
   DroppingTransport lossy(*harness.transport, 0.05, 7);
-  RobotLink link(lossy, chunkedOptions("robot0", testKey(1), 1200));
+  RobotLink link(lossy, chunkedOptions("robot0", testKey(1), 1100));
   ASSERT_TRUE(link.start());
   const auto t0 = std::chrono::steady_clock::now();
   EXPECT_EQ(sendAndWait(link, 6, 20.0), 6u);
@@ -161,7 +161,7 @@ class Relay {
 TEST(NetChunk, EveryKeyframeAcknowledgedThroughFivePercentPacketLoss) {
   if (std::getenv("RGBDMAP_TRANSPORT_NETNS") == nullptr) GTEST_SKIP() << "only inside run_in_netns.sh";
   const char* env_chunk = std::getenv("RGBDMAP_TEST_CHUNK_BYTES");
-  const int chunk_bytes = env_chunk ? std::atoi(env_chunk) : 1200;
+  const int chunk_bytes = env_chunk ? std::atoi(env_chunk) : 1100;
   const char* env_loss = std::getenv("RGBDMAP_TEST_PACKET_LOSS");
   const std::string loss = env_loss ? env_loss : "0.05";
   const std::string robots_url = "udpm://239.255.76.67:7667?ttl=0&recv_buf_size=8388608";

@@ -12,6 +12,8 @@
 namespace rgbdmap {
 namespace {
 
+constexpr int kIdleRoundsBeforeReseal = 3;  ///< with the default backoff: ~0.7 s after the last chunk
+
 int64_t nowUtime() {
   return std::chrono::duration_cast<std::chrono::microseconds>(
              std::chrono::system_clock::now().time_since_epoch())
@@ -29,7 +31,7 @@ std::vector<int> missingChunks(const std::vector<bool>& received) {
 
 int resolveChunkBytes(int configured, const std::string& transport_url) {
   if (configured >= 0) return configured;
-  return transport_url.rfind("udpm://", 0) == 0 ? 1200 : 0;
+  return transport_url.rfind("udpm://", 0) == 0 ? 1100 : 0;
 }
 
 Status RobotLink::Impl::transmitChunked(int keyframe_id) {
@@ -44,6 +46,10 @@ Status RobotLink::Impl::transmitChunked(int keyframe_id) {
     SentKeyframe& entry = it->second;
     ++entry.transmissions;
     if (entry.transfer.envelope) missing = missingChunks(entry.transfer.received);
+    // Every chunk arrived: the KeyframeAck usually follows once the server stored the keyframe; a new
+    // transfer only after a few deadlines without it (the server may have refused to queue the keyframe).
+    if (entry.transfer.envelope && missing.empty() && ++entry.transfer.idle_rounds < kIdleRoundsBeforeReseal)
+      return Status::success();
     if (!missing.empty()) {
       envelope = entry.transfer.envelope;
       transfer_id = entry.transfer.transfer_id;

@@ -52,6 +52,7 @@ class RobotLink::Impl : public std::enable_shared_from_this<RobotLink::Impl> {
     std::shared_ptr<const msg::Bytes> envelope;
     int64_t transfer_id = -1;
     std::vector<bool> received;  ///< per chunk, from the server's ChunkAcks
+    int idle_rounds = 0;         ///< retransmission deadlines passed with every chunk received
   };
   struct SentKeyframe {
     int segment = 0;
