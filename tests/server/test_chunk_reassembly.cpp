@@ -104,6 +104,27 @@ TEST(ChunkReassembly, ContradictingChunksAreRefused) {
   EXPECT_EQ(r.add("robot_2", b[1], now, &out), Outcome::kStored);
 }
 
+TEST(ChunkReassembly, ARestartedRobotsTransferIdsStartAfresh) {
+  ChunkReassembly r;
+  const auto now = Clock::now();
+  msg::Bytes out;
+  auto first = split(envelopeBytes(3000, 1), 1200, 1, 0);
+  for (const auto& c : first) r.add("robot_1", c, now, &out);
+  auto pending = split(envelopeBytes(9000, 2), 1200, 2, 1);
+  EXPECT_EQ(r.add("robot_1", pending[0], now, &out), Outcome::kStored);
+  // Same session, transfer id 0 again with another layout: refused, not "all received".
+  auto other = split(envelopeBytes(5000, 3), 1200, 1, 0);
+  EXPECT_EQ(r.add("robot_1", other[0], now, &out), Outcome::kRefused);
+  // A new session (restart): ids 0 and 1 are new transfers.
+  for (auto& c : other) c.header.session = 2;
+  auto restarted = split(envelopeBytes(7000, 4), 1200, 2, 1);
+  for (auto& c : restarted) c.header.session = 2;
+  EXPECT_EQ(r.add("robot_1", other[0], now, &out), Outcome::kStored);
+  EXPECT_EQ(r.add("robot_1", restarted[0], now, &out), Outcome::kStored);
+  EXPECT_EQ(r.transfersInProgress(), 2u);
+  EXPECT_EQ(r.bytesInProgress(), 12000u);
+}
+
 TEST(ChunkReassembly, BoundsPerRobotEvictOldestAndTimeOut) {
   ChunkReassemblyOptions options;
   options.max_transfers_per_robot = 3;

@@ -13,6 +13,7 @@ namespace rgbdmap {
 namespace {
 
 constexpr int kIdleRoundsBeforeReseal = 3;  ///< with the default backoff: ~0.7 s after the last chunk
+constexpr int kMaxAckRounds = 16;           ///< resends answering ChunkAcks per transfer
 
 int64_t nowUtime() {
   return std::chrono::duration_cast<std::chrono::microseconds>(
@@ -117,7 +118,8 @@ void RobotLink::Impl::handle(const msg::ChunkAck& ack) {
     for (size_t i = 0; i < transfer.received.size(); ++i)
       if (msg::chunkReceived(ack.received, static_cast<int>(i))) transfer.received[i] = true;
     missing = missingChunks(transfer.received);
-    if (missing.empty()) return;  // the KeyframeAck follows once the server stored it
+    if (missing.empty()) return;                        // the KeyframeAck follows once the server stored it
+    if (++transfer.ack_rounds > kMaxAckRounds) return;  // no ping-pong with a server that keeps refusing
     envelope = transfer.envelope;
     counts_.chunks_resent += missing.size();
   }

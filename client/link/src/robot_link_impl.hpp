@@ -53,6 +53,7 @@ class RobotLink::Impl : public std::enable_shared_from_this<RobotLink::Impl> {
     int64_t transfer_id = -1;
     std::vector<bool> received;  ///< per chunk, from the server's ChunkAcks
     int idle_rounds = 0;         ///< retransmission deadlines passed with every chunk received
+    int ack_rounds = 0;          ///< resends answering a ChunkAck (bounded; then only the deadlines resend)
   };
   struct SentKeyframe {
     int segment = 0;

@@ -18,11 +18,16 @@ ChunkReassembly::Outcome ChunkReassembly::add(const std::string& robot, const ms
                                               Clock::time_point now, std::vector<uint8_t>* complete) {
   ++stats_.chunks;
   RobotState& state = robots_[robot];
-  for (const auto& done : state.completed) {
-    if (done.first == chunk.transfer_id) {
-      ++stats_.duplicates;
-      return Outcome::kDuplicate;
-    }
+  if (chunk.header.session != state.session) {
+    clear(state);
+    state.session = chunk.header.session;
+  }
+  for (const Completed& done : state.completed) {
+    if (done.transfer_id != chunk.transfer_id) continue;
+    const bool same = done.keyframe_id == chunk.keyframe_id && done.chunk_count == chunk.chunk_count &&
+                      done.total_bytes == chunk.total_bytes;
+    ++(same ? stats_.duplicates : stats_.refused);
+    return same ? Outcome::kDuplicate : Outcome::kRefused;
   }
   auto it = state.transfers.find(chunk.transfer_id);
   if (it == state.transfers.end()) {
@@ -60,7 +65,7 @@ ChunkReassembly::Outcome ChunkReassembly::add(const std::string& robot, const ms
   t.received[index] = true;
   if (++t.received_count < t.chunk_count) return Outcome::kStored;
   *complete = std::move(t.data);
-  state.completed.emplace_back(chunk.transfer_id, t.chunk_count);
+  state.completed.push_back(Completed{chunk.transfer_id, t.keyframe_id, t.chunk_count, t.total_bytes});
   if (state.completed.size() > options_.completed_remembered) state.completed.pop_front();
   erase(state, it);
   ++stats_.completed;
@@ -80,6 +85,11 @@ bool ChunkReassembly::makeRoom(RobotState& state, size_t bytes) {
   return total_bytes_ + bytes <= options_.max_total_bytes;
 }
 
+void ChunkReassembly::clear(RobotState& state) {
+  while (!state.transfers.empty()) erase(state, state.transfers.begin());
+  state.completed.clear();
+}
+
 void ChunkReassembly::erase(RobotState& state, std::map<int64_t, Transfer>::iterator it) {
   state.bytes -= static_cast<size_t>(it->second.total_bytes);
   total_bytes_ -= static_cast<size_t>(it->second.total_bytes);
@@ -90,8 +100,8 @@ std::optional<msg::Bytes> ChunkReassembly::receivedBitmap(const std::string& rob
                                                           int64_t transfer_id) const {
   const auto r = robots_.find(robot);
   if (r == robots_.end()) return std::nullopt;
-  for (const auto& done : r->second.completed)
-    if (done.first == transfer_id) return allOnes(done.second);
+  for (const Completed& done : r->second.completed)
+    if (done.transfer_id == transfer_id) return allOnes(done.chunk_count);
   const auto it = r->second.transfers.find(transfer_id);
   if (it == r->second.transfers.end()) return std::nullopt;
   const Transfer& t = it->second;

@@ -39,6 +39,8 @@ class ChunkReassembly {
 
   /// Adds one validated chunk of `robot`. kComplete moves the envelope bytes into *complete. kRefused: the
   /// chunk contradicts its transfer (other count, size or keyframe) or the transfer exceeds the bounds.
+  /// Transfer ids are per sender session (chunk.header.session): a newer session (a restarted robot) drops
+  /// what the robot's previous session left; the envelope's ReplayGuard already refused older sessions.
   Outcome add(const std::string& robot, const msg::KeyframeChunk& chunk, Clock::time_point now,
               std::vector<uint8_t>* complete);
   /// Received-chunk bitmap of a transfer (bit i of byte i / 8, LSB first), all ones once completed;
@@ -58,11 +60,17 @@ class ChunkReassembly {
     std::vector<bool> received;
     Clock::time_point last_chunk;
   };
+  struct Completed {
+    int64_t transfer_id = 0;
+    int keyframe_id = 0, chunk_count = 0, total_bytes = 0;
+  };
   struct RobotState {
-    std::map<int64_t, Transfer> transfers;          ///< transfer id -> in progress
-    std::deque<std::pair<int64_t, int>> completed;  ///< (transfer id, chunk count)
+    int64_t session = 0;
+    std::map<int64_t, Transfer> transfers;  ///< transfer id -> in progress
+    std::deque<Completed> completed;
     size_t bytes = 0;
   };
+  void clear(RobotState& state);
   bool makeRoom(RobotState& state, size_t bytes);
   void erase(RobotState& state, std::map<int64_t, Transfer>::iterator it);
 
