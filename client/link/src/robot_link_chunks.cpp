@@ -30,9 +30,16 @@ std::vector<int> missingChunks(const std::vector<bool>& received) {
 
 }  // namespace
 
+constexpr int kUdpmChunkBytes = 1100;  ///< one datagram at MTU 1500 even for a 32-character robot id
+static_assert(kUdpmChunkBytes >= msg::kMinChunkBytes, "chunk size");
+
 int resolveChunkBytes(int configured, const std::string& transport_url) {
   if (configured >= 0) return configured;
-  return transport_url.rfind("udpm://", 0) == 0 ? 1100 : 0;
+  // Opt-in for now: with chunks on by default for udpm://, the multi-process and `rgbdmap run` LCM end-to-end
+  // tests (integration.netns, run.transports.netns) failed (a robot never acknowledged; joint ATE 0.89 m);
+  // not understood yet, see deploy/lcm.md. kUdpmChunkBytes is the size to configure.
+  (void)transport_url;
+  return 0;
 }
 
 Status RobotLink::Impl::transmitChunked(int keyframe_id) {
