@@ -55,8 +55,8 @@ RobotLink::Impl::Impl(transport::Transport& transport, RobotLinkOptions options)
     : transport_(transport),
       options_(std::move(options)),
       keys_(makeKeyStore(options_)),
-      signer_(options_.robot_id, options_.key),
-      keyframe_signer_(options_.robot_id, options_.key),
+      signer_(options_.robot_id, options_.key, session_),
+      keyframe_signer_(options_.robot_id, options_.key, session_),
       reliable_(options_.reliable, [this](uint64_t id) { return transmitKeyframe(id); }) {}
 
 RobotLink::Impl::~Impl() { stop(); }

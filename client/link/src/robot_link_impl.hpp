@@ -101,6 +101,9 @@ class RobotLink::Impl : public std::enable_shared_from_this<RobotLink::Impl> {
   msg::ReplayGuard replay_guard_;
   msg::RejectCounters rejects_;
   std::mutex signer_mutex_;
+  /// One session for both signers: the server sends PoseCorrections only for keyframes of the session the
+  /// robot's Hello announced.
+  const int64_t session_ = msg::newSessionId();
   msg::Signer signer_;
   /// Keyframe envelopes sent in chunks: their own seq stream, so the server's replay window (64 per message
   /// type) is not pushed past a keyframe by the hundred chunk envelopes of the next ones.
