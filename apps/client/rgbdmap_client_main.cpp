@@ -161,6 +161,7 @@ int run(int argc, char** argv) {
   if (!dataset) return log::error(dataset.error()), 1;
   auto transport = transport::makeTransport(config.transport_url);
   if (!transport) return log::error("transport ", config.transport_url, ": ", transport.error()), 1;
+  config.link.chunk_bytes = resolveChunkBytes(config.link.chunk_bytes, config.transport_url);
   log::info("robot ", config.robot_id, " on ", config.transport_url, ", camera from ", setup.camera_source);
   logConfiguration("configuration in effect",
                    concatConfigValues(robotClientConfigValues(config), setup.effective));

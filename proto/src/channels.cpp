@@ -25,6 +25,10 @@ const char* channelSuffix(MessageType type) {
       return "cmd_vel";
     case MessageType::kServerStatus:
       return "status";
+    case MessageType::kKeyframeChunk:
+      return "keyframe_chunk";
+    case MessageType::kChunkAck:
+      return "chunk_ack";
   }
   return "unknown";
 }
@@ -34,6 +38,7 @@ Direction directionOf(MessageType type) {
     case MessageType::kHello:
     case MessageType::kHeartbeat:
     case MessageType::kKeyframe:
+    case MessageType::kKeyframeChunk:
       return Direction::kRobotToServer;
     default:  // everything the server sends goes to one robot's channel, signed with that robot's key
       return Direction::kServerToRobot;

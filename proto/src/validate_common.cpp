@@ -25,6 +25,10 @@ const char* toString(MessageType type) {
       return "VelocityCommand";
     case MessageType::kServerStatus:
       return "ServerStatus";
+    case MessageType::kKeyframeChunk:
+      return "KeyframeChunk";
+    case MessageType::kChunkAck:
+      return "ChunkAck";
   }
   return "unknown";
 }

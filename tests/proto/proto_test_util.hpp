@@ -80,6 +80,31 @@ inline msg::Hello sampleHello() {
 inline msg::Heartbeat sampleHeartbeat() { return {{}, "robot_1", 16, 2, 1, 123.5}; }
 inline msg::KeyframeAck sampleAck() { return {{}, "robot_1", 17, false, "duplicate keyframe"}; }
 
+/// Chunk 2 (the last) of a 2,600-byte transfer in chunks of 1,200 bytes.
+inline msg::KeyframeChunk sampleChunk() {
+  msg::KeyframeChunk m;
+  m.robot_id = "robot_1";
+  m.transfer_id = 77;
+  m.keyframe_id = 17;
+  m.chunk_index = 2;
+  m.chunk_count = 3;
+  m.chunk_bytes = 1200;
+  m.total_bytes = 2600;
+  m.last_of_burst = true;
+  m.data.assign(200, 0x5a);
+  return m;
+}
+
+inline msg::ChunkAck sampleChunkAck() {
+  msg::ChunkAck m;
+  m.robot_id = "robot_1";
+  m.transfer_id = 77;
+  m.keyframe_id = 17;
+  m.chunk_count = 11;
+  m.received = {0xfb, 0x03};
+  return m;
+}
+
 inline msg::PoseCorrections sampleCorrections() {
   msg::PoseCorrections m;
   m.robot_id = "robot_1";
@@ -130,7 +155,8 @@ inline std::vector<Bytes> sampleEnvelopes(msg::Signer* robot, msg::Signer* serve
           robot->seal(sampleKeyframe(), t).value(),     server->seal(sampleAck(), t).value(),
           server->seal(sampleCorrections(), t).value(), server->seal(sampleSlice(), t).value(),
           server->seal(sampleMap(), t).value(),         server->seal(sampleVelocity(), t).value(),
-          server->seal(sampleStatus(), t).value()};
+          server->seal(sampleStatus(), t).value(),      robot->seal(sampleChunk(), t).value(),
+          server->seal(sampleChunkAck(), t).value()};
 }
 
 }  // namespace rgbdmap::testing

@@ -43,6 +43,10 @@ Status decodeAny(const OpenedEnvelope& e, RejectCounters* c) {
       return decodeAs<VelocityCommand>(e, c);
     case MessageType::kServerStatus:
       return decodeAs<ServerStatus>(e, c);
+    case MessageType::kKeyframeChunk:
+      return decodeAs<KeyframeChunk>(e, c);
+    case MessageType::kChunkAck:
+      return decodeAs<ChunkAck>(e, c);
   }
   return Status::failure("unknown type");
 }

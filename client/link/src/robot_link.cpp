@@ -44,6 +44,9 @@ std::string RobotLinkOptions::validate() const {
   if (!key.empty() && key.size() < msg::kMinKeyBytes)
     fail("key must be empty (unsigned) or at least " + std::to_string(msg::kMinKeyBytes) + " bytes");
   if (const std::string e = camera.validate(); !e.empty()) fail("camera: " + e);
+  if (chunk_bytes > 0 && chunk_bytes < msg::kMinChunkBytes)
+    fail("chunk_bytes must be -1, 0 or " + std::to_string(msg::kMinChunkBytes) + ".." +
+         std::to_string(msg::kMaxChunkBytes));
   for (const std::string& problem : robotLinkConfigTable().problems(*this)) fail(problem);
   return out;
 }
@@ -52,7 +55,8 @@ RobotLink::Impl::Impl(transport::Transport& transport, RobotLinkOptions options)
     : transport_(transport),
       options_(std::move(options)),
       keys_(makeKeyStore(options_)),
-      signer_(options_.robot_id, options_.key),
+      signer_(options_.robot_id, options_.key, session_),
+      keyframe_signer_(options_.robot_id, options_.key, session_),
       reliable_(options_.reliable, [this](uint64_t id) { return transmitKeyframe(id); }) {}
 
 RobotLink::Impl::~Impl() { stop(); }
@@ -69,6 +73,7 @@ Status RobotLink::Impl::start() {
   hello_channel_ = *msg::channelFor(msg::MessageType::kHello, options_.robot_id);
   heartbeat_channel_ = *msg::channelFor(msg::MessageType::kHeartbeat, options_.robot_id);
   keyframe_channel_ = *msg::channelFor(msg::MessageType::kKeyframe, options_.robot_id);
+  chunk_channel_ = *msg::channelFor(msg::MessageType::kKeyframeChunk, options_.robot_id);
   if (Status s = subscribeAll(); !s) return s;
   if (Status s = transport_.start(); !s) return Status::failure("RobotLink: transport: " + s.error());
   reliable_.start();
@@ -76,6 +81,7 @@ Status RobotLink::Impl::start() {
   periodic_ = std::thread([this] { runPeriodic(); });
   log::info("robot ", options_.robot_id, ": link started (", options_.key.empty() ? "unsigned" : "signed",
             ", heartbeat ", options_.heartbeat_period_s, " s, send window ", options_.reliable.max_pending,
+            chunking() ? ", keyframes in chunks of " + std::to_string(options_.chunk_bytes) + " bytes" : "",
             ")");
   return Status::success();
 }
@@ -102,6 +108,9 @@ Status RobotLink::Impl::sealAndPublish(const T& message, const std::string& chan
   if (s) bytes_sent_ += bytes->size();
   return s;
 }
+
+// robot_link_chunks.cpp seals chunks with it.
+template Status RobotLink::Impl::sealAndPublish(const msg::KeyframeChunk&, const std::string&);
 
 Status RobotLink::Impl::publishCommand(msg::VelocityCommand command) {
   command.robot_id = options_.robot_id;
@@ -212,6 +221,7 @@ Status RobotLink::Impl::sendKeyframe(const Keyframe& keyframe, const RgbdFrame& 
 }
 
 Status RobotLink::Impl::transmitKeyframe(uint64_t id) {
+  if (chunking()) return transmitChunked(static_cast<int>(id));
   std::unique_ptr<msg::Keyframe> last;  // the final transmission takes the message over
   msg::Keyframe copy;
   const msg::Keyframe* message = nullptr;

@@ -11,6 +11,7 @@
 #include <optional>
 #include <string>
 #include <thread>
+#include <vector>
 
 #include "rgbdmap/common/sample_reservoir.hpp"
 #include "rgbdmap/link/robot_link.hpp"
@@ -48,6 +49,13 @@ class RobotLink::Impl : public std::enable_shared_from_this<RobotLink::Impl> {
 
  private:
   enum class Answer { kPending, kAccepted, kRefused };
+  struct ChunkTransfer {  ///< the sealed keyframe envelope being sent in chunks
+    std::shared_ptr<const msg::Bytes> envelope;
+    int64_t transfer_id = -1;
+    std::vector<bool> received;  ///< per chunk, from the server's ChunkAcks
+    int idle_rounds = 0;         ///< retransmission deadlines passed with every chunk received
+    int ack_rounds = 0;          ///< resends answering a ChunkAck (bounded; then only the deadlines resend)
+  };
   struct SentKeyframe {
     int segment = 0;
     SE3 T_odom_cam = SE3::Identity();
@@ -55,6 +63,7 @@ class RobotLink::Impl : public std::enable_shared_from_this<RobotLink::Impl> {
     int transmissions = 0;
     Answer answer = Answer::kPending;
     Clock::time_point first_sent{};  ///< submitted (its first transmission follows at once)
+    ChunkTransfer transfer;          ///< chunk_bytes > 0 only
   };
 
   // Sending (robot_link.cpp).
@@ -65,6 +74,13 @@ class RobotLink::Impl : public std::enable_shared_from_this<RobotLink::Impl> {
   Status sendHello();
   Status sendHeartbeat();
   bool allAnswered() const;  ///< caller holds mutex_
+
+  // Chunked keyframes (robot_link_chunks.cpp).
+  bool chunking() const { return options_.chunk_bytes > 0; }
+  Status transmitChunked(int keyframe_id);  ///< the missing chunks, or a new transfer when none are missing
+  Status sendChunks(int keyframe_id, const std::shared_ptr<const msg::Bytes>& envelope, int64_t transfer_id,
+                    const std::vector<int>& indices);
+  void handle(const msg::ChunkAck& ack);
 
   // Receiving (robot_link_receive.cpp).
   Status subscribeAll();
@@ -90,7 +106,15 @@ class RobotLink::Impl : public std::enable_shared_from_this<RobotLink::Impl> {
   msg::RejectCounters rejects_;
   const msg::KeyStore unverified_keys_ = msg::KeyStore::openMode(false);  ///< readUnverifiedStatus only
   std::mutex signer_mutex_;
+  /// One session for both signers: the server sends PoseCorrections only for keyframes of the session the
+  /// robot's Hello announced.
+  const int64_t session_ = msg::newSessionId();
   msg::Signer signer_;
+  /// Keyframe envelopes sent in chunks: their own seq stream, so the server's replay window (64 per message
+  /// type) is not pushed past a keyframe by the hundred chunk envelopes of the next ones.
+  std::mutex keyframe_signer_mutex_;
+  msg::Signer keyframe_signer_;
+  std::string chunk_channel_;
   transport::ReliableSender reliable_;
   const Clock::time_point created_ = Clock::now();
 

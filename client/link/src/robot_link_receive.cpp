@@ -26,6 +26,9 @@ Status RobotLink::Impl::subscribeAll() {
        {subscribe<msg::KeyframeAck>(), subscribe<msg::PoseCorrections>(), subscribe<msg::OccupancySlice>(),
         subscribe<msg::VelocityCommand>(), subscribe<msg::ServerStatus>()})
     if (!s) return Status::failure("RobotLink: subscribe: " + s.error());
+  if (chunking())
+    if (Status s = subscribe<msg::ChunkAck>(); !s)
+      return Status::failure("RobotLink: subscribe: " + s.error());
   return Status::success();
 }
 
@@ -88,6 +91,7 @@ void RobotLink::Impl::handle(const msg::KeyframeAck& ack) {
     } else {
       entry.answer = ack.accepted ? Answer::kAccepted : Answer::kRefused;
       entry.message.reset();
+      entry.transfer = ChunkTransfer{};
       ++(ack.accepted ? counts_.keyframes_acked : counts_.keyframes_refused);
       if (ack.accepted)
         ack_latency_ms_.add(

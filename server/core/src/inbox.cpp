@@ -21,7 +21,8 @@ void Inbox::onMessage(const std::string& channel, const uint8_t* data, size_t si
   if (!msg::splitChannel(channel, &robot, &suffix)) return;
   const bool to_server = suffix == msg::channelSuffix(msg::MessageType::kHello) ||
                          suffix == msg::channelSuffix(msg::MessageType::kHeartbeat) ||
-                         suffix == msg::channelSuffix(msg::MessageType::kKeyframe);
+                         suffix == msg::channelSuffix(msg::MessageType::kKeyframe) ||
+                         suffix == msg::channelSuffix(msg::MessageType::kKeyframeChunk);
   if (!to_server) return;  // our own messages (udpm:// loops them back under a "rgbdmap/*" subscription)
   msg::RejectNote note;
   auto opened = msg::openEnvelope(data, size, keys_, &guard_, &rejects_, &note);
@@ -51,6 +52,8 @@ void Inbox::onMessage(const std::string& channel, const uint8_t* data, size_t si
       return;
     case msg::MessageType::kKeyframe:
       return onKeyframe(*opened, robot);
+    case msg::MessageType::kKeyframeChunk:
+      return onChunk(*opened, robot);
     default:
       rejects_.add(msg::RejectReason::kWrongType,
                    std::string(msg::toString(opened->type)) + " on " + channel);

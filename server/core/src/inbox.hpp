@@ -6,8 +6,10 @@
 // Rejections are counted (and logged, rate-limited) by RejectCounters.
 #include <atomic>
 #include <cstdint>
+#include <functional>
 #include <string>
 
+#include "chunk_reassembly.hpp"
 #include "ingest_queue.hpp"
 #include "keyframe_throttle.hpp"
 #include "reject_ledger.hpp"
@@ -26,6 +28,10 @@ class Inbox {
   /// A transport handler (one call at a time, on the receive thread).
   void onMessage(const std::string& channel, const uint8_t* data, size_t size);
 
+  /// Where ChunkAcks go (the server's RobotPublisher); chunked keyframes are refused without one.
+  using ChunkAckSink = std::function<void(const std::string& robot, const msg::ChunkAck& ack)>;
+  void setChunkAckSink(ChunkAckSink sink) { chunk_ack_sink_ = std::move(sink); }
+
   uint64_t rejected() const { return rejects_.total(); }
   uint64_t unknownRobot() const { return unknown_robot_.load(); }
   uint64_t throttled() const { return throttled_.load(); }
@@ -39,6 +45,8 @@ class Inbox {
   void onKeyframe(const msg::OpenedEnvelope& opened, const std::string& robot);
   void countQueueFull(const std::string& robot);
   bool known(const std::string& robot) const;  ///< admitted and holds a key or said Hello
+  void onChunk(const msg::OpenedEnvelope& opened, const std::string& robot);  ///< inbox_chunks.cpp
+  void onReassembled(const std::string& robot, const msg::Bytes& envelope);
 
   const MapServerConfig& config_;
   const msg::KeyStore& keys_;
@@ -51,6 +59,8 @@ class Inbox {
   std::atomic<uint64_t> throttled_{0};
   std::atomic<uint64_t> queue_full_{0};
   RejectLedger ledger_;
+  ChunkReassembly chunks_;
+  ChunkAckSink chunk_ack_sink_;
 };
 
 }  // namespace rgbdmap

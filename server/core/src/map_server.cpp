@@ -54,6 +54,8 @@ struct MapServer::Impl {
           inbox.onMessage(channel, data, size);
         }) {
     status.setRejectCounts([this] { return inbox.rejectCounts(); });
+    inbox.setChunkAckSink(
+        [this](const std::string& robot, const msg::ChunkAck& ack) { publisher.publish(robot, ack); });
   }
 
   Status openAndRestore();
@@ -124,8 +126,8 @@ Status MapServer::Impl::subscribe() {
     patterns.push_back("rgbdmap/*");
   } else {
     for (const std::string& robot : config.robots)
-      for (const auto type :
-           {msg::MessageType::kHello, msg::MessageType::kHeartbeat, msg::MessageType::kKeyframe})
+      for (const auto type : {msg::MessageType::kHello, msg::MessageType::kHeartbeat,
+                              msg::MessageType::kKeyframe, msg::MessageType::kKeyframeChunk})
         patterns.push_back(*msg::channelFor(type, robot));
   }
   for (const std::string& p : patterns)

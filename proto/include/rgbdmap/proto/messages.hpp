@@ -28,8 +28,10 @@ enum class MessageType : int16_t {
   kMapUpdate = 7,
   kVelocityCommand = 8,
   kServerStatus = 9,
+  kKeyframeChunk = 10,  ///< chunked keyframe transfer (udpm://): see KeyframeChunk, ChunkAck
+  kChunkAck = 11,
 };
-constexpr int kNumMessageTypes = 9;
+constexpr int kNumMessageTypes = 11;
 const char* toString(MessageType type);
 bool isKnownType(int type);
 
@@ -103,6 +105,38 @@ struct Keyframe {
   std::vector<KeyPoint> keypoints;
   Bytes descriptors;  ///< keypoints.size() * kDescriptorBytes, row i = keypoint i
   EncodedImages images;
+};
+
+/// One piece of a signed Keyframe envelope (proto/lcm/keyframe_chunk_t.lcm). validate() checks that the
+/// header fields are consistent: count == ceil(total / chunk_bytes), every chunk but the last carries
+/// chunk_bytes, the last the rest.
+struct KeyframeChunk {
+  static constexpr MessageType kType = MessageType::kKeyframeChunk;
+  Header header;
+  std::string robot_id;
+  int64_t transfer_id = 0;
+  int keyframe_id = 0;
+  int chunk_index = 0;
+  int chunk_count = 1;
+  int chunk_bytes = 0;
+  int total_bytes = 0;
+  bool last_of_burst = false;
+  Bytes data;
+};
+constexpr int kMinChunkBytes = 256;
+constexpr int kMaxChunkBytes = 60000;
+constexpr int kMaxChunkedBytes = 16 << 20;  ///< largest envelope sent in chunks
+constexpr int kMaxChunkCount = 65535;
+
+/// Which chunks of one transfer arrived (bit i of received[i / 8], LSB first).
+struct ChunkAck {
+  static constexpr MessageType kType = MessageType::kChunkAck;
+  Header header;
+  std::string robot_id;
+  int64_t transfer_id = 0;
+  int keyframe_id = 0;
+  int chunk_count = 1;
+  Bytes received;  ///< (chunk_count + 7) / 8 bytes
 };
 
 struct KeyframeAck {

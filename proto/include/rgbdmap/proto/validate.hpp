@@ -26,5 +26,7 @@ Status validate(const OccupancySlice& m);
 Status validate(const MapUpdate& m);
 Status validate(const VelocityCommand& m);
 Status validate(const ServerStatus& m);
+Status validate(const KeyframeChunk& m);
+Status validate(const ChunkAck& m);
 
 }  // namespace rgbdmap::msg

@@ -42,11 +42,19 @@ struct RobotLinkOptions {
   transport::ReliableSenderOptions reliable;
   double heartbeat_period_s = 1.0, hello_period_s = 1.0;
   double send_timeout_s = 30.0;  ///< sendKeyframe waits at most this for room in the send window
+  /// Keyframes in chunks of this many bytes, acknowledged and resent one by one (KeyframeChunk, ChunkAck):
+  /// for udpm://, where a lost IP fragment loses a whole LCM message. 0 = whole keyframes; -1 = choose by
+  /// the transport URL (resolveChunkBytes: 0 for now; 1100 is the size for udpm://).
+  int chunk_bytes = -1;
   std::string software_version = "rgbdmap-client 0.1.0";  ///< sent in Hello
 
   /// Empty when valid, else every reason ("; "-separated).
   std::string validate() const;
 };
+
+/// `configured` if >= 0, else the default for the transport URL: 0 for now (chunks are opt-in: configure
+/// 1100 for udpm://, one chunk per Ethernet datagram; DDS retransmits lost fragments itself).
+int resolveChunkBytes(int configured, const std::string& transport_url);
 
 struct RobotLinkStats {
   uint64_t keyframes_sent = 0;      ///< submitted (first transmission)
@@ -55,6 +63,7 @@ struct RobotLinkStats {
   uint64_t keyframes_given_up = 0;  ///< max_attempts reached without an answer
   uint64_t keyframes_pending = 0;   ///< still waiting for an answer
   uint64_t retransmissions = 0;
+  uint64_t chunks_sent = 0, chunks_resent = 0, chunk_acks = 0;  ///< chunked keyframes (chunk_bytes > 0)
   uint64_t duplicate_acks = 0;        ///< acks for an id already answered (the server re-acks duplicates)
   uint64_t unknown_acks = 0;          ///< acks for an id this process never sent
   uint64_t corrections_received = 0;  ///< PoseCorrections applied

@@ -1,0 +1,207 @@
+// Keyframes in chunks (RobotLink chunk_bytes > 0) to the real MapServer: every keyframe stored and
+// acknowledged despite lost chunks (in-process, a transport that drops publishes), forged chunks rejected
+// and counted; and (NetChunk, in a network namespace) over udpm:// through rgbdmap-lossy-relay at 5 %
+// packet loss, where whole ~140 KB keyframes over LCM almost never arrive.
+#include <gtest/gtest.h>
+#include <signal.h>
+#include <spawn.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <cstdlib>
+#include <filesystem>
+#include <mutex>
+#include <random>
+
+#include "client/link_test_util.hpp"
+#include "rgbdmap/link/robot_link.hpp"
+#include "rgbdmap/proto/chunking.hpp"
+#include "rgbdmap/server/map_server.hpp"
+#include "server/server_test_util.hpp"
+
+extern char** environ;
+
+namespace rgbdmap {
+namespace {
+
+using namespace rgbdmap::testing;  // NOLINT: the shared test helpers
+
+/// Drops each publish with probability `loss` (seeded): message loss at the sender.
+class DroppingTransport : public transport::Transport {
+ public:
+  DroppingTransport(transport::Transport& inner, double loss, uint64_t seed)
+      : inner_(inner), loss_(loss), rng_(seed) {}
+  Status publish(const std::string& channel, const uint8_t* data, size_t size) override {
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      if (std::uniform_real_distribution<double>(0.0, 1.0)(rng_) < loss_) return Status::success();
+    }
+    return inner_.publish(channel, data, size);
+  }
+  Status subscribe(const std::string& channel, Handler handler) override {
+    return inner_.subscribe(channel, handler);
+  }
+  Status start() override { return inner_.start(); }
+  void stop() override {}
+  transport::TransportStats stats() const override { return inner_.stats(); }
+
+ private:
+  transport::Transport& inner_;
+  double loss_;
+  std::mutex mutex_;
+  std::mt19937_64 rng_;
+};
+
+/// A frame of colour noise: 320x240 ~70 KB per keyframe on the wire, 448x336 ~140 KB (a real keyframe).
+RgbdFrame noiseFrame(int seed, int width, int height) {
+  RgbdFrame f;
+  f.timestamp = 100.0 + seed;
+  f.color.create(height, width, CV_8UC3);
+  cv::theRNG().state = static_cast<uint64_t>(seed + 1);
+  cv::randu(f.color, cv::Scalar::all(0), cv::Scalar::all(255));
+  f.depth = cv::Mat(height, width, CV_16UC1, cv::Scalar(7500));
+  return f;
+}
+
+RobotLinkOptions chunkedOptions(const std::string& robot, const msg::Bytes& key, int chunk_bytes,
+                                int width = 320, int height = 240) {
+  RobotLinkOptions o = linkOptions(robot, key);
+  o.camera = CameraIntrinsics{525.0, 525.0,  0.5 * (width - 1), 0.5 * (height - 1),
+                              width, height, {0, 0, 0, 0, 0},   5000.0};
+  o.chunk_bytes = chunk_bytes;
+  o.reliable.max_attempts = 1000;  // bounded by the test's wait, not by attempts
+  return o;
+}
+
+/// Sends `count` keyframes (a chain) and waits up to `timeout_s` for their acks; returns the acked count.
+uint64_t sendAndWait(RobotLink& link, int count, double timeout_s, int width = 320, int height = 240) {
+  for (int i = 0; i < count; ++i) {
+    const Status s = link.sendKeyframe(smallKeyframe(i, 0, testPose(i), i - 1), noiseFrame(i, width, height));
+    EXPECT_TRUE(s) << s.error();
+  }
+  link.waitAllAcked(timeout_s);
+  return link.stats().keyframes_acked;
+}
+
+TEST(ChunkedDelivery, LostChunksAreResentUntilEveryKeyframeIsStored) {
+  const std::string dir = freshDir("chunked_loss");
+  ServerHarness harness(serverTestConfig(dir, {"robot0"}));
+  DroppingTransport lossy(*harness.transport, 0.05, 7);
+  RobotLink link(lossy, chunkedOptions("robot0", testKey(1), 1100));
+  ASSERT_TRUE(link.start());
+  const auto t0 = std::chrono::steady_clock::now();
+  EXPECT_EQ(sendAndWait(link, 6, 20.0), 6u);
+  const RobotLinkStats s = link.stats();
+  std::printf(
+      "chunked memq 5%% publish loss: 6 keyframes acked in %.2f s, %llu chunks sent, %llu resent, %llu "
+      "bytes\n",
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(),
+      static_cast<unsigned long long>(s.chunks_sent), static_cast<unsigned long long>(s.chunks_resent),
+      static_cast<unsigned long long>(s.bytes_sent));
+  EXPECT_GT(s.chunks_resent, 0u);
+  EXPECT_GE(harness.server->stats().keyframes, 6);
+  link.stop();
+  std::filesystem::remove_all(dir);
+}
+
+TEST(ChunkedDelivery, ForgedAndWrongKeyChunksAreRejectedAndCounted) {
+  const std::string dir = freshDir("chunked_forged");
+  ServerHarness harness(serverTestConfig(dir, {"robot0"}));
+  const std::string channel = *msg::channelFor(msg::MessageType::kKeyframeChunk, "robot0");
+  msg::Signer wrong_key("robot0", testKey(9));
+  msg::Bytes envelope(5000, 0x42);
+  for (int i = 0; i < 5; ++i) {
+    msg::KeyframeChunk c = msg::makeChunk(envelope, 1200, i, "robot0", 1, 1).value();
+    const msg::Bytes bytes = wrong_key.seal(c, 1).value();
+    ASSERT_TRUE(harness.transport->publish(channel, bytes.data(), bytes.size()));
+    msg::Bytes truncated(bytes.begin(), bytes.begin() + static_cast<std::ptrdiff_t>(bytes.size() / 2));
+    ASSERT_TRUE(harness.transport->publish(channel, truncated.data(), truncated.size()));
+  }
+  // Correctly signed chunks whose reassembled bytes are not a keyframe envelope: rejected once, no crash.
+  msg::Signer robot("robot0", testKey(1));
+  for (int i = 0; i < 5; ++i) {
+    msg::KeyframeChunk c = msg::makeChunk(envelope, 1200, i, "robot0", 1, 2).value();
+    const msg::Bytes bytes = robot.seal(c, 1).value();
+    ASSERT_TRUE(harness.transport->publish(channel, bytes.data(), bytes.size()));
+  }
+  for (int i = 0; i < 100 && harness.server->stats().messages_rejected < 11; ++i)
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  EXPECT_EQ(harness.server->stats().messages_rejected, 11u);
+  EXPECT_EQ(harness.server->stats().keyframes, 0);
+  std::filesystem::remove_all(dir);
+}
+
+/// rgbdmap-lossy-relay next to this test binary, between the robots' and the server's LCM endpoints.
+class Relay {
+ public:
+  explicit Relay(const std::vector<std::string>& args) {
+    const std::string exe =
+        (std::filesystem::read_symlink("/proc/self/exe").parent_path() / "rgbdmap-lossy-relay").string();
+    std::vector<std::string> all = {exe};
+    all.insert(all.end(), args.begin(), args.end());
+    std::vector<char*> argv;
+    for (auto& a : all) argv.push_back(a.data());
+    argv.push_back(nullptr);
+    if (posix_spawn(&pid_, exe.c_str(), nullptr, nullptr, argv.data(), environ) != 0) pid_ = -1;
+    std::this_thread::sleep_for(std::chrono::milliseconds(300));
+  }
+  ~Relay() {
+    if (pid_ <= 0) return;
+    kill(pid_, SIGTERM);
+    int status = 0;
+    waitpid(pid_, &status, 0);
+  }
+  bool ok() const { return pid_ > 0; }
+
+ private:
+  pid_t pid_ = -1;
+};
+
+TEST(NetChunk, EveryKeyframeAcknowledgedThroughFivePercentPacketLoss) {
+  if (std::getenv("RGBDMAP_TRANSPORT_NETNS") == nullptr) GTEST_SKIP() << "only inside run_in_netns.sh";
+  const char* env_chunk = std::getenv("RGBDMAP_TEST_CHUNK_BYTES");
+  const int chunk_bytes = env_chunk ? std::atoi(env_chunk) : 1100;
+  const char* env_loss = std::getenv("RGBDMAP_TEST_PACKET_LOSS");
+  const std::string loss = env_loss ? env_loss : "0.05";
+  const std::string robots_url = "udpm://239.255.76.67:7667?ttl=0&recv_buf_size=8388608";
+  const std::string server_url = "udpm://239.255.76.68:7668?ttl=0&recv_buf_size=8388608";
+  Relay relay({"--a", robots_url, "--b", server_url, "--drop-datagrams", loss, "--mtu", "1500", "--seed",
+               "11", "--duration", "60"});
+  ASSERT_TRUE(relay.ok());
+  const std::string dir = freshDir("netchunk");
+  auto server_transport = transport::makeTransport(server_url).value();
+  msg::KeyStore keys;
+  ASSERT_TRUE(keys.add("robot0", testKey(1)));
+  MapServer server(serverTestConfig(dir, {"robot0"}), *server_transport, std::move(keys));
+  ASSERT_TRUE(server.start());
+  ASSERT_TRUE(server_transport->start());
+  auto robot_transport = transport::makeTransport(robots_url).value();
+  RobotLinkOptions options = chunkedOptions("robot0", testKey(1), chunk_bytes, 448, 336);
+  options.reliable = transport::ReliableSenderOptions{};  // the production timers: 100 ms .. 2 s, 20 attempts
+  RobotLink link(*robot_transport, options);
+  ASSERT_TRUE(link.start());
+  const int count = 10;
+  const auto t0 = std::chrono::steady_clock::now();
+  const uint64_t acked = sendAndWait(link, count, 20.0, 448, 336);
+  const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  const RobotLinkStats s = link.stats();
+  std::printf(
+      "udpm %s packet loss, chunk_bytes %d: %llu/%d keyframes acked in %.2f s; %llu bytes sent, "
+      "%llu chunks (%llu resent), %llu keyframe retransmissions, %llu given up, server stored %d\n",
+      loss.c_str(), chunk_bytes, static_cast<unsigned long long>(acked), count, seconds,
+      static_cast<unsigned long long>(s.bytes_sent), static_cast<unsigned long long>(s.chunks_sent),
+      static_cast<unsigned long long>(s.chunks_resent), static_cast<unsigned long long>(s.retransmissions),
+      static_cast<unsigned long long>(s.keyframes_given_up), server.stats().keyframes);
+  if (chunk_bytes > 0) {
+    EXPECT_EQ(acked, static_cast<uint64_t>(count));
+  }
+  link.stop();
+  robot_transport->stop();
+  server_transport->stop();
+  server.stop();
+  std::filesystem::remove_all(dir);
+}
+
+}  // namespace
+}  // namespace rgbdmap
