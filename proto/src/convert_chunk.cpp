@@ -13,7 +13,7 @@ namespace {
 using detail::fromWire;
 using detail::toWire;
 
-Status fail(const char* reason) { return Status::failure(reason); }
+Status chunkFailure(const char* reason) { return Status::failure(reason); }
 
 rgbdmap_lcm::keyframe_chunk_t toWireChunk(const KeyframeChunk& m) {
   rgbdmap_lcm::keyframe_chunk_t w;
@@ -73,30 +73,31 @@ Result<ChunkAck> fromWireChunkAck(const rgbdmap_lcm::chunk_ack_t& w) {
 
 Status validate(const KeyframeChunk& m) {
   if (Status s = validate(m.header); !s) return s;
-  if (!isRobotId(m.robot_id)) return fail("invalid robot id");
-  if (m.header.sender != m.robot_id) return fail("sender is not the robot");
-  if (m.transfer_id < 0 || m.keyframe_id < 0) return fail("negative id");
+  if (!isRobotId(m.robot_id)) return chunkFailure("invalid robot id");
+  if (m.header.sender != m.robot_id) return chunkFailure("sender is not the robot");
+  if (m.transfer_id < 0 || m.keyframe_id < 0) return chunkFailure("negative id");
   if (m.chunk_bytes < kMinChunkBytes || m.chunk_bytes > kMaxChunkBytes)
-    return fail("chunk size out of range");
-  if (m.total_bytes <= 0 || m.total_bytes > kMaxChunkedBytes) return fail("total size out of range");
+    return chunkFailure("chunk size out of range");
+  if (m.total_bytes <= 0 || m.total_bytes > kMaxChunkedBytes) return chunkFailure("total size out of range");
   const int64_t count = (int64_t{m.total_bytes} + m.chunk_bytes - 1) / m.chunk_bytes;
   if (m.chunk_count != count || m.chunk_count > kMaxChunkCount)
-    return fail("chunk count != total / chunk size");
-  if (m.chunk_index < 0 || m.chunk_index >= m.chunk_count) return fail("chunk index out of range");
+    return chunkFailure("chunk count != total / chunk size");
+  if (m.chunk_index < 0 || m.chunk_index >= m.chunk_count) return chunkFailure("chunk index out of range");
   const int64_t offset = int64_t{m.chunk_index} * m.chunk_bytes;
   const int64_t expected = std::min<int64_t>(m.chunk_bytes, m.total_bytes - offset);
   if (static_cast<int64_t>(m.data.size()) != expected)
-    return fail("chunk data size does not match its index");
+    return chunkFailure("chunk data size does not match its index");
   return Status::success();
 }
 
 Status validate(const ChunkAck& m) {
   if (Status s = validate(m.header); !s) return s;
-  if (!isRobotId(m.robot_id)) return fail("invalid robot id");
-  if (m.header.sender != kServerId) return fail("sender is not the server");
-  if (m.transfer_id < 0 || m.keyframe_id < 0) return fail("negative id");
-  if (m.chunk_count < 1 || m.chunk_count > kMaxChunkCount) return fail("chunk count out of range");
-  if (m.received.size() != static_cast<size_t>((m.chunk_count + 7) / 8)) return fail("bitmap size != count");
+  if (!isRobotId(m.robot_id)) return chunkFailure("invalid robot id");
+  if (m.header.sender != kServerId) return chunkFailure("sender is not the server");
+  if (m.transfer_id < 0 || m.keyframe_id < 0) return chunkFailure("negative id");
+  if (m.chunk_count < 1 || m.chunk_count > kMaxChunkCount) return chunkFailure("chunk count out of range");
+  if (m.received.size() != static_cast<size_t>((m.chunk_count + 7) / 8))
+    return chunkFailure("bitmap size != count");
   return Status::success();
 }
 

@@ -13,7 +13,7 @@
 namespace rgbdmap::msg {
 namespace {
 
-Header robotHeader() { return Header{kSchemaVersion, "robot_1", 1, 0, 1}; }
+Header chunkTestHeader() { return Header{kSchemaVersion, "robot_1", 1, 0, 1}; }
 
 TEST(ProtoChunk, RoundTripThroughSignedEnvelope) {
   Signer robot("robot_1", testing::testKey(1), 5);
@@ -45,8 +45,8 @@ TEST(ProtoChunk, DefaultChunkFitsOneEthernetDatagramForTheLongestRobotId) {
   const Result<Bytes> sealed = signer.seal(c, 1732500000000000);
   ASSERT_TRUE(sealed) << sealed.error();
   const Bytes& bytes = *sealed;
-  // The default chunk_bytes (resolveChunkBytes). LCM: 8-byte short-message header (or 20-byte fragment header) + channel name + NUL + payload; one
-  // datagram at MTU 1500 carries 1472 bytes of UDP payload.
+  // The default chunk_bytes (resolveChunkBytes). LCM: 8-byte short-message header (or 20-byte fragment
+  // header) + channel name + NUL + payload; one datagram at MTU 1500 carries 1472 bytes of UDP payload.
   const size_t channel = std::string("rgbdmap/" + robot + "/keyframe_chunk").size() + 1;
   EXPECT_LE(bytes.size() + 20 + channel, 1472u) << bytes.size();
 }
@@ -70,7 +70,7 @@ TEST(ProtoChunk, InconsistentHeadersAreRefused) {
   };
   for (const auto& [name, mutate] : cases) {
     KeyframeChunk c = testing::sampleChunk();
-    c.header = robotHeader();
+    c.header = chunkTestHeader();
     ASSERT_TRUE(validate(c)) << name;
     mutate(c);
     EXPECT_FALSE(validate(c)) << name;
@@ -78,7 +78,7 @@ TEST(ProtoChunk, InconsistentHeadersAreRefused) {
     // The same fields on the wire (bypassing the encoder's check) fail to decode.
     rgbdmap_lcm::keyframe_chunk_t w;
     KeyframeChunk valid = testing::sampleChunk();
-    valid.header = robotHeader();
+    valid.header = chunkTestHeader();
     const Bytes b = encodePayload(valid).value();
     ASSERT_EQ(w.decode(b.data(), 0, static_cast<int>(b.size())), static_cast<int>(b.size()));
     w.robot_id = c.robot_id;
@@ -107,7 +107,7 @@ TEST(ProtoChunk, ChunkAckBitmapMustMatchCount) {
   a.chunk_count = 0;
   EXPECT_FALSE(validate(a));
   a = testing::sampleChunkAck();
-  a.header = robotHeader();  // only the server reports chunks
+  a.header = chunkTestHeader();  // only the server reports chunks
   EXPECT_FALSE(validate(a));
 }
 

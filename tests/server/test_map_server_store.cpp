@@ -15,21 +15,12 @@
 namespace rgbdmap {
 namespace {
 
+using testing::eventually;
 using testing::freshDir;
 using testing::kLoopFrames;
 using testing::loopSegment;
 using testing::OdometrySegment;
 using testing::ScriptedRobot;
-
-/// Polls `done` until it holds or timeout_s passed (a test may poll; the server never does).
-bool eventually(const std::function<bool()>& done, double timeout_s) {
-  const auto deadline = std::chrono::steady_clock::now() + std::chrono::duration<double>(timeout_s);
-  while (!done()) {
-    if (std::chrono::steady_clock::now() > deadline) return false;
-    std::this_thread::sleep_for(std::chrono::milliseconds(20));
-  }
-  return true;
-}
 
 TEST(MapServerStore, AFullDiskStopsAcksUntilTheRetryRecoversTheStore) {
   const OdometrySegment& seg = loopSegment(kLoopFrames, 0, kLoopFrames);

@@ -17,12 +17,6 @@
 namespace rgbdmap {
 namespace {
 
-int64_t nowUtime() {
-  return std::chrono::duration_cast<std::chrono::microseconds>(
-             std::chrono::system_clock::now().time_since_epoch())
-      .count();
-}
-
 std::chrono::nanoseconds seconds(double s) {
   return std::chrono::nanoseconds(static_cast<int64_t>(std::clamp(s, 0.0, 1e9) * 1e9));
 }

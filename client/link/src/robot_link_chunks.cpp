@@ -15,12 +15,6 @@ namespace {
 constexpr int kIdleRoundsBeforeReseal = 3;  ///< with the default backoff: ~0.7 s after the last chunk
 constexpr int kMaxAckRounds = 16;           ///< resends answering ChunkAcks per transfer
 
-int64_t nowUtime() {
-  return std::chrono::duration_cast<std::chrono::microseconds>(
-             std::chrono::system_clock::now().time_since_epoch())
-      .count();
-}
-
 std::vector<int> missingChunks(const std::vector<bool>& received) {
   std::vector<int> out;
   for (size_t i = 0; i < received.size(); ++i)

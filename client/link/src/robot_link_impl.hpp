@@ -19,6 +19,13 @@
 
 namespace rgbdmap {
 
+/// Wall-clock time in microseconds (envelope timestamps).
+inline int64_t nowUtime() {
+  return std::chrono::duration_cast<std::chrono::microseconds>(
+             std::chrono::system_clock::now().time_since_epoch())
+      .count();
+}
+
 class RobotLink::Impl : public std::enable_shared_from_this<RobotLink::Impl> {
  public:
   using Clock = std::chrono::steady_clock;
