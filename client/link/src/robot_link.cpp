@@ -164,7 +164,7 @@ void RobotLink::Impl::runPeriodic() {
   std::unique_lock<std::mutex> lock(mutex_);
   while (!stopping_) {
     const auto now = Clock::now();
-    const bool heartbeat_due = now >= next_heartbeat, hello_due = !heard_from_server_ && now >= next_hello;
+    const bool heartbeat_due = now >= next_heartbeat, hello_due = !server_knows_me_ && now >= next_hello;
     lock.unlock();
     if (heartbeat_due) {
       if (Status s = sendHeartbeat(); !s) log::debug("robot ", options_.robot_id, ": heartbeat: ", s.error());
@@ -176,7 +176,7 @@ void RobotLink::Impl::runPeriodic() {
     }
     lock.lock();
     changed_.notify_all();  // waiters re-check: a keyframe may have been given up meanwhile
-    const auto wake = heard_from_server_ ? next_heartbeat : std::min(next_heartbeat, next_hello);
+    const auto wake = server_knows_me_ ? next_heartbeat : std::min(next_heartbeat, next_hello);
     changed_.wait_until(lock, wake, [this] { return stopping_; });
   }
 }

@@ -128,6 +128,10 @@ class RobotLink::Impl : public std::enable_shared_from_this<RobotLink::Impl> {
   mutable std::mutex mutex_;  ///< everything below; taken before the ReliableSender's own lock, never after
   std::condition_variable changed_;  ///< answers, corrections, stop, and the periodic tick
   bool started_ = false, stopping_ = false, heard_from_server_ = false;
+  /// The server registered this robot (a message addressed to it, or its status lists it). Until then the
+  /// Hello is resent every hello_period_s: under loss the server may be heard before it heard the Hello,
+  /// and keyframes wait unacknowledged for the robot's Hello.
+  bool server_knows_me_ = false;
   std::map<int, SentKeyframe> sent_;
   std::map<int, SE3> T_map_cam_;   ///< corrected keyframes
   std::map<int, SE3> T_map_odom_;  ///< per segment

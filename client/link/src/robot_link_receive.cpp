@@ -63,9 +63,15 @@ void RobotLink::Impl::onMessage(const uint8_t* data, size_t size) {
   if constexpr (!std::is_same_v<T, msg::ServerStatus>) {
     if (!isForMe(message->robot_id)) return;
   }
+  bool knows_me = true;  // every message but the status is addressed to this robot
+  if constexpr (std::is_same_v<T, msg::ServerStatus>) {
+    knows_me = false;
+    for (const msg::RobotStatus& r : message->robots) knows_me = knows_me || r.robot_id == options_.robot_id;
+  }
   {
     std::lock_guard<std::mutex> lock(mutex_);
     heard_from_server_ = true;
+    server_knows_me_ = server_knows_me_ || knows_me;
   }
   handle(*message);
 }
