@@ -32,9 +32,8 @@ void Inbox::onMessage(const std::string& channel, const uint8_t* data, size_t si
     return;
   }
   if (opened->header.sender != robot) {
-    rejects_.add(msg::RejectReason::kHeaderMismatch, "sender '" + opened->header.sender + "' on " + channel);
-    ledger_.add(opened->header.sender, RejectLedger::reasonKey(msg::RejectReason::kHeaderMismatch),
-                "on " + channel);
+    reject(opened->header.sender, msg::RejectReason::kHeaderMismatch,
+           "sender '" + opened->header.sender + "' on " + channel, "on " + channel);
     return;
   }
   if (!admitted(robot)) {
@@ -47,18 +46,15 @@ void Inbox::onMessage(const std::string& channel, const uint8_t* data, size_t si
     case msg::MessageType::kHello:
       return onHello(*opened, robot);
     case msg::MessageType::kHeartbeat:
-      if (auto heartbeat = msg::decodeMessage<msg::Heartbeat>(*opened, &rejects_); !heartbeat)
-        ledger_.add(robot, RejectLedger::reasonKeyOf(heartbeat.error()));
+      decodeFrom<msg::Heartbeat>(*opened, robot);
       return;
     case msg::MessageType::kKeyframe:
       return onKeyframe(*opened, robot);
     case msg::MessageType::kKeyframeChunk:
       return onChunk(*opened, robot);
     default:
-      rejects_.add(msg::RejectReason::kWrongType,
-                   std::string(msg::toString(opened->type)) + " on " + channel);
-      ledger_.add(robot, RejectLedger::reasonKey(msg::RejectReason::kWrongType));
-      return;
+      return reject(robot, msg::RejectReason::kWrongType,
+                    std::string(msg::toString(opened->type)) + " on " + channel);
   }
 }
 
@@ -72,16 +68,11 @@ bool Inbox::admitted(const std::string& robot) const {
 }
 
 void Inbox::onHello(const msg::OpenedEnvelope& opened, const std::string& robot) {
-  auto hello = msg::decodeMessage<msg::Hello>(opened, &rejects_);
-  if (!hello) {
-    ledger_.add(robot, RejectLedger::reasonKeyOf(hello.error()));
-    return;
-  }
-  if (hello->robot_id != robot) {
-    rejects_.add(msg::RejectReason::kInvalidContent, "hello for '" + hello->robot_id + "' from " + robot);
-    ledger_.add(robot, RejectLedger::reasonKey(msg::RejectReason::kInvalidContent));
-    return;
-  }
+  auto hello = decodeFrom<msg::Hello>(opened, robot);
+  if (!hello) return;
+  if (hello->robot_id != robot)
+    return reject(robot, msg::RejectReason::kInvalidContent,
+                  "hello for '" + hello->robot_id + "' from " + robot);
   queue_.pushHello(std::move(*hello));
 }
 
@@ -95,18 +86,18 @@ void Inbox::onKeyframe(const msg::OpenedEnvelope& opened, const std::string& rob
   }
   const size_t bytes = opened.payload.size();
   if (!queue_.hasRoom(robot, bytes)) return countQueueFull(robot);
-  auto keyframe = msg::decodeMessage<msg::Keyframe>(opened, &rejects_);
-  if (!keyframe) {
-    ledger_.add(robot, RejectLedger::reasonKeyOf(keyframe.error()));
-    return;
-  }
-  if (keyframe->robot_id != robot) {
-    rejects_.add(msg::RejectReason::kInvalidContent,
-                 "keyframe for '" + keyframe->robot_id + "' from " + robot);
-    ledger_.add(robot, RejectLedger::reasonKey(msg::RejectReason::kInvalidContent));
-    return;
-  }
+  auto keyframe = decodeFrom<msg::Keyframe>(opened, robot);
+  if (!keyframe) return;
+  if (keyframe->robot_id != robot)
+    return reject(robot, msg::RejectReason::kInvalidContent,
+                  "keyframe for '" + keyframe->robot_id + "' from " + robot);
   if (queue_.pushKeyframe(std::move(*keyframe), bytes) == IngestQueue::Pushed::kFull) countQueueFull(robot);
+}
+
+void Inbox::reject(const std::string& robot, msg::RejectReason reason, const std::string& detail,
+                   const std::string& ledger_detail) {
+  rejects_.add(reason, detail);
+  ledger_.add(robot, RejectLedger::reasonKey(reason), ledger_detail);
 }
 
 void Inbox::countQueueFull(const std::string& robot) {

@@ -45,6 +45,17 @@ class Inbox {
   void onKeyframe(const msg::OpenedEnvelope& opened, const std::string& robot);
   void countQueueFull(const std::string& robot);
   bool known(const std::string& robot) const;  ///< admitted and holds a key or said Hello
+  /// Counts a rejected message in RejectCounters (totals, rate-limited log) and, for the claimed robot, in
+  /// the ledger (ServerStatus::rejects).
+  void reject(const std::string& robot, msg::RejectReason reason, const std::string& detail,
+              const std::string& ledger_detail = "");
+  /// msg::decodeMessage, a failure counted for `robot` in the ledger as well.
+  template <typename T>
+  Result<T> decodeFrom(const msg::OpenedEnvelope& opened, const std::string& robot) {
+    Result<T> message = msg::decodeMessage<T>(opened, &rejects_);
+    if (!message) ledger_.add(robot, RejectLedger::reasonKeyOf(message.error()));
+    return message;
+  }
   void onChunk(const msg::OpenedEnvelope& opened, const std::string& robot);  ///< inbox_chunks.cpp
   void onReassembled(const std::string& robot, const msg::Bytes& envelope);
 

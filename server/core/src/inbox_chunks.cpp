@@ -5,27 +5,22 @@
 namespace rgbdmap {
 
 void Inbox::onChunk(const msg::OpenedEnvelope& opened, const std::string& robot) {
-  auto chunk = msg::decodeMessage<msg::KeyframeChunk>(opened, &rejects_);
+  auto chunk = decodeFrom<msg::KeyframeChunk>(opened, robot);
   if (!chunk) return;
-  if (chunk->robot_id != robot) {
-    rejects_.add(msg::RejectReason::kInvalidContent,
-                 "keyframe chunk for '" + chunk->robot_id + "' from " + robot);
-    return;
-  }
-  if (!chunk_ack_sink_) {
-    rejects_.add(msg::RejectReason::kWrongType, "keyframe chunk from " + robot + " (chunks not enabled)");
-    return;
-  }
+  if (chunk->robot_id != robot)
+    return reject(robot, msg::RejectReason::kInvalidContent,
+                  "keyframe chunk for '" + chunk->robot_id + "' from " + robot);
+  if (!chunk_ack_sink_)
+    return reject(robot, msg::RejectReason::kWrongType,
+                  "keyframe chunk from " + robot + " (chunks not enabled)");
   const auto now = ChunkReassembly::Clock::now();
   chunks_.evictStale(now);
   msg::Bytes envelope;
   const ChunkReassembly::Outcome outcome = chunks_.add(robot, *chunk, now, &envelope);
-  if (outcome == ChunkReassembly::Outcome::kRefused) {
-    rejects_.add(
-        msg::RejectReason::kInvalidContent,
+  if (outcome == ChunkReassembly::Outcome::kRefused)
+    return reject(
+        robot, msg::RejectReason::kInvalidContent,
         "keyframe chunk from " + robot + " contradicts its transfer or exceeds the reassembly bounds");
-    return;
-  }
   if (outcome == ChunkReassembly::Outcome::kComplete) onReassembled(robot, envelope);
   if (!chunk->last_of_burst && outcome != ChunkReassembly::Outcome::kComplete) return;
   const auto bitmap = chunks_.receivedBitmap(robot, chunk->transfer_id);
@@ -40,18 +35,18 @@ void Inbox::onChunk(const msg::OpenedEnvelope& opened, const std::string& robot)
 }
 
 void Inbox::onReassembled(const std::string& robot, const msg::Bytes& envelope) {
-  auto opened = msg::openEnvelope(envelope, keys_, &guard_, &rejects_);
-  if (!opened) return;  // counted and logged (rate-limited) by RejectCounters
-  if (opened->header.sender != robot) {
-    rejects_.add(msg::RejectReason::kHeaderMismatch,
-                 "sender '" + opened->header.sender + "' in chunks of " + robot);
+  msg::RejectNote note;
+  auto opened = msg::openEnvelope(envelope, keys_, &guard_, &rejects_, &note);
+  if (!opened) {  // counted and logged (rate-limited) by RejectCounters; the chunks' sender in the ledger
+    ledger_.add(robot, RejectLedger::reasonKey(note.reason));
     return;
   }
-  if (opened->type != msg::MessageType::kKeyframe) {  // no chunks in chunks
-    rejects_.add(msg::RejectReason::kWrongType,
-                 std::string(msg::toString(opened->type)) + " in chunks of " + robot);
-    return;
-  }
+  if (opened->header.sender != robot)
+    return reject(robot, msg::RejectReason::kHeaderMismatch,
+                  "sender '" + opened->header.sender + "' in chunks of " + robot);
+  if (opened->type != msg::MessageType::kKeyframe)  // no chunks in chunks
+    return reject(robot, msg::RejectReason::kWrongType,
+                  std::string(msg::toString(opened->type)) + " in chunks of " + robot);
   onKeyframe(*opened, robot);
 }
 
