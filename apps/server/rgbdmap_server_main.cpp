@@ -60,6 +60,7 @@ rgbdmap::Json summaryJson(const rgbdmap::MapServer& server) {
                       {"out_of_order", r.out_of_order},
                       {"chain_splits", r.chain_splits},
                       {"waiting", r.keyframes_waiting},
+                      {"before_hello", r.waiting_for_hello},
                       {"queue_full", r.queue_full},
                       {"throttled", r.throttled},
                       {"refused_before_decode", r.refused_before_decode}});
@@ -71,8 +72,12 @@ rgbdmap::Json summaryJson(const rgbdmap::MapServer& server) {
           {"loops_disabled", s.loops_disabled},
           {"maps", s.maps},
           {"optimizations", s.optimizations},
+          {"optimizations_for_heartbeats", s.optimizations_for_heartbeats},
+          {"corrections_resent", s.corrections_resent},
           {"messages_rejected", s.messages_rejected},
           {"keyframes_waiting", s.keyframes_waiting},
+          {"keyframes_held_for_hello", s.keyframes_held_for_hello},
+          {"keyframes_hold_dropped", s.keyframes_hold_dropped},
           {"keyframes_queue_full", s.keyframes_dropped_queue_full},
           {"keyframes_throttled", s.keyframes_throttled},
           {"ingest_ms_median", jsonNumber(s.ingest_ms_median)},
@@ -166,6 +171,9 @@ int writeFinalOutputs(const rgbdmap::MapServer& server, const rgbdmap::ServerApp
 
 int main(int argc, char** argv) {
   using namespace rgbdmap;
+  // First of all: a stop signal during start-up (a supervisor restarting us at once) waits for the clean
+  // stop below instead of killing the process before it wrote its outputs.
+  const sigset_t stop_signals = blockStopSignals();
   cli::Args args(argc, argv, {"help", "open"});
   if (args.has("help")) {
     std::fputs(kUsage, stdout);
@@ -216,7 +224,6 @@ int main(int argc, char** argv) {
     return 2;
   }
 
-  const sigset_t stop_signals = blockStopSignals();
   auto transport = transport::makeTransport(config.transport_url);
   if (!transport) {
     log::error("transport ", config.transport_url, ": ", transport.error());
@@ -231,6 +238,7 @@ int main(int argc, char** argv) {
     log::error("transport start: ", s.error());
     return 1;
   }
+  log::info("ready on ", config.transport_url, " (SIGINT or SIGTERM stops and writes the outputs)");
   waitForStopSignal(stop_signals, status_every, server);
   log::info("stopping");
   server.waitIdle(5.0);

@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Fault harness (issue #11): one rgbdmap-server and two rgbdmap-client processes (robot0 frames 0:113, robot1
-# 87:200 of a synthetic 200-frame loop, --fast) over LCM or Cyclone DDS, inside a private loopback-only
+# 87:200 of a synthetic 200-frame loop, --fast but for kill9) over LCM or Cyclone DDS, inside a private loopback-only
 # network namespace, under one fault; then it compares what the robots sent and had acknowledged
 # (client_<R>.json, keyframes_<R>.txt) with what the server stored (map/keyframes_<R>.txt, written from the
 # map store at the end) and writes OUT/result.json. Used by the ctest entries faults.* (with --check) and by
@@ -15,7 +15,7 @@
 #   dgram5    5 % of the UDP datagrams: DDS via Cyclone's Internal/Test/XmitLossiness (a test config
 #             derived from deploy/dds/cyclonedds-loopback.xml); LCM via rgbdmap-lossy-relay (HOOK)
 #   kill9     the server is killed (SIGKILL) at five random moments of the run and restarted on the same
-#             map directory each time
+#             map directory each time (the robots at 30 Hz here, not --fast: the run must last the kills)
 #   flood     a robot with a valid key floods keyframes next to a well-behaved one (HOOK)
 #   diskfull  the map directory's file system fills up, then space is freed (HOOK)
 # An acknowledged keyframe is never sent again, so "every keyframe sent is stored at the end" also shows
@@ -48,7 +48,7 @@ if [ -z "${RGBDMAP_TRANSPORT_NETNS:-}" ]; then  # re-run inside the namespace (e
 fi
 RANDOM=$seed
 robots=(robot0 robot1) ranges=(0:113 87:200)
-drop="" final_wait=20 server_pid="" client_pids=()
+drop="" final_wait=20 server_pid="" ready_before=0 pace=--fast client_pids=()
 lcm_url='udpm://239.255.76.67:7667?ttl=0&recv_buf_size=8388608'
 dds_url='dds://?domain=0'
 export CYCLONEDDS_URI="file://$repo/deploy/dds/cyclonedds-loopback.xml"
@@ -76,13 +76,23 @@ write_configs() {
 }
 start_server() {  # appends to logs/server.log (a restarted server continues the same log)
   echo "=== server start $(date +%T.%N)" >>"$out/logs/server.log"
+  ready_before=$(grep -c '] ready on ' "$out/logs/server.log")
   "$bin/rgbdmap-server" --config "$out/server.yaml" --status-every 0 >>"$out/logs/server.log" 2>&1 &
   server_pid=$!
+}
+wait_ready() {  # until the server last started logs "ready on" (at most 30 s), or it is gone
+  local i
+  for i in $(seq 300); do
+    [ "$(grep -c '] ready on ' "$out/logs/server.log")" -gt "$ready_before" ] && return 0
+    kill -0 "$server_pid" 2>/dev/null || return 1
+    sleep 0.1
+  done
+  echo "server not ready after 30 s" >>"$out/logs/exits.txt"; return 1
 }
 start_clients() {
   local i
   for i in "${!robots[@]}"; do
-    "$bin/rgbdmap-client" --config "$out/client_${robots[$i]}.yaml" --dataset "$ds" --fast \
+    "$bin/rgbdmap-client" --config "$out/client_${robots[$i]}.yaml" --dataset "$ds" $pace \
       --frames "${ranges[$i]}" --out "$out/robots/${robots[$i]}" >"$out/logs/client_${robots[$i]}.log" 2>&1 &
     client_pids+=($!)
   done
@@ -91,19 +101,23 @@ clients_running() { local p; for p in "${client_pids[@]}"; do kill -0 "$p" 2>/de
 wait_clients() { local p; for p in "${client_pids[@]}"; do wait "$p"; echo "client exit $?" >>"$out/logs/exits.txt"; done; }
 stop_server() {
   kill -0 "$server_pid" 2>/dev/null || echo "server $server_pid no longer running at the end" >>"$out/logs/exits.txt"
+  wait_ready  # a server stopped while it restores the map store still stops cleanly; this keeps the log readable
   kill -INT "$server_pid"; wait "$server_pid"; echo "server exit $?" >>"$out/logs/exits.txt"
 }
-run_plain() { start_server; sleep 1; start_clients; wait_clients; stop_server; }
+run_plain() { start_server; wait_ready; start_clients; wait_clients; stop_server; }
 
 # --- faults --------------------------------------------------------------------------------------------------
 fault_clean() { write_configs; run_plain; }
 fault_loss30() { drop=0.3; write_configs; run_plain; }
 fault_loss60() { drop=0.6; write_configs; run_plain; }
-fault_kill9() {  # five SIGKILLs, each 0.4..2.0 s after the (re)start, restarted 0.2 s later
-  write_configs; start_server; sleep 1; start_clients
+# Five SIGKILLs while the robots run, each 0.2..0.6 s after the (re)start (so at any stage: restoring the
+# store, before or after the transport started, mid-keyframe), restarted 0.2 s later. The robots run at the
+# dataset's 30 Hz (~3.8 s each, plus their wait for acknowledgements), so that all five fall in the run.
+fault_kill9() {
+  pace=""; write_configs; start_server; wait_ready; start_clients
   local k
   for k in 1 2 3 4 5; do
-    sleep "$(awk -v r=$RANDOM 'BEGIN {printf "%.2f", 0.4 + 1.6 * r / 32767}')"
+    sleep "$(awk -v r=$RANDOM 'BEGIN {printf "%.2f", 0.2 + 0.4 * r / 32767}')"
     local when="after the clients ended"; clients_running && when="during the run"
     kill -9 "$server_pid"; wait "$server_pid" 2>/dev/null
     echo "kill $k at $(date +%T.%N) $when" >>"$out/logs/kills.txt"

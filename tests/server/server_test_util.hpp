@@ -149,6 +149,10 @@ class ScriptedRobot {
     std::lock_guard<std::mutex> lock(state_->mutex);
     return state_->corrections;
   }
+  int correctionMessages() const {
+    std::lock_guard<std::mutex> lock(state_->mutex);
+    return state_->correction_messages;
+  }
   int slicesReceived() const {
     std::lock_guard<std::mutex> lock(state_->mutex);
     return state_->slices;
@@ -181,6 +185,7 @@ class ScriptedRobot {
     std::map<int, bool> acks;
     int ack_messages = 0;
     std::optional<msg::PoseCorrections> corrections;
+    int correction_messages = 0;
     int slices = 0;
     std::optional<msg::OccupancySlice> slice;
     MapStreamSeen stream;
@@ -195,7 +200,10 @@ class ScriptedRobot {
           ++ack_messages;
         }
       } else if (opened->type == msg::MessageType::kPoseCorrections) {
-        if (auto c = msg::decodeMessage<msg::PoseCorrections>(*opened)) corrections = *c;
+        if (auto c = msg::decodeMessage<msg::PoseCorrections>(*opened)) {
+          corrections = *c;
+          ++correction_messages;
+        }
       } else if (opened->type == msg::MessageType::kOccupancySlice) {
         if (auto sl = msg::decodeMessage<msg::OccupancySlice>(*opened)) {
           slice = std::move(*sl);

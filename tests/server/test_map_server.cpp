@@ -246,12 +246,21 @@ TEST(MapServer, BadInputIsCountedRefusedOrIgnoredAndNothingStoredIsLost) {
   ASSERT_GE(seg.keyframes.size(), 3u);
   Harness h(freshDir("bad_input"));
   ScriptedRobot robot(*h.transport, "robot0", rgbdmap::testing::testKey(1), 100);
-  // A keyframe before the Hello is not acknowledged (the robot sends it again later).
+  // A keyframe before the Hello (twice) is held, not acknowledged, until the Hello comes; then it is
+  // stored and acknowledged without being sent again.
   robot.send(seg.keyframes[0]);
+  robot.send(seg.keyframes[0]);
+  ASSERT_TRUE(testing::eventually([&] { return h.server->stats().keyframes_held_for_hello == 1; }, 30.0));
   ASSERT_TRUE(h.server->waitIdle(30.0));
   EXPECT_TRUE(robot.acks().empty());
-  testing::driveRobot(*h.server, robot, seg, 0, 1);
+  EXPECT_EQ(h.server->stats().keyframes_held_for_hello, 1);
+  EXPECT_EQ(h.server->stats().keyframes, 0);
+  robot.hello(seg.camera);
+  ASSERT_TRUE(robot.waitAcked({seg.keyframes[0].keyframe_id}, 30.0));
   EXPECT_EQ(robot.acks().at(seg.keyframes[0].keyframe_id), true);
+  ASSERT_TRUE(h.server->waitIdle(30.0));
+  EXPECT_EQ(h.server->stats().keyframes_held_for_hello, 0);
+  EXPECT_EQ(h.server->stats().keyframes, 1);
   const uint64_t rejected_before = h.server->stats().messages_rejected;
   // Garbage, truncated and forged envelopes on the keyframe channel.
   robot.publishRaw("keyframe", msg::Bytes(100, 0xAB));

@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <chrono>
 #include <functional>
+#include <map>
 #include <random>
 #include <thread>
 
@@ -177,6 +178,35 @@ TEST(MapServerOrder, TheReorderBoundGivesUpOnAGapAndALatePredecessorJoinsTheChai
   testing::driveRobot(*h.server, again, seg, 4, 6);
   EXPECT_EQ(h.server->stats().keyframes, 9);
   EXPECT_EQ(h.server->stats().robots[0].duplicates, 2u);
+}
+
+TEST(MapServerOrder, KeyframesStillWaitingAtStopAreInTheFinalKeyframes) {
+  const OdometrySegment& seg = loopSegment(kLoopFrames, 0, kLoopFrames);
+  ASSERT_GE(seg.keyframes.size(), 6u);
+  testing::ServerHarness h(orderConfig(freshDir("order_stop"), 3600.0, 64));
+  ScriptedRobot robot(*h.transport, "robot0", testing::testKey(1), 100);
+  deliverOneByOne(robot, *h.server, seg, {0, 1, 3, 4, 5});  // 2 never comes; 3, 4, 5 wait for it
+  ASSERT_TRUE(h.server->waitIdle(60.0));
+  EXPECT_EQ(h.server->stats().keyframes_waiting, 3);
+  h.server->stop();
+  const MapServerStats s = h.server->stats();
+  EXPECT_EQ(s.keyframes_waiting, 0);
+  EXPECT_EQ(s.keyframes, 5);
+  std::vector<int> ids;
+  for (const ServerKeyframe& k : h.server->keyframes()) ids.push_back(k.keyframe_id);
+  std::sort(ids.begin(), ids.end());
+  std::vector<int> want;
+  for (const size_t i : {0, 1, 3, 4, 5}) want.push_back(seg.keyframes[i].keyframe_id);
+  std::sort(want.begin(), want.end());
+  EXPECT_EQ(ids, want) << "every stored keyframe is in the final keyframe list";
+  // Placed by the odometry: relative to keyframe 1 (before the gap) where the robot's odometry put it.
+  std::map<int, ServerKeyframe> by_id;
+  for (const ServerKeyframe& k : h.server->keyframes()) by_id[k.keyframe_id] = k;
+  const ServerKeyframe& a = by_id.at(seg.keyframes[1].keyframe_id);
+  const ServerKeyframe& b = by_id.at(seg.keyframes[5].keyframe_id);
+  const SE3 map_rel = a.T_map_kf.inverse() * b.T_map_kf, odom_rel = a.T_odom_kf.inverse() * b.T_odom_kf;
+  EXPECT_GT(odom_rel.translation().norm(), 0.05) << "the test needs keyframes that moved";
+  EXPECT_LT((map_rel.translation() - odom_rel.translation()).norm(), 0.01);
 }
 
 }  // namespace

@@ -1,6 +1,7 @@
 #include "inbox.hpp"
 
 #include <algorithm>
+#include <chrono>
 
 #include "rgbdmap/proto/channels.hpp"
 
@@ -46,7 +47,9 @@ void Inbox::onMessage(const std::string& channel, const uint8_t* data, size_t si
     case msg::MessageType::kHello:
       return onHello(*opened, robot);
     case msg::MessageType::kHeartbeat:
-      decodeFrom<msg::Heartbeat>(*opened, robot);
+      if (auto heartbeat = decodeFrom<msg::Heartbeat>(*opened, robot);
+          heartbeat && heartbeat->robot_id == robot)
+        registry_.noteHeartbeat(*heartbeat, std::chrono::steady_clock::now());
       return;
     case msg::MessageType::kKeyframe:
       return onKeyframe(*opened, robot);

@@ -125,6 +125,7 @@ void IngestPipeline::onOptimized(const OptimizedPoses& result) {
   // Corrections for each robot's current process: its keyframes and T_map_odom of its newest segment.
   const auto corrections =
       buildCorrections(index_.nodes(), currentSessionsLocked(), counters_.graph_revision);
+  noteCorrectionsLocked(corrections, std::chrono::steady_clock::now());
   std::vector<MapNodePose> map_poses = mapPosesLocked();
   lock.unlock();
   if (map_worker_) map_worker_->updatePoses(std::move(map_poses));

@@ -63,9 +63,13 @@ void IngestPipeline::giveUpWaitingLocked(std::chrono::steady_clock::time_point n
     integrateWithSuccessorsLocked(std::move(*head), nullptr, live);
 }
 
-void IngestPipeline::onTick() {
+void IngestPipeline::onStop() {
   Lock lock(mutex_);
-  giveUpWaitingLocked(std::chrono::steady_clock::now(), config_.reorder_timeout_s, true);
+  const size_t waiting = reorder_.size();
+  if (waiting == 0) return;
+  log::info("server: stopping with ", waiting, " stored keyframe(s) still waiting for a predecessor: ",
+            "placed by odometry in new chains for the final outputs");
+  giveUpWaitingLocked(std::chrono::steady_clock::time_point::max(), 0.0, false);
 }
 
 void IngestPipeline::noteSplitLocked(const IndexedNode& node, const msg::Keyframe& kf) {

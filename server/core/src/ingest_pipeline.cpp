@@ -18,7 +18,8 @@ IngestPipeline::IngestPipeline(const MapServerConfig& config, RobotRegistry& reg
       registry_(registry),
       publisher_(publisher),
       revision_base_(revision_base),
-      detector_(CameraIntrinsics{}, config.loop) {}
+      detector_(CameraIntrinsics{}, config.loop),
+      hello_hold_(static_cast<size_t>(config.reorder_capacity), config.robot_queue_bytes) {}
 
 void IngestPipeline::attach(MapStore* store, SubmitGraph submit) {
   std::lock_guard<std::mutex> lock(mutex_);
@@ -28,21 +29,29 @@ void IngestPipeline::attach(MapStore* store, SubmitGraph submit) {
 }
 
 void IngestPipeline::onHello(const msg::Hello& hello) {
-  std::lock_guard<std::mutex> lock(mutex_);
-  const auto registered = registry_.hello(hello.robot_id, hello.header.session, hello.camera);
-  if (!registered) {
-    log::warn("server: hello from ", hello.robot_id, ": ", registered.error());
-    return;
-  }
-  if (*registered) {
-    if (const Status s = registry_.save(store_->directory()); !s) {
-      registry_unsaved_ = true;  // saved again before the next keyframe is stored
-      log::error("server: ", s.error());
+  std::vector<msg::Keyframe> held;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    const auto registered = registry_.hello(hello.robot_id, hello.header.session, hello.camera);
+    if (!registered) {
+      log::warn("server: hello from ", hello.robot_id, ": ", registered.error());
+      return;
     }
-    detector_.setRobotCamera(registry_.index(hello.robot_id), hello.camera);
-    log::info("server: robot ", hello.robot_id, " (", hello.software_version, ") joined, session ",
-              hello.header.session);
+    if (*registered) {
+      if (const Status s = registry_.save(store_->directory()); !s) {
+        registry_unsaved_ = true;  // saved again before the next keyframe is stored
+        log::error("server: ", s.error());
+      }
+      detector_.setRobotCamera(registry_.index(hello.robot_id), hello.camera);
+      log::info("server: robot ", hello.robot_id, " (", hello.software_version, ") joined, session ",
+                hello.header.session);
+    }
+    held = hello_hold_.release(hello.robot_id);
   }
+  if (!held.empty())
+    log::info("server: ", held.size(), " keyframe(s) of ", hello.robot_id,
+              " came before its hello: taken in now");
+  for (const msg::Keyframe& kf : held) onKeyframe(kf);
 }
 
 void IngestPipeline::onKeyframe(const msg::Keyframe& kf) {
@@ -52,8 +61,9 @@ void IngestPipeline::onKeyframe(const msg::Keyframe& kf) {
   const int robot = registry_.index(kf.robot_id);
   const std::optional<CameraIntrinsics> camera = registry_.camera(kf.robot_id);
   if (robot < 0 || !camera) {
-    // No Hello yet (lost or reordered): not acknowledged, so the robot sends it again after its Hello.
+    // No Hello yet (lost or overtaken): held until it comes (not acknowledged before).
     registry_.countWaitingForHello(kf.robot_id);
+    hello_hold_.hold(kf);
     return;
   }
   registry_.noteSession(kf.robot_id, kf.header.session);  // a restarted server heard no Hello
@@ -208,6 +218,8 @@ MapServerStats IngestPipeline::stats() const {
   timings_.fill(&s);
   s.maps = static_cast<int>(index_.mapCount());
   s.keyframes_waiting = static_cast<int>(reorder_.size());
+  s.keyframes_held_for_hello = static_cast<int>(hello_hold_.held());
+  s.keyframes_hold_dropped = hello_hold_.dropped();
   s.robots = registry_.stats();
   for (ServerRobotStats& r : s.robots) {
     const int robot = registry_.index(r.robot_id);

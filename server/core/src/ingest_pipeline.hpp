@@ -18,6 +18,7 @@
 #include <string>
 #include <vector>
 
+#include "hello_hold.hpp"
 #include "ingest_timings.hpp"
 #include "keyframe_index.hpp"
 #include "map_worker.hpp"
@@ -56,8 +57,12 @@ class IngestPipeline {
   void onHello(const msg::Hello& hello);
   void onKeyframe(const msg::Keyframe& keyframe);
   void onOptimized(const OptimizedPoses& result);
-  /// Gives up on predecessors that did not come within reorder_timeout_s (ingest_order.cpp).
+  /// Gives up on late predecessors and follows the robots' heartbeats with corrections
+  /// (ingest_corrections.cpp).
   void onTick();
+  /// After the ingest worker stopped: every keyframe still waiting for its predecessor into the graph (new
+  /// chains placed by odometry, no loop detection), so that the final outputs list every stored keyframe.
+  void onStop();
 
   // ---- readers (any thread)
   /// Counters, timings, maps and robots (not the receive-side or map worker fields).
@@ -120,6 +125,15 @@ class IngestPipeline {
   std::map<std::string, int64_t> currentSessionsLocked() const;
   std::vector<MapNodePose> mapPosesLocked() const;
 
+  // ingest_corrections.cpp: corrections that follow the robots' heartbeats
+  using Published = std::vector<std::pair<std::string, msg::PoseCorrections>>;
+  /// Remembers what an optimisation told each robot (the first send of it).
+  void noteCorrectionsLocked(const std::map<std::string, msg::PoseCorrections>& corrections,
+                             std::chrono::steady_clock::time_point now);
+  /// For each robot whose heartbeat names a keyframe in the graph: the newest corrections again when they
+  /// cover it and may have been lost, or an optimisation when none covers it yet (no loop came after it).
+  Published followHeartbeatsLocked(std::chrono::steady_clock::time_point now);
+
   // map_restore.cpp
   int restoreKeyframesLocked();  ///< returns the number skipped; keyframes may be stored out of chain order
   void restoreLoopsLocked();
@@ -139,6 +153,7 @@ class IngestPipeline {
   int64_t next_edge_id_ = 0;
   int64_t next_node_id_ = 0;  ///< of the next stored keyframe (node ids are dense in store order)
   ReorderBuffer reorder_;
+  HelloHold hello_hold_;  ///< keyframes that came before their robot's Hello
   struct SplitHead {
     int64_t node_id = 0;
     SE3 T_prev_cur = SE3::Identity();
@@ -146,6 +161,14 @@ class IngestPipeline {
   };
   std::map<KeyframeKey, SplitHead> split_heads_;  ///< by the key of the predecessor that did not come
   bool graph_joined_ = false;                     ///< a late predecessor joined a split chain: optimise
+  struct CorrectionsSent {
+    msg::PoseCorrections last;  ///< the newest sent to the robot
+    int64_t robot_session = 0;  ///< the robot's process they were built for
+    int sends = 0;              ///< how often `last` went out
+    std::chrono::steady_clock::time_point sent_at;
+    std::optional<KeyframeKey> optimised_for;  ///< the heartbeat keyframe an optimisation was asked for
+  };
+  std::map<std::string, CorrectionsSent> corrections_sent_;
   MapServerStats counters_;  ///< the counting fields; the derived ones are filled in stats()
   IngestTimings timings_;
   // A failed store (a full disk): what waits for it to work again.

@@ -161,6 +161,7 @@ void MapServer::stop() {
   m.gate.close();
   if (m.optimizer) m.optimizer->stop();
   m.queue.stop();
+  m.pipeline.onStop();
   m.status.stop();
   if (m.store_retry) m.store_retry->stop();
   if (m.map_worker) m.map_worker->stop();

@@ -171,6 +171,28 @@ void RobotRegistry::countRefusedBeforeDecode(const std::string& robot_id) {
   ++entry(robot_id).stats.refused_before_decode;
 }
 
+void RobotRegistry::noteHeartbeat(const msg::Heartbeat& heartbeat,
+                                  std::chrono::steady_clock::time_point now) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  const auto it = robots_.find(heartbeat.robot_id);
+  if (it == robots_.end() || it->second.index < 0) return;
+  std::optional<HeartbeatSeen>& seen = it->second.heartbeat;
+  const bool same = seen && seen->session == heartbeat.header.session &&
+                    seen->segment == heartbeat.segment_id &&
+                    seen->last_keyframe_id == heartbeat.last_keyframe_id;
+  const auto since = same ? seen->naming_since : now;
+  seen =
+      HeartbeatSeen{heartbeat.header.session, heartbeat.segment_id, heartbeat.last_keyframe_id, now, since};
+}
+
+std::map<std::string, RobotRegistry::HeartbeatSeen> RobotRegistry::heartbeats() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  std::map<std::string, HeartbeatSeen> out;
+  for (const auto& [id, e] : robots_)
+    if (e.heartbeat) out.emplace(id, *e.heartbeat);
+  return out;
+}
+
 std::vector<ServerRobotStats> RobotRegistry::stats() const {
   std::lock_guard<std::mutex> lock(mutex_);
   std::vector<std::pair<int, ServerRobotStats>> ordered;

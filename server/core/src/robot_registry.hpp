@@ -3,6 +3,7 @@
 // Thread-safe (one internal mutex): the receive thread counts bytes, the worker registers and counts.
 // Cameras are persisted in <map_dir>/robots.txt (written to a temporary file, synced, then renamed), so a
 // restarted server can rebuild the features of stored keyframes before any robot says Hello again.
+#include <chrono>
 #include <cstdint>
 #include <map>
 #include <mutex>
@@ -12,6 +13,7 @@
 
 #include "rgbdmap/common/camera.hpp"
 #include "rgbdmap/common/result.hpp"
+#include "rgbdmap/proto/messages.hpp"
 #include "rgbdmap/server/map_server.hpp"
 
 namespace rgbdmap {
@@ -46,6 +48,18 @@ class RobotRegistry {
   void countThrottled(const std::string& robot_id);
   void countRefusedBeforeDecode(const std::string& robot_id);
 
+  /// A robot's newest Heartbeat: the keyframe it sent last, when it was heard, and since when it has been
+  /// naming that keyframe (a robot that stopped sending keeps naming its last one).
+  struct HeartbeatSeen {
+    int64_t session = 0;
+    int segment = 0;
+    int last_keyframe_id = -1;
+    std::chrono::steady_clock::time_point heard, naming_since;
+  };
+  /// Robots that said Hello only (the receive thread; the count of entries stays bounded by the Hellos).
+  void noteHeartbeat(const msg::Heartbeat& heartbeat, std::chrono::steady_clock::time_point now);
+  std::map<std::string, HeartbeatSeen> heartbeats() const;
+
   /// Robots that said Hello, in index order.
   std::vector<ServerRobotStats> stats() const;
 
@@ -54,6 +68,7 @@ class RobotRegistry {
     ServerRobotStats stats;
     int index = -1;
     int64_t session = 0;
+    std::optional<HeartbeatSeen> heartbeat;
   };
   Entry& entry(const std::string& robot_id);  // caller holds mutex_
 

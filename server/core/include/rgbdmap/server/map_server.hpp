@@ -57,7 +57,7 @@ struct ServerRobotStats {
   uint64_t out_of_order = 0;       ///< stored before their predecessor was in the graph (they waited)
   uint64_t chain_splits = 0;       ///< keyframes that started a new chain: their predecessor never came
                                    ///< (reorder bound or timeout) or was refused
-  uint64_t waiting_for_hello = 0;  ///< keyframes before the robot's Hello (not acknowledged)
+  uint64_t waiting_for_hello = 0;  ///< keyframes that came before the robot's Hello (held, taken in with it)
   int keyframes_waiting = 0;       ///< stored, acknowledged, waiting for their predecessor now
   /// Fair share (issue #11): keyframes left unacknowledged because its queue was full, or because it sent
   /// over server.robot_max_keyframes_per_s; refused from the images' headers, before decoding.
@@ -78,6 +78,10 @@ struct MapServerStats {
   std::array<int, kLoopRejectionCount> loops_rejected_by_reason{};
   int optimizations = 0;
   double last_optimize_ms = 0.0;
+  /// Corrections that follow the robots' heartbeats: sent again (the first may have been lost), and
+  /// optimisations asked for a robot's last keyframe that no corrections covered yet.
+  uint64_t corrections_resent = 0;
+  uint64_t optimizations_for_heartbeats = 0;
   int64_t graph_revision = 0;
   int maps = 0;                               ///< connected components of the graph
   uint64_t messages_rejected = 0;             ///< RejectCounters total (auth, replay, malformed, ...)
@@ -87,6 +91,10 @@ struct MapServerStats {
   uint64_t keyframes_refused = 0;
   uint64_t unknown_robot_messages = 0;
   int keyframes_waiting = 0;  ///< in the reorder buffer: stored and acknowledged, not in the graph yet
+  /// Keyframes that came before their robot's Hello, held (not stored or acknowledged yet) until it comes,
+  /// and those the hold's bounds pushed out (the robot sends them again).
+  int keyframes_held_for_hello = 0;
+  uint64_t keyframes_hold_dropped = 0;
   /// Per keyframe, from dequeue to the graph update (decode + validate images, features, durable store,
   /// acknowledgement, loop candidates and verification, graph insertion).
   double ingest_ms_median = 0.0, ingest_ms_p90 = 0.0, ingest_ms_max = 0.0;
