@@ -54,7 +54,7 @@ TEST(CorrectionsFollowHeartbeats, ALastKeyframeWithoutLoopsIsCoveredAndSentAgain
   // Heard on: the same corrections again, a bounded number of times (8 sends in all).
   const int revision_messages = robot.correctionMessages();
   heartbeatUntil(
-      robot, last, [] { return false; }, 12.0);
+      robot, last, [] { return false; }, 8.0);
   const MapServerStats s = h.server->stats();
   std::printf("[ measured ] corrections resent %llu, optimisations for heartbeats %llu, messages %d\n",
               static_cast<unsigned long long>(s.corrections_resent),
