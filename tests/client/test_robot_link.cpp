@@ -493,5 +493,13 @@ TEST(RobotLink, HandlersAreHarmlessAfterTheLinkIsGone) {
   EXPECT_TRUE(again.waitAllAcked(5.0));
 }
 
+TEST(RobotLink, ChunksByDefaultOnLcmOnly) {
+  EXPECT_EQ(resolveChunkBytes(-1, "udpm://239.255.76.67:7667?ttl=0"), 1100);
+  EXPECT_EQ(resolveChunkBytes(-1, "dds://?domain=0"), 0);
+  EXPECT_EQ(resolveChunkBytes(-1, "memq://"), 0);
+  EXPECT_EQ(resolveChunkBytes(0, "udpm://239.255.76.67:7667"), 0) << "whole keyframes when configured";
+  EXPECT_EQ(resolveChunkBytes(2000, "memq://"), 2000);
+}
+
 }  // namespace
 }  // namespace rgbdmap

@@ -45,6 +45,10 @@ class DroppingTransport : public transport::Transport {
   Status start() override { return inner_.start(); }
   void stop() override {}
   transport::TransportStats stats() const override { return inner_.stats(); }
+  void setLoss(double loss) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    loss_ = loss;
+  }
 
  private:
   transport::Transport& inner_;
@@ -101,6 +105,27 @@ TEST(ChunkedDelivery, LostChunksAreResentUntilEveryKeyframeIsStored) {
       static_cast<unsigned long long>(s.bytes_sent));
   EXPECT_GT(s.chunks_resent, 0u);
   EXPECT_GE(harness.server->stats().keyframes, 6);
+  link.stop();
+  std::filesystem::remove_all(dir);
+}
+
+// A robot that starts before its server: its first Hello and chunks are lost. The server answers the
+// resent chunks with ChunkAcks before any Hello; the robot must not take them for a registration (it
+// stopped saying Hello, and its keyframes waited for that Hello for good).
+TEST(ChunkedDelivery, ARobotStartedBeforeItsServerSaysHelloUntilRegistered) {
+  const std::string dir = freshDir("chunked_early");
+  ServerHarness harness(serverTestConfig(dir, {"robot0"}));
+  DroppingTransport not_yet(*harness.transport, 1.0, 3);  // everything lost: no server yet
+  RobotLinkOptions options = chunkedOptions("robot0", testKey(1), 1100);
+  options.hello_period_s = 2.0;  // the resent chunks' ChunkAcks come well before the next Hello
+  RobotLink link(not_yet, options);
+  ASSERT_TRUE(link.start());
+  for (int i = 0; i < 3; ++i)
+    ASSERT_TRUE(link.sendKeyframe(smallKeyframe(i, 0, testPose(i), i - 1), noiseFrame(i, 320, 240)));
+  std::this_thread::sleep_for(std::chrono::milliseconds(300));
+  not_yet.setLoss(0.0);  // the server is up
+  EXPECT_TRUE(link.waitAllAcked(15.0)) << link.stats().keyframes_acked << " of 3 acknowledged";
+  EXPECT_EQ(harness.server->stats().keyframes, 3);
   link.stop();
   std::filesystem::remove_all(dir);
 }

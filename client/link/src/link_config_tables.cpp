@@ -56,8 +56,8 @@ const ConfigTable<RobotLinkOptions>& robotLinkConfigTable() {
           .add("send_timeout_s", &C::send_timeout_s, R::closed(0.0, 3600.0),
                "a keyframe waits at most this long for room in the send window, then is skipped")
           .add("chunk_bytes", &C::chunk_bytes, R::closed(-1, msg::kMaxChunkBytes),
-               "keyframes in acknowledged chunks of this size (256..60000); 0 = whole; -1 = 0 for now (use "
-               "1100 on udpm://)")
+               "keyframes in acknowledged chunks of this size (256..60000); 0 = whole; -1 = by transport: "
+               "1100 on udpm://, else 0")
           .section("reliable", "keyframe delivery (resent until acknowledged)")
           .nest("reliable.", &C::reliable, reliableSenderConfigTable())
           .section("codec", "keyframe images (common/image_codec.hpp)")

@@ -29,12 +29,9 @@ static_assert(kUdpmChunkBytes >= msg::kMinChunkBytes, "chunk size");
 
 int resolveChunkBytes(int configured, const std::string& transport_url) {
   if (configured >= 0) return configured;
-  // Opt-in for now: with chunks on by default for udpm://, the robots started with the server in the
-  // multi-process restart test (integration.netns) got no keyframe acknowledged; not understood yet, see
-  // deploy/lcm.md. kUdpmChunkBytes is the size to configure.
-  (void)transport_url;
-  (void)kUdpmChunkBytes;
-  return 0;
+  // LCM splits a large message into datagrams and loses all of it with any one of them; DDS retransmits
+  // lost fragments itself, memq:// loses nothing.
+  return transport_url.rfind("udpm://", 0) == 0 ? kUdpmChunkBytes : 0;
 }
 
 Status RobotLink::Impl::transmitChunked(int keyframe_id) {

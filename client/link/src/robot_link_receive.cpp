@@ -63,7 +63,10 @@ void RobotLink::Impl::onMessage(const uint8_t* data, size_t size) {
   if constexpr (!std::is_same_v<T, msg::ServerStatus>) {
     if (!isForMe(message->robot_id)) return;
   }
-  bool knows_me = true;  // every message but the status is addressed to this robot
+  // Every message but the status and a ChunkAck is addressed to a robot the server registered. A ChunkAck
+  // answers chunks whatever the Hello: taking it for a registration stopped the Hello of a robot started
+  // before its server, whose keyframes then waited for that Hello for good.
+  bool knows_me = !std::is_same_v<T, msg::ChunkAck>;
   if constexpr (std::is_same_v<T, msg::ServerStatus>) {
     knows_me = false;
     for (const msg::RobotStatus& r : message->robots) knows_me = knows_me || r.robot_id == options_.robot_id;

@@ -45,7 +45,7 @@ struct RobotLinkOptions {
   double send_timeout_s = 30.0;  ///< sendKeyframe waits at most this for room in the send window
   /// Keyframes in chunks of this many bytes, acknowledged and resent one by one (KeyframeChunk, ChunkAck):
   /// for udpm://, where a lost IP fragment loses a whole LCM message. 0 = whole keyframes; -1 = choose by
-  /// the transport URL (resolveChunkBytes: 0 for now; 1100 is the size for udpm://).
+  /// the transport URL (resolveChunkBytes: 1100 for udpm://, else 0).
   int chunk_bytes = -1;
   std::string software_version = "rgbdmap-client 0.1.0";  ///< sent in Hello
 
@@ -53,8 +53,8 @@ struct RobotLinkOptions {
   std::string validate() const;
 };
 
-/// `configured` if >= 0, else the default for the transport URL: 0 for now (chunks are opt-in: configure
-/// 1100 for udpm://, one chunk per Ethernet datagram; DDS retransmits lost fragments itself).
+/// `configured` if >= 0, else the default for the transport URL: 1100 for udpm:// (one chunk per Ethernet
+/// datagram), 0 otherwise (DDS retransmits lost fragments itself; memq:// loses nothing).
 int resolveChunkBytes(int configured, const std::string& transport_url);
 
 struct RobotLinkStats {
