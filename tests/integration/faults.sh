@@ -13,7 +13,8 @@
 #   loss30    30 % of the messages every process publishes are dropped (drop=0.3 on every transport URL)
 #   loss60    60 % likewise
 #   dgram5    5 % of the UDP datagrams: DDS via Cyclone's Internal/Test/XmitLossiness (a test config
-#             derived from deploy/dds/cyclonedds-loopback.xml); LCM via rgbdmap-lossy-relay (HOOK)
+#             derived from deploy/dds/cyclonedds-loopback.xml); LCM: 5 % of the IP packets (MTU 1500)
+#             through rgbdmap-lossy-relay between the robots' and the server's multicast groups
 #   kill9     the server is killed (SIGKILL) at five random moments of the run and restarted on the same
 #             map directory each time (the robots at 30 Hz here, not --fast: the run must last the kills)
 #   flood     a robot with a valid key floods keyframes next to a well-behaved one (HOOK)
@@ -134,11 +135,21 @@ fault_dgram5_dds() {  # 50 per mille of Cyclone's outgoing datagrams dropped, in
   export CYCLONEDDS_URI="file://$out/cyclonedds-lossy.xml"
   run_plain
 }
-# HOOK (helper "chunk"): LCM through rgbdmap-lossy-relay dropping 5 % of the datagrams between the robots'
-# and the server's multicast groups. Fill in: robots on one group/port, server on another, the relay between.
+# LCM: the robots on one multicast group and port, the server on another, rgbdmap-lossy-relay between them
+# dropping 5 % of the IP packets (--mtu 1500: a datagram is lost with any of its fragments). The robots
+# send keyframes in chunks of 1100 bytes (the udpm:// default), one datagram each.
 fault_dgram5_lcm() {
-  [ -x "$bin/rgbdmap-lossy-relay" ] || { echo "SKIP: HOOK dgram5 over LCM needs rgbdmap-lossy-relay"; exit 77; }
-  echo "SKIP: HOOK dgram5 over LCM: relay wiring not written yet"; exit 77
+  [ -x "$bin/rgbdmap-lossy-relay" ] || { echo "FAIL: no $bin/rgbdmap-lossy-relay"; exit 1; }
+  lcm_url='udpm://239.255.76.67:7667?ttl=0&recv_buf_size=8388608'
+  write_configs
+  local server_url='udpm://239.255.76.68:7668?ttl=0&recv_buf_size=8388608'
+  sed -i "s|  transport: \".*\"|  transport: \"$server_url\"|" "$out/server.yaml"
+  "$bin/rgbdmap-lossy-relay" --a "$lcm_url" --b "$server_url" --drop-datagrams 0.05 --mtu 1500 \
+    --seed "$seed" --duration 170 --stats "$out/relay.json" >"$out/logs/relay.log" 2>&1 &
+  local relay=$!
+  sleep 0.3
+  run_plain
+  kill -INT "$relay" 2>/dev/null; wait "$relay"
 }
 # HOOK (helper "fair"): a third robot with a valid key floods keyframes; check robot0's ack latency p90 < 1 s,
 # all its keyframes stored, and the server's peak RSS under a stated bound.

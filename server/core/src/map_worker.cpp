@@ -42,7 +42,18 @@ void MapWorker::start() { worker_.start(); }
 void MapWorker::stop() { worker_.stop(); }
 
 void MapWorker::addKeyframe(MapKeyframeJob job) {
-  worker_.post([this, job = std::move(job)]() mutable { insertKeyframe(job); });
+  bool with_images = !job.depth.empty();
+  if (with_images && queued_images_.load() >= kMaxQueuedImages) {
+    job.depth.release();  // read back from the store when its turn comes
+    job.color.release();
+    with_images = false;
+    ++images_deferred_;
+  }
+  if (with_images) ++queued_images_;
+  worker_.post([this, with_images, job = std::move(job)]() mutable {
+    insertKeyframe(job);
+    if (with_images) --queued_images_;
+  });
 }
 
 void MapWorker::updatePoses(std::vector<MapNodePose> poses) {
@@ -192,6 +203,7 @@ void MapWorker::fillStats(MapServerStats* s) const {
   s->map_last_rebuild_ms = o.last_rebuild_ms;
   std::lock_guard<std::mutex> lock(state_mutex_);
   s->map_keyframes = inserted_;
+  s->map_images_deferred = images_deferred_.load();
   s->map_insert_ms_median = insert_ms_.median();
   s->slice_ms_median = slice_ms_.median();
   s->slices_sent = slices_sent_;

@@ -9,6 +9,7 @@
 //     published to R;
 //   - every map_stream_period_s: a MapUpdate of each robot's map to that robot (full on first send and
 //     after a rebuild or a change of map, the changed leaves otherwise).
+#include <atomic>
 #include <functional>
 #include <map>
 #include <memory>
@@ -51,6 +52,11 @@ struct MapWorkerPublishers {
 
 class MapWorker {
  public:
+  /// Live keyframe jobs that may wait with their decoded images (~1.5 MB each at 640x480). When the octree
+  /// falls behind ingestion (many robots), a further job waits without them and reads them back from the
+  /// store when its turn comes, as a restored one does: memory stays bounded, no keyframe is left out.
+  static constexpr size_t kMaxQueuedImages = 32;
+
   /// config must validate(); store must outlive the worker (readKeyframe is thread-safe).
   MapWorker(const MapServerConfig& config, const MapStore& store, MapWorkerPublishers publishers);
   ~MapWorker();  ///< stop()
@@ -104,6 +110,8 @@ class MapWorker {
   SampleReservoir insert_ms_;
   SampleReservoir slice_ms_;
   size_t inserted_ = 0;
+  std::atomic<size_t> queued_images_{0};      ///< queued jobs that carry decoded images
+  std::atomic<uint64_t> images_deferred_{0};  ///< jobs queued without them (kMaxQueuedImages)
   uint64_t slices_sent_ = 0, map_updates_sent_ = 0, map_bytes_sent_ = 0;
 
   SerialWorker worker_;  ///< keyframes and pose updates in order, the map stream as its period; last member

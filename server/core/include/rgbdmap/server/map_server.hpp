@@ -106,6 +106,7 @@ struct MapServerStats {
   int restored_keyframes = 0, restored_loops = 0;  ///< from the map directory at start
   /// Occupancy map (zero when occupancy_enabled is false).
   size_t map_keyframes = 0;            ///< keyframes inserted into the octree (restored ones included)
+  uint64_t map_images_deferred = 0;    ///< queued for the octree without images (read back: memory bound)
   size_t map_tree_memory_bytes = 0;    ///< OcTree::memoryUsage() over all maps
   size_t map_clouds_memory_bytes = 0;  ///< kept keyframe clouds (for rebuilds and map.ply)
   size_t map_leaves = 0, map_occupied_leaves = 0;
