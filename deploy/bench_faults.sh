@@ -1,10 +1,11 @@
 #!/usr/bin/env bash
 # Fault benchmark (issue #11): every fault of tests/integration/faults.sh (clean, 30 % and 60 % message loss,
-# 5 % datagram loss, server kill -9 x5, and the hooks: flooding robot, disk full) over LCM and over Cyclone
-# DDS, two robots on a synthetic 200-frame loop, each run inside a private loopback-only network namespace.
-# Prints one row per run: keyframes sent / acknowledged / stored (both robots), retransmissions, ack latency
-# median and p90 (the worse robot), merged maps and the final ATE of the server's keyframes. A fault whose
-# hook is not written yet shows "hook". Needs root (unshare -n); jq.
+# 5 % datagram loss, server kill -9 x5) over LCM and over Cyclone DDS, two robots on a synthetic 200-frame
+# loop, each run inside a private loopback-only network namespace. Prints one row per run: keyframes sent /
+# acknowledged / stored (both robots), retransmissions, ack latency median and p90 (the worse robot),
+# merged maps and the final ATE of the server's keyframes. Then the two faults that do not run over
+# processes here: a flooding robot (in-process against the real MapServer, MapServerFair.*) and a full
+# disk (tests/integration/disk_full.sh, a private tmpfs), with what they measured. Needs root; jq.
 #
 # Usage: bash deploy/bench_faults.sh [--out DIR] [--faults "clean loss30 ..."] [--transports "lcm dds"]
 #          [--seed N]
@@ -12,7 +13,7 @@
 set -u
 repo="$(cd "$(dirname "$0")/.." && pwd)"
 bin="${RGBDMAP_BIN:-$repo/build/bin}"
-out="out/bench_faults" faults="clean loss30 loss60 dgram5 kill9 flood diskfull" transports="lcm dds" seed=7
+out="out/bench_faults" faults="clean loss30 loss60 dgram5 kill9" transports="lcm dds" seed=7
 while [ $# -gt 0 ]; do
   case "$1" in
     --out) out="$2"; shift 2 ;;
@@ -59,7 +60,7 @@ for fault in $faults; do
       --dataset "$ds" --out "$d" --seed "$seed" >"$out/${fault}_$transport.log" 2>&1
     rc=$? secs=$(( $(date +%s) - start ))
     if [ "$rc" = 77 ]; then
-      printf '%s\t%s\thook\t-\t-\t-\t-\t-\t-\t-\t-\n' "$fault" "$transport" >>"$table"
+      printf '%s\t%s\tskipped\t-\t-\t-\t-\t-\t-\t-\t-\n' "$fault" "$transport" >>"$table"
     elif [ "$rc" = 0 ] && [ -s "$d/result.json" ]; then
       row "$fault" "$transport" "$d/result.json" "$secs" >>"$table"
     else
@@ -70,3 +71,18 @@ for fault in $faults; do
 done
 echo
 column -t -s "$(printf '\t')" "$table"
+
+echo
+echo "== flooding robot (in-process, real MapServer; $bin/test_map_server --gtest_filter='MapServerFair.AFlooding*')"
+if [ -x "$bin/test_map_server" ]; then
+  "$bin/test_map_server" --gtest_filter='MapServerFair.AFloodingRobotDoesNotDelayAWellBehavedOne' 2>&1 \
+    | grep -E '^\[ measured \]|OK \]|FAILED \]' || echo "no result"
+else
+  echo "not built (test_map_server)"
+fi
+echo
+echo "== disk full, then space freed (tests/integration/disk_full.sh; needs a private tmpfs mount)"
+bash "$repo/tests/integration/disk_full.sh" "$bin" >"$out/disk_full.log" 2>&1
+rc=$?
+grep -E '^measured|^SKIP' "$out/disk_full.log" || true
+echo "disk_full.sh exit $rc (log: $out/disk_full.log)"

@@ -19,8 +19,8 @@
 namespace rgbdmap {
 
 struct ChunkReassemblyOptions {
-  size_t max_transfers_per_robot = 4;
-  size_t max_bytes_per_robot = 4u << 20;
+  size_t max_transfers_per_robot = 64;  ///< a robot catching up after loss has many keyframes in flight
+  size_t max_bytes_per_robot = 32u << 20;
   size_t max_total_bytes = 256u << 20;  ///< all robots (open mode lets anyone claim a robot id)
   double timeout_s = 10.0;
   size_t completed_remembered = 32;  ///< per robot
