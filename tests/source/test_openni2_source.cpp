@@ -1,0 +1,32 @@
+// The OpenNI2 source builds and links; without a device it reports one clear reason naming what it tried.
+#include <gtest/gtest.h>
+
+#include "rgbdmap/source/frame_source.hpp"
+
+namespace rgbdmap {
+namespace {
+
+TEST(OpenNi2Source, WithoutADeviceSaysWhatItTried) {
+  auto url = SourceUrl::parse("openni2:");
+  ASSERT_TRUE(url);
+  auto source = openFrameSource(*url, {});
+  if (source) GTEST_SKIP() << "an OpenNI2 device is attached: " << (*source)->describe();
+  const std::string& e = source.error();
+  EXPECT_EQ(e.rfind("openni2:", 0), 0u) << e;
+  EXPECT_NE(e.find("OpenNI2 2."), std::string::npos) << e;  // the library and its drivers
+  EXPECT_NE(e.find("PS1080"), std::string::npos) << e;
+  EXPECT_EQ(e.find('\n'), std::string::npos) << "one line: " << e;
+}
+
+TEST(OpenNi2Source, ANamedDeviceThatIsNotThereIsNamed) {
+  auto url = SourceUrl::parse("openni2:/nonexistent/device.oni");
+  ASSERT_TRUE(url);
+  auto source = openFrameSource(*url, {});
+  ASSERT_FALSE(source);
+  EXPECT_NE(source.error().find("cannot open '/nonexistent/device.oni'"), std::string::npos)
+      << source.error();
+  EXPECT_EQ(source.error().find('\n'), std::string::npos) << source.error();
+}
+
+}  // namespace
+}  // namespace rgbdmap
