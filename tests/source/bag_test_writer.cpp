@@ -118,6 +118,12 @@ Status writeTumFolderAsBag(const std::string& dir, const std::string& bag_path,
                                      : "32FC1";  // another name: 32FC1 data labelled with it
   try {
     rosbag::Bag bag(bag_path, rosbag::bagmode::Write);
+    if (options.compression == "bz2")
+      bag.setCompression(rosbag::compression::BZ2);
+    else if (options.compression == "lz4")
+      bag.setCompression(rosbag::compression::LZ4);
+    else if (options.compression != "none")
+      return Status::failure("unknown compression '" + options.compression + "'");
     const size_t n = options.max_frames ? std::min(options.max_frames, dataset->size()) : dataset->size();
     for (size_t i = 0; i < n; ++i) {
       auto frame = dataset->load(i);

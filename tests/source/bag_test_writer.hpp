@@ -16,7 +16,8 @@ struct BagWriteOptions {
   std::string info_topic = "/camera/rgb/camera_info";
   bool write_depth = true;
   bool write_info = true;
-  size_t max_frames = 0;  ///< 0: all
+  std::string compression = "none";  ///< none | bz2 (as the TUM benchmark's bags) | lz4
+  size_t max_frames = 0;             ///< 0: all
 };
 
 /// Every frame of the TUM folder `dir` (read with `camera`'s depth scale and size) into `bag_path`: colour

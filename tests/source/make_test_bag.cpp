@@ -22,6 +22,8 @@ int main(int argc, char** argv) {
       o.depth_encoding = argv[++i];
     else if (!std::strcmp(argv[i], "--color") && has_value)
       o.color_encoding = argv[++i];
+    else if (!std::strcmp(argv[i], "--compression") && has_value)
+      o.compression = argv[++i];
     else if (!std::strcmp(argv[i], "--frames") && has_value)
       o.max_frames = static_cast<size_t>(std::atol(argv[++i]));
     else if (!std::strcmp(argv[i], "--no-depth"))

@@ -4,6 +4,7 @@
 #include <rosbag/bag.h>
 #include <rosbag/view.h>
 
+#include <filesystem>
 #include <map>
 
 namespace rgbdmap::source_detail {
@@ -76,10 +77,14 @@ Result<std::unique_ptr<BagReader>> BagReader::open(const std::string& path, cons
   impl->path = path;
   impl->topics = topics;
   const std::string name = "bag " + path + ": ";
+  std::error_code ec;
+  if (!std::filesystem::is_regular_file(path, ec)) return R::failure(name + "no such file");
   try {
     impl->bag.open(path, rosbag::bagmode::Read);
   } catch (const std::exception& e) {
-    return R::failure(name + "cannot read: " + e.what() + " (missing, truncated or not a ROS 1 bag)");
+    return R::failure(name + "cannot read: " + e.what() +
+                      " (truncated or unindexed - a recording that was cut off; `rosbag reindex " + path +
+                      "` (python3-rosbag) repairs that - or not a ROS 1 bag)");
   }
   std::unique_ptr<BagReader> reader(new BagReader(std::move(impl)));
   try {
