@@ -19,6 +19,12 @@ namespace {
 
 using LiveClock = std::chrono::steady_clock;
 
+#if defined(__SANITIZE_ADDRESS__)
+constexpr bool kLiveSanitized = true;  // slower odometry; freed frames stay in ASan's quarantine
+#else
+constexpr bool kLiveSanitized = false;
+#endif
+
 /// Frames rendered in memory, handed out in order (a recording; makePacedSource makes it live).
 class RenderedSource : public FrameSource {
  public:
@@ -91,8 +97,8 @@ TEST(LiveRate, SlowOdometryDropsFramesCountsThemAndStaysOnTrack) {
   EXPECT_EQ(s.produced, 90u);
   EXPECT_EQ(s.delivered + s.dropped, s.produced);
   EXPECT_EQ(s.delivered, estimate.size());
-  EXPECT_GE(s.dropped, 25u);  // ~half of 90 at 15 of 30 Hz
-  EXPECT_LE(s.dropped, 65u);
+  EXPECT_GE(s.dropped, 25u);                         // ~half of 90 at 15 of 30 Hz
+  EXPECT_LE(s.dropped, kLiveSanitized ? 80u : 65u);  // under ASan the odometry itself is slower
   EXPECT_EQ(live.droppedFrames(), s.dropped);
   EXPECT_EQ(s.max_pending, 1u);   // bounded: one frame waits at most
   EXPECT_GT(earliest_s, -0.005);  // never delivered before the camera made it
@@ -104,6 +110,8 @@ TEST(LiveRate, SlowOdometryDropsFramesCountsThemAndStaysOnTrack) {
 }
 
 TEST(LiveRate, MemoryStaysFlatWhileTheReaderStalls) {
+  if (kLiveSanitized)
+    GTEST_SKIP() << "AddressSanitizer keeps freed frames in its quarantine: RSS says nothing";
   const double before_mb = residentMb();
   LatestFrameSource live(std::make_unique<GeneratedCamera>(75));  // 2.5 s, 1.5 MB per frame
   size_t read = 0;
