@@ -66,9 +66,15 @@ json "client counts 40 frames, none dropped" "$tmp/cout/client_bagbot.json" '.fr
 check "odometry on the recording" 0 "$bin" odometry --dataset "$tmp/rec" --out "$tmp/rec.txt"
 [ "$(grep -vc '^#' "$tmp/rec.txt")" -eq 40 ] && echo "ok: the recording replays 40 frames" || { echo "FAIL: recording frames"; fail=1; }
 contains "recording has camera.yaml" "$tmp/rec/camera.yaml" "fx: 525"
-check "client replaying a folder as a live camera" 3 "$client" --config "$tmp/client.yaml" \
-  --source "tum:$tmp/seq?live" --frames :30 --out "$tmp/live"
+check "client on a folder replayed as a live camera, recording" 3 "$client" --config "$tmp/client.yaml" \
+  --source "tum:$tmp/seq?live" --frames :30 --record "$tmp/live_rec" --out "$tmp/live"
 json "live run counts frames and drops" "$tmp/live/client_bagbot.json" '.frames + .dropped_frames == 30'
+check "odometry on the live recording" 0 "$bin" odometry --dataset "$tmp/live_rec" --out "$tmp/live_rec.txt"
+if diff <(grep -v '^#' "$tmp/live/trajectory_bagbot.txt") <(grep -v '^#' "$tmp/live_rec.txt") >/dev/null; then
+  echo "ok: the recording reproduces the live session's trajectory exactly"
+else
+  echo "FAIL: replay of the live recording differs from the live trajectory"; fail=1
+fi
 check "run on a bag" 0 "$bin" run --source "bag:$tmp/tum.bag" --frames 40 --out "$tmp/run"
 [ "$(grep -vc '^#' "$tmp/run/trajectory_robot0.txt")" -eq 40 ] && echo "ok: run: 40 poses" || { echo "FAIL: run poses"; fail=1; }
 
