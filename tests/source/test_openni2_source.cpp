@@ -3,12 +3,22 @@
 
 #include "rgbdmap/source/frame_source.hpp"
 
+#if defined(__SANITIZE_ADDRESS__)
+#include <sanitizer/lsan_interface.h>
+// OpenNI2 2.2 leaks ~2 KB per initialise in the driver plugins it loads and unloads (allocations from
+// "<unknown module>"): not this code's; the leak checker ignores what is allocated while opening.
+using OpenNiLeakScope = __lsan::ScopedDisabler;
+#else
+struct OpenNiLeakScope {};
+#endif
+
 namespace rgbdmap {
 namespace {
 
 TEST(OpenNi2Source, WithoutADeviceSaysWhatItTried) {
   auto url = SourceUrl::parse("openni2:");
   ASSERT_TRUE(url);
+  const OpenNiLeakScope leak_scope;
   auto source = openFrameSource(*url, {});
   if (source) GTEST_SKIP() << "an OpenNI2 device is attached: " << (*source)->describe();
   const std::string& e = source.error();
@@ -21,6 +31,7 @@ TEST(OpenNi2Source, WithoutADeviceSaysWhatItTried) {
 TEST(OpenNi2Source, ANamedDeviceThatIsNotThereIsNamed) {
   auto url = SourceUrl::parse("openni2:/nonexistent/device.oni");
   ASSERT_TRUE(url);
+  const OpenNiLeakScope leak_scope;
   auto source = openFrameSource(*url, {});
   ASSERT_FALSE(source);
   EXPECT_NE(source.error().find("cannot open '/nonexistent/device.oni'"), std::string::npos)
