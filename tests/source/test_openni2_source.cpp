@@ -18,7 +18,7 @@ namespace {
 TEST(OpenNi2Source, WithoutADeviceSaysWhatItTried) {
   auto url = SourceUrl::parse("openni2:");
   ASSERT_TRUE(url);
-  const OpenNiLeakScope leak_scope;
+  [[maybe_unused]] const OpenNiLeakScope leak_scope;
   auto source = openFrameSource(*url, {});
   if (source) GTEST_SKIP() << "an OpenNI2 device is attached: " << (*source)->describe();
   const std::string& e = source.error();
@@ -31,7 +31,7 @@ TEST(OpenNi2Source, WithoutADeviceSaysWhatItTried) {
 TEST(OpenNi2Source, ANamedDeviceThatIsNotThereIsNamed) {
   auto url = SourceUrl::parse("openni2:/nonexistent/device.oni");
   ASSERT_TRUE(url);
-  const OpenNiLeakScope leak_scope;
+  [[maybe_unused]] const OpenNiLeakScope leak_scope;
   auto source = openFrameSource(*url, {});
   ASSERT_FALSE(source);
   EXPECT_NE(source.error().find("cannot open '/nonexistent/device.oni'"), std::string::npos)
