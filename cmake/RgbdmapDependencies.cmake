@@ -20,3 +20,29 @@ endif()
 if(RGBDMAP_BUILD_TESTS)
   find_package(GTest REQUIRED)
 endif()
+# Frame sources (issue #12, client/source). ROS 1 bags through librosbag-storage-dev: its pkg-config file
+# requires pluginlib.pc, which Debian does not ship, so headers and libraries are located directly (bag.h
+# includes pluginlib, class_loader and the ROS 2 utility headers these need, each in its own folder).
+find_path(ROSBAG_INCLUDE_DIR rosbag/bag.h REQUIRED)
+set(ROSBAG_HEADER_DIRS ${ROSBAG_INCLUDE_DIR})
+foreach(header pluginlib/class_loader.hpp class_loader/class_loader.hpp rcpputils/shared_library.hpp
+               rcutils/shared_library.h ament_index_cpp/get_package_prefix.hpp)
+  string(REGEX REPLACE "/.*" "" folder ${header})
+  find_path(ROSBAG_DEP_${folder}_DIR ${header} PATH_SUFFIXES ${folder} REQUIRED)
+  list(APPEND ROSBAG_HEADER_DIRS ${ROSBAG_DEP_${folder}_DIR})
+endforeach()
+find_library(ROSBAG_STORAGE_LIBRARY rosbag_storage REQUIRED)
+find_library(ROSTIME_LIBRARY rostime REQUIRED)
+find_library(ROSCPP_SERIALIZATION_LIBRARY roscpp_serialization REQUIRED)
+find_library(CONSOLE_BRIDGE_LIBRARY console_bridge REQUIRED)
+find_library(ROS_CPP_COMMON_LIBRARY cpp_common REQUIRED)
+add_library(rgbdmap_rosbag INTERFACE IMPORTED)
+target_include_directories(rgbdmap_rosbag INTERFACE ${ROSBAG_HEADER_DIRS})
+target_link_libraries(rgbdmap_rosbag INTERFACE ${ROSBAG_STORAGE_LIBRARY} ${ROSCPP_SERIALIZATION_LIBRARY}
+                                               ${ROSTIME_LIBRARY} ${ROS_CPP_COMMON_LIBRARY} ${CONSOLE_BRIDGE_LIBRARY})
+# Live OpenNI2 cameras through libopenni2-dev (headers in /usr/include/openni2).
+find_path(OPENNI2_INCLUDE_DIR OpenNI.h PATH_SUFFIXES openni2 REQUIRED)
+find_library(OPENNI2_LIBRARY OpenNI2 REQUIRED)
+add_library(rgbdmap_openni2 INTERFACE IMPORTED)
+target_include_directories(rgbdmap_openni2 INTERFACE ${OPENNI2_INCLUDE_DIR})
+target_link_libraries(rgbdmap_openni2 INTERFACE ${OPENNI2_LIBRARY})

@@ -8,6 +8,10 @@ packages=(
   # libraries
   libgtest-dev libbenchmark-dev libeigen3-dev libopencv-dev liboctomap-dev octomap-tools libceres-dev
   liblcm-dev cyclonedds-dev libzstd-dev libjpeg-dev zlib1g-dev libyaml-cpp-dev libssl-dev nlohmann-json3-dev
+  # frame sources (client/source): ROS 1 bags without ROS (rosbag_storage; ros/serialization.h from
+  # libroscpp-core-dev), live OpenNI2 cameras;
+  # python3-rosbag reads back the bags the tests write with the official Python reader
+  librosbag-storage-dev libroscpp-core-dev libopenni2-dev python3-rosbag
   # commands the scripts under deploy/ and tests/ call beyond coreutils, grep, sed and bash:
   # ip (iproute2), unshare (util-linux), pgrep (procps), /usr/bin/time (time), awk (mawk), jq (JSON)
   iproute2 util-linux procps time mawk jq

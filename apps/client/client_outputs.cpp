@@ -17,6 +17,8 @@ Json clientJson(const ClientRunInfo& info, const RobotRunResult& r) {
           {"tracking_losses", r.losses},
           {"segments", r.segments},
           {"unreadable_frames", r.unreadable_frames},
+          {"dropped_frames", r.dropped_frames},
+          {"source_error", r.source_error},
           {"ms_per_frame_median", jsonNumber(r.medianMs())},
           {"wall_s", jsonNumber(r.wall_s)},
           {"interrupted", r.interrupted},
@@ -49,7 +51,8 @@ std::string clientSummary(const RobotRunResult& r) {
   char buf[768];
   std::snprintf(buf, sizeof buf,
                 "frames %d, keyframes %d (sent %llu, acked %llu, refused %llu, given up %llu, not sent %d), "
-                "retransmissions %llu\ntracking losses %d, segments %d, unreadable %d, ms/frame median %.2f, "
+                "retransmissions %llu\ntracking losses %d, segments %d, unreadable %d, dropped %d, ms/frame "
+                "median %.2f, "
                 "wall %.1f s%s\ncorrections %llu (graph revision %lld, covering the last keyframe: %s), "
                 "rejected %llu, sent %.1f KB, received %.1f KB",
                 r.frames, r.keyframes, static_cast<unsigned long long>(l.keyframes_sent),
@@ -57,7 +60,7 @@ std::string clientSummary(const RobotRunResult& r) {
                 static_cast<unsigned long long>(l.keyframes_refused),
                 static_cast<unsigned long long>(l.keyframes_given_up), r.keyframes_not_sent,
                 static_cast<unsigned long long>(l.retransmissions), r.losses, r.segments, r.unreadable_frames,
-                r.medianMs(), r.wall_s, r.interrupted ? " (interrupted)" : "",
+                r.dropped_frames, r.medianMs(), r.wall_s, r.interrupted ? " (interrupted)" : "",
                 static_cast<unsigned long long>(l.corrections_received),
                 static_cast<long long>(l.graph_revision), r.final_correction_received ? "yes" : "no",
                 static_cast<unsigned long long>(l.messages_rejected), l.bytes_sent / 1e3,

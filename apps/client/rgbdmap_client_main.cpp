@@ -1,4 +1,5 @@
-// rgbdmap-client: the robot program. Runs the visual odometry on a dataset at its frame rate (or --fast),
+// rgbdmap-client: the robot program. Runs the visual odometry on a frame source (a TUM folder or a ROS bag at
+// its frame rate or --fast, a live camera at the camera's),
 // sends keyframes to the mapping server, applies its corrections, and writes the trajectory in the map frame.
 #include <pthread.h>
 #include <signal.h>
@@ -15,16 +16,19 @@
 #include "rgbdmap/cli/cli.hpp"
 #include "rgbdmap/cli/odometry_setup.hpp"
 #include "rgbdmap/cli/progress.hpp"
+#include "rgbdmap/cli/source_setup.hpp"
 #include "rgbdmap/common/logging.hpp"
 #include "rgbdmap/link/delivery_report.hpp"
 #include "rgbdmap/link/robot_client_config.hpp"
+#include "rgbdmap/source/frame_recorder.hpp"
 
 namespace rgbdmap::app {
 namespace {
 
 const char* kUsage =
-    "usage: rgbdmap-client --dataset DIR [--config FILE] [--robot-id R] [options]\n"
-    "Runs visual odometry on a TUM-layout dataset as robot R, sends keyframes to the mapping server, "
+    "usage: rgbdmap-client (--dataset DIR | --source URL) [--config FILE] [--robot-id R] [options]\n"
+    "Runs visual odometry on a TUM-layout dataset, a ROS bag or a live camera as robot R, sends keyframes to "
+    "the mapping server, "
     "applies\n"
     "its pose corrections and writes into --out: trajectory_R.txt (every frame, map frame, final "
     "corrections),\n"
@@ -36,7 +40,10 @@ const char* kUsage =
     "  --transport URL         overrides transport.url: memq:// | udpm://239.255.76.67:7667?ttl=0 |\n"
     "                          dds://?domain=0 (Cyclone DDS needs CYCLONEDDS_URI, e.g.\n"
     "                          CYCLONEDDS_URI=file://$PWD/deploy/dds/cyclonedds-loopback.xml)\n"
-    "  --fast                  as fast as possible instead of the dataset's frame rate\n"
+    "  --fast                  as fast as possible instead of the recording's frame rate (a live camera\n"
+    "                          always runs at its own: the newest frame wins, missed ones are counted)\n"
+    "  --record DIR            also write every frame the odometry consumed as a TUM-layout folder with\n"
+    "                          camera.yaml (replay it with --dataset DIR)\n"
     "  --frames A:B            frames A (inclusive) to B (exclusive); A: or :B leave one end open\n"
     "  --out DIR               output folder (default: out)\n"
     "  --threads N             OpenCV threads (default 1)\n"
@@ -48,7 +55,8 @@ const char* kUsage =
 constexpr int kExitKeyframesNotAccepted = 3;
 
 struct ClientArgs {
-  std::string dataset, out = "out";
+  std::optional<SourceUrl> source;
+  std::string out = "out", record;
   int first_frame = 0, end_frame = -1, threads = 1;
   bool fast = false;
 };
@@ -69,9 +77,9 @@ bool parseFrameRange(const std::string& text, int* first, int* end) {
 
 ClientArgs parseArgs(cli::Args& args, std::vector<std::string>* errors) {
   ClientArgs a;
-  a.dataset = args.getOr("dataset", "");
-  if (a.dataset.empty()) errors->push_back("--dataset is required");
+  a.source = sourceUrlArgument(args, errors, true);
   a.out = args.getOr("out", a.out);
+  a.record = args.getOr("record", "");
   a.fast = args.has("fast");
   const long long threads = args.getInt("threads").value_or(1);
   if (threads < 1 || threads > 256) errors->push_back("--threads must be in [1, 256]");
@@ -83,11 +91,20 @@ ClientArgs parseArgs(cli::Args& args, std::vector<std::string>* errors) {
 }
 
 /// The whole configuration: --config sections, then command-line overrides; every problem in *errors.
-RobotClientConfig loadClientConfig(cli::Args& args, const ClientArgs& a, OdometrySetup* setup,
-                                   std::vector<std::string>* errors) {
-  RobotClientConfig c;
-  *setup =
-      loadOdometrySetup(args, a.dataset, errors, [&c](ConfigReader& r) { readRobotClientConfig(r, &c); });
+/// The whole configuration and the source: --config sections, then command-line overrides; configuration
+/// problems in *errors (exit 2), a source that cannot be opened as the failure (exit 1).
+Result<OpenedSource> loadClientConfig(cli::Args& args, const ClientArgs& a, RobotClientConfig* config,
+                                      std::vector<std::string>* errors) {
+  RobotClientConfig& c = *config;
+  const auto read_more = [&c](ConfigReader& r) { readRobotClientConfig(r, &c); };
+  Result<OpenedSource> opened = Result<OpenedSource>::failure("");
+  if (!errors->empty() || !a.source)
+    addConfigErrors(args, a.source, errors, read_more);  // every error at once; nothing opened
+  else
+    opened =
+        openSource(args, *a.source, {static_cast<size_t>(a.first_frame), static_cast<long long>(a.end_frame)},
+                   errors, read_more);
+  if (!opened && errors->empty()) return opened;  // the source cannot be opened (exit 1)
   c.robot_id = args.getOr("robot-id", c.robot_id);
   c.transport_url = args.getOr("transport", c.transport_url);
   if (!c.key_file.empty()) {
@@ -98,9 +115,9 @@ RobotClientConfig loadClientConfig(cli::Args& args, const ClientArgs& a, Odometr
       errors->push_back(key.error());
   }
   c.link.robot_id = c.robot_id;
-  c.link.camera = setup->camera;
+  if (opened) c.link.camera = opened->setup.camera;
   if (const std::string e = c.link.validate(); !e.empty()) errors->push_back(e);
-  return c;
+  return opened;
 }
 
 /// SIGINT/SIGTERM are blocked in every thread and taken by one waiting thread: the first asks the run to
@@ -112,14 +129,15 @@ class SignalThread {
     for (int s : {SIGINT, SIGTERM, SIGUSR1}) sigaddset(&set_, s);
     pthread_sigmask(SIG_BLOCK, &set_, nullptr);  // before any other thread exists: they inherit it
   }
-  void start(StopRequest* stop, RobotLink* link) {
-    thread_ = std::thread([this, stop, link] {
+  void start(StopRequest* stop, RobotLink* link, FrameSource* source) {
+    thread_ = std::thread([this, stop, link, source] {
       for (int count = 0;; ++count) {
         int sig = 0;
         if (sigwait(&set_, &sig) != 0 || sig == SIGUSR1) return;
         if (count > 0) std::_Exit(130);
         log::warn("signal ", sig, ": stopping (again to quit at once); outputs will still be written");
         stop->request();
+        source->close();  // a live source's blocking read ends at once
         link->stop();
       }
     });
@@ -138,60 +156,75 @@ class SignalThread {
 int run(int argc, char** argv) {
   cli::Args args(argc, argv, {"fast", "help"});
   if (args.has("help")) {
-    std::printf("%s%s", kUsage, datasetOptionsHelp());
+    std::printf("%s%s%s", kUsage, sourceOptionsHelp(), datasetOptionsHelp());
     return 0;
   }
   SignalThread signals;
   auto allowed = datasetOptionNames();
-  allowed.insert(allowed.end(), {"dataset", "robot-id", "transport", "fast", "frames", "out", "threads"});
+  allowed.insert(allowed.end(), {"dataset", "source", "record", "robot-id", "transport", "fast", "frames",
+                                 "out", "threads"});
   args.checkAllowed(allowed);
   std::vector<std::string> errors;
   applyLogLevel(args, &errors);
   const ClientArgs a = parseArgs(args, &errors);
-  OdometrySetup setup;
-  RobotClientConfig config = loadClientConfig(args, a, &setup, &errors);
   errors.insert(errors.begin(), args.errors().begin(), args.errors().end());
+  RobotClientConfig config;
+  auto opened = loadClientConfig(args, a, &config, &errors);
   if (!errors.empty()) return cli::usageError(errors, kUsage);
+  if (!opened) return log::error(opened.error()), 1;
+  const OdometrySetup& setup = opened->setup;
+  std::unique_ptr<FrameSource> source = std::move(opened->source);
+  RecordingSource* recording = nullptr;
+  if (!a.record.empty()) {
+    auto recorder = TumRecorder::create(a.record, setup.camera);
+    if (!recorder) return log::error(recorder.error()), 1;
+    auto wrapped = std::make_unique<RecordingSource>(std::move(source), std::move(*recorder));
+    recording = wrapped.get();
+    source = std::move(wrapped);
+  }
 
   std::error_code ec;
   std::filesystem::create_directories(a.out, ec);
   if (ec) return log::error("cannot create ", a.out, ": ", ec.message()), 1;
   cv::setNumThreads(a.threads);
-  const auto dataset = TumDataset::open(a.dataset, setup.dataset);
-  if (!dataset) return log::error(dataset.error()), 1;
   auto transport = transport::makeTransport(config.transport_url);
   if (!transport) return log::error("transport ", config.transport_url, ": ", transport.error()), 1;
   config.link.chunk_bytes = resolveChunkBytes(config.link.chunk_bytes, config.transport_url);
-  log::info("robot ", config.robot_id, " on ", config.transport_url, ", camera from ", setup.camera_source);
+  log::info("robot ", config.robot_id, " on ", config.transport_url, ", frames from ", source->describe(),
+            source->live() ? " (live)" : "", ", camera from ", setup.camera_source);
   logConfiguration("configuration in effect",
                    concatConfigValues(robotClientConfigValues(config), setup.effective));
 
   RobotLink link(**transport, config.link);
   StopRequest stop;
-  signals.start(&stop, &link);
+  signals.start(&stop, &link, source.get());
   if (Status s = link.start(); !s) return log::error(s.error()), 1;
   RobotRunOptions ro;
-  ro.first_frame = a.first_frame;
-  ro.end_frame = a.end_frame;
   ro.realtime = !a.fast;
   ro.final_wait_s = config.final_wait_s;
   ro.stop = &stop;
-  const int total = static_cast<int>(dataset->size());
-  Progress progress("robot " + config.robot_id, static_cast<size_t>(total));
+  Progress progress("robot " + config.robot_id, source->sizeHint());
   ro.progress = [&progress](int done, int) { progress.update(static_cast<size_t>(done)); };
-  const RobotRunResult result = runRobot(*dataset, setup.camera, setup.odometry, link, ro);
+  const RobotRunResult result = runRobot(*source, setup.camera, setup.odometry, link, ro);
   progress.finish();
   link.stop();
   (*transport)->stop();
+  if (recording) {
+    if (Status s = recording->finish(); !s) return log::error(s.error()), 1;
+    log::info("recorded ", recording->recorded(), " frames into ", a.record);
+  }
+  if (!result.source_error.empty()) log::error(result.source_error);
 
-  const ClientRunInfo info{config.robot_id, a.dataset, config.transport_url, !config.link.key.empty()};
+  const std::string source_name = a.source->scheme == "tum" ? a.source->path : source->describe();
+  const ClientRunInfo info{config.robot_id, source_name, config.transport_url, !config.link.key.empty()};
   if (Status s = writeClientOutputs(a.out, info, result); !s) return log::error(s.error()), 1;
   std::fprintf(stderr,
                "%s\nwrote %s/trajectory_%s.txt, trajectory_%s_live.txt, keyframes_%s.txt, client_%s.json\n",
                clientSummary(result).c_str(), a.out.c_str(), config.robot_id.c_str(), config.robot_id.c_str(),
                config.robot_id.c_str(), config.robot_id.c_str());
   if (result.frames == 0 && result.unreadable_frames > 0)
-    return log::error(a.dataset, ": none of the ", result.unreadable_frames, " frames could be read"), 1;
+    return log::error(source_name, ": none of the ", result.unreadable_frames, " frames could be read"), 1;
+  if (!result.source_error.empty()) return 1;
   if (const DeliveryReport d = deliveryReport(result, config.robot_id); d.unaccepted > 0)
     return log::error("robot ", config.robot_id, ": ", d.message), kExitKeyframesNotAccepted;
   return 0;

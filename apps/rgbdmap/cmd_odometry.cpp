@@ -1,4 +1,5 @@
-// rgbdmap odometry: visual odometry over a TUM-layout dataset; writes a pose per frame and the keyframes.
+// rgbdmap odometry: visual odometry over a frame source (TUM folder, bag, camera); writes a pose per frame
+// and the keyframes.
 #include <cstdio>
 
 #include <opencv2/core.hpp>
@@ -6,13 +7,14 @@
 #include "commands.hpp"
 #include "odometry_runner.hpp"
 #include "rgbdmap/cli/cli.hpp"
+#include "rgbdmap/cli/source_setup.hpp"
 #include "rgbdmap/common/logging.hpp"
 
 namespace rgbdmap::cmd {
 namespace {
 
 const char* kOdometryUsage =
-    "usage: rgbdmap odometry --dataset DIR --out traj.txt [options]\n"
+    "usage: rgbdmap odometry (--dataset DIR | --source URL) --out traj.txt [options]\n"
     "  --dataset DIR           TUM layout: rgb.txt, depth.txt, rgb/, depth/ [, groundtruth.txt, "
     "camera.yaml]\n"
     "  --out FILE              trajectory, TUM format, one pose per frame; keyframes go to FILE's\n"
@@ -32,38 +34,40 @@ std::string keyframesPath(const std::string& out) {
 int odometry(int argc, char** argv) {
   cli::Args args(argc, argv, {"help"});
   if (args.has("help")) {
-    std::printf("%s%s", kOdometryUsage, app::datasetOptionsHelp());
+    std::printf("%s%s%s", kOdometryUsage, app::sourceOptionsHelp(), app::datasetOptionsHelp());
     return 0;
   }
   auto allowed = app::datasetOptionNames();
-  allowed.insert(allowed.end(), {"dataset", "out", "frames", "threads"});
+  allowed.insert(allowed.end(), {"dataset", "source", "out", "frames", "threads"});
   args.checkAllowed(allowed);
   std::vector<std::string> errors;
-  const auto dataset_dir = args.get("dataset");
+  const auto url = app::sourceUrlArgument(args, &errors, true);
   const auto out = args.get("out");
-  if (!dataset_dir) errors.push_back("--dataset is required");
   if (!out) errors.push_back("--out is required");
   const long long frames = args.getInt("frames").value_or(0);
   const long long threads = args.getInt("threads").value_or(1);
   if (frames < 0) errors.push_back("--frames must be >= 0");
   if (threads < 1 || threads > 256) errors.push_back("--threads must be in [1, 256]");
   app::applyLogLevel(args, &errors);
-  const app::OdometrySetup setup = app::loadOdometrySetup(args, dataset_dir.value_or(""), &errors);
+  if (!errors.empty() || !args.errors().empty()) app::addConfigErrors(args, url, &errors);
   errors.insert(errors.begin(), args.errors().begin(), args.errors().end());
+  if (!errors.empty() || !url) return cli::usageError(errors, kOdometryUsage);
+  auto opened = app::openSource(args, *url, {0, frames > 0 ? frames : -1}, &errors);
   if (!errors.empty()) return cli::usageError(errors, kOdometryUsage);
-
-  cv::setNumThreads(static_cast<int>(threads));
-  const auto dataset = TumDataset::open(*dataset_dir, setup.dataset);
-  if (!dataset) {
-    log::error(dataset.error());
+  if (!opened) {
+    log::error(opened.error());
     return 1;
   }
+  cv::setNumThreads(static_cast<int>(threads));
+  const app::OdometrySetup& setup = opened->setup;
+  log::info("frames from ", opened->source->describe());
   log::info("camera from ", setup.camera_source, ": fx ", setup.camera.fx, " fy ", setup.camera.fy, " cx ",
             setup.camera.cx, " cy ", setup.camera.cy, " depth_scale ", setup.camera.depth_scale);
   logConfiguration("configuration in effect", setup.effective);
-  const app::OdometryRun run = app::runOdometry(*dataset, setup, static_cast<int>(frames));
+  const app::OdometryRun run = app::runOdometry(*opened->source, setup);
+  if (!run.source_error.empty()) log::error(run.source_error);
   if (run.frames == 0) {  // unreadable frames are skipped and counted; with none readable there is no result
-    log::error(*dataset_dir, ": none of the ", run.unreadable_frames, " frames could be read");
+    log::error(opened->source->describe(), ": none of the ", run.unreadable_frames, " frames could be read");
     return 1;
   }
   for (const auto& [path, traj, what] :
@@ -77,7 +81,7 @@ int odometry(int argc, char** argv) {
   }
   std::fprintf(stderr, "%s\nwrote %s and %s\n", run.summary().c_str(), out->c_str(),
                keyframesPath(*out).c_str());
-  return 0;
+  return run.source_error.empty() ? 0 : 1;  // what was read is written; a failed source is still an error
 }
 
 }  // namespace rgbdmap::cmd

@@ -20,6 +20,7 @@
 #include "rgbdmap/cli/cli.hpp"
 #include "rgbdmap/cli/odometry_setup.hpp"
 #include "rgbdmap/cli/progress.hpp"
+#include "rgbdmap/cli/source_setup.hpp"
 #include "rgbdmap/common/logging.hpp"
 #include "rgbdmap/common/synth.hpp"
 #include "rgbdmap/server/server_config.hpp"
@@ -35,6 +36,9 @@ const char* kRunUsage =
     "  --dataset DIR[,DIR]     TUM-layout dataset(s); one per robot, or one split into --robots overlapping\n"
     "                          segments. Without it a synthetic sequence is generated first (exact ground "
     "truth)\n"
+    "  --source URL[,URL]      instead of --dataset: frame sources (bag:FILE.bag, openni2:, tum:DIR; see\n"
+    "                          rgbdmap odometry --help), each converted into DIR/source_<i>/ first and run\n"
+    "                          as a dataset (a live camera needs --frames N)\n"
     "  --robots N              robots (default: one per dataset, else 1)\n"
     "  --overlap F             share of a segment the next robot's segment repeats (default 0.25)\n"
     "  --transport T           memq (default: in-process), lcm (UDP multicast on loopback, ttl 0), dds "
@@ -59,10 +63,12 @@ struct RunInputs {
 /// Parses the command line and the server configuration; every problem is appended to *errors.
 RunOptions parseRun(cli::Args& args, ServerAppConfig* server_config, std::vector<std::string>* errors) {
   auto allowed = app::datasetOptionNames();
-  allowed.insert(allowed.end(), {"dataset", "out", "scene", "frames", "seed", "threads", "robots", "overlap",
-                                 "transport", "realtime", "server-config"});
+  allowed.insert(allowed.end(), {"dataset", "source", "out", "scene", "frames", "seed", "threads", "robots",
+                                 "overlap", "transport", "realtime", "server-config"});
   args.checkAllowed(allowed);
   RunOptions o = parseRunOptions(args, errors);
+  if (args.has("source") && args.has("dataset"))
+    errors->push_back("--dataset DIR and --source URL are one choice (--dataset DIR = --source tum:DIR)");
   app::applyLogLevel(args, errors);
   if (!o.server_config.empty()) {
     auto reader = ConfigReader::fromFile(o.server_config);
@@ -92,12 +98,41 @@ std::string synthesize(const RunOptions& o) {
   return dir;
 }
 
+/// --source URL[,URL]: each source written into <out>/source_<i> (a recording once, so that robots can
+/// split it and the report can evaluate it), then run as --dataset. The exit code on failure.
+std::optional<int> convertSources(cli::Args& args, RunOptions* o) {
+  if (!args.has("source")) return std::nullopt;
+  std::vector<std::string> urls;
+  std::string list = args.getOr("source", "");
+  for (size_t start = 0; start <= list.size();) {
+    const size_t comma = std::min(list.find(',', start), list.size());
+    if (comma > start) urls.push_back(list.substr(start, comma - start));
+    start = comma + 1;
+  }
+  if (urls.empty()) return cli::usageError({"--source needs a URL"}, kRunUsage);
+  for (size_t i = 0; i < urls.size(); ++i) {
+    auto url = SourceUrl::parse(urls[i]);
+    if (!url) return cli::usageError({"--source: " + url.error()}, kRunUsage);
+    if (url->scheme == "tum" && url->query.empty()) {  // a folder already is a dataset
+      o->datasets.push_back(url->path);
+      continue;
+    }
+    const std::string dir = o->out + "/source_" + std::to_string(i);
+    if (int rc = convertSource(args, *url, dir, o->frames, kRunUsage); rc != 0) return rc;
+    o->datasets.push_back(dir);
+  }
+  if (o->robots == 0 || (o->datasets.size() > 1 && !args.has("robots")))
+    o->robots = static_cast<long long>(o->datasets.size());
+  return std::nullopt;
+}
+
 /// Creates --out, synthesises a sequence when no dataset was given (added to o->datasets) and opens the
 /// datasets. Returns the exit code on failure (2: a dataset's options are wrong).
 std::optional<int> loadInputs(cli::Args& args, RunOptions* o, RunInputs* in) {
   std::error_code ec;
   std::filesystem::create_directories(o->out, ec);
   if (ec) return log::error("cannot create ", o->out, ": ", ec.message()), 1;
+  if (std::optional<int> rc = convertSources(args, o)) return rc;
   in->synthetic = o->datasets.empty();
   if (in->synthetic) {
     const std::string dir = synthesize(*o);

@@ -6,7 +6,7 @@
 #include "rgbdmap/cli/odometry_setup.hpp"
 #include "rgbdmap/client/odometry.hpp"
 #include "rgbdmap/common/trajectory.hpp"
-#include "rgbdmap/common/tum_dataset.hpp"
+#include "rgbdmap/source/frame_source.hpp"
 
 namespace rgbdmap::app {
 
@@ -14,6 +14,8 @@ struct OdometryRun {
   Trajectory trajectory;  ///< every frame, odometry frame
   Trajectory keyframes;   ///< keyframe poses in creation order
   int frames = 0, keyframe_count = 0, losses = 0, segments = 1, unreadable_frames = 0;
+  int dropped_frames = 0;         ///< a live source's frames the odometry was too slow for
+  std::string source_error;       ///< set: the source failed and the run ended there
   std::vector<StageTimes> times;  ///< per frame
 
   double medianMs(double StageTimes::*stage) const;
@@ -22,8 +24,8 @@ struct OdometryRun {
   std::string summary() const;
 };
 
-/// Processes frames [0, max_frames) (all when max_frames <= 0). Unreadable frames are logged, counted
-/// and skipped. Shows progress on an interactive terminal.
-OdometryRun runOdometry(const TumDataset& dataset, const OdometrySetup& setup, int max_frames = 0);
+/// Processes the source's frames until it ends. Unreadable frames are logged, counted and skipped. Shows
+/// progress on an interactive terminal.
+OdometryRun runOdometry(FrameSource& source, const OdometrySetup& setup);
 
 }  // namespace rgbdmap::app

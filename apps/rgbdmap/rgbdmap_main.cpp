@@ -1,4 +1,4 @@
-// rgbdmap: one binary, several subcommands (synth, odometry, eval, run, view-map).
+// rgbdmap: one binary, several subcommands (synth, odometry, convert, eval, run, view-map).
 #include <cstdio>
 #include <cstring>
 #include <exception>
@@ -12,7 +12,8 @@ const char* kUsage =
     "  run       the main job: odometry on a dataset (synthesised when none is given), evaluated, with a "
     "report\n"
     "  synth     write a synthetic RGB-D sequence in TUM layout with exact ground truth\n"
-    "  odometry  run the client's visual odometry on a TUM-layout dataset\n"
+    "  odometry  run the client's visual odometry on a TUM-layout dataset, a ROS bag or a camera\n"
+    "  convert   write any frame source (ROS bag, camera) as a TUM-layout folder\n"
     "  eval      ATE and RPE of an estimated trajectory against ground truth\n"
     "  view-map  statistics of an octree map file (.bt or .ot)\n"
     "run `rgbdmap <command> --help` for its options.\n";
@@ -27,6 +28,7 @@ int main(int argc, char** argv) {
   try {
     if (!std::strcmp(name, "synth")) return rgbdmap::cmd::synth(argc - 2, argv + 2);
     if (!std::strcmp(name, "odometry")) return rgbdmap::cmd::odometry(argc - 2, argv + 2);
+    if (!std::strcmp(name, "convert")) return rgbdmap::cmd::convert(argc - 2, argv + 2);
     if (!std::strcmp(name, "eval")) return rgbdmap::cmd::eval(argc - 2, argv + 2);
     if (!std::strcmp(name, "run")) return rgbdmap::cmd::run(argc - 2, argv + 2);
     if (!std::strcmp(name, "view-map")) return rgbdmap::cmd::viewMap(argc - 2, argv + 2);

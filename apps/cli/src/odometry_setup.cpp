@@ -36,15 +36,24 @@ OdometrySetup loadOdometrySetup(cli::Args& args, const std::string& dataset_dir,
 OdometrySetup loadOdometrySetup(cli::Args& args, const std::string& dataset_dir,
                                 std::vector<std::string>* errors,
                                 const std::function<void(ConfigReader&)>& read_more) {
-  OdometrySetup s;
+  std::optional<CameraIntrinsics> camera;
   if (!dataset_dir.empty()) {
     const auto cam = readDatasetCamera(dataset_dir);
-    if (!cam) {
+    if (!cam)
       errors->push_back(cam.error());
-    } else if (cam->has_value()) {
-      s.camera = **cam;
-      s.camera_source = dataset_dir + "/camera.yaml";
-    }
+    else
+      camera = *cam;
+  }
+  return loadOdometrySetup(args, camera, dataset_dir + "/camera.yaml", errors, read_more);
+}
+
+OdometrySetup loadOdometrySetup(cli::Args& args, const std::optional<CameraIntrinsics>& source_camera,
+                                const std::string& camera_name, std::vector<std::string>* errors,
+                                const std::function<void(ConfigReader&)>& read_more) {
+  OdometrySetup s;
+  if (source_camera) {
+    s.camera = *source_camera;
+    s.camera_source = camera_name;
   }
   ConfigReader reader;
   if (auto path = args.get("config")) {

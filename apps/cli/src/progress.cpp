@@ -21,7 +21,12 @@ void Progress::update(size_t done) {
   last_ = now;
   const double elapsed = std::chrono::duration<double>(now - start_).count();
   const double rate = elapsed > 0 ? done / elapsed : 0;
-  const double eta = rate > 0 ? (total_ - done) / rate : 0;
+  if (total_ == 0) {  // a live source: no end known
+    std::fprintf(stderr, "\r%s: %zu frames, %.1f frames/s   ", label_.c_str(), done, rate);
+    std::fflush(stderr);
+    return;
+  }
+  const double eta = rate > 0 && done < total_ ? (total_ - done) / rate : 0;
   std::fprintf(stderr, "\r%s: %zu/%zu frames, %.1f frames/s, ETA %.0f s   ", label_.c_str(), done, total_,
                rate, eta);
   std::fflush(stderr);

@@ -1,4 +1,4 @@
-// runRobot: odometry over a dataset, keyframes through the RobotLink, trajectories in the map frame.
+// runRobot: odometry over a frame source, keyframes through the RobotLink, trajectories in the map frame.
 #include "rgbdmap/link/robot_runner.hpp"
 
 #include <algorithm>
@@ -98,45 +98,71 @@ void avoid(AvoidanceController& controller, RobotLink& link, const StampedPose& 
     ++summary->commands_failed;
 }
 
-void trackFrames(const TumDataset& dataset, VisualOdometry& vo, RobotLink& link,
-                 const RobotRunOptions& options, size_t first, size_t end, RunState* state,
-                 RobotRunResult* out) {
+/// Counts and reports (rate-limited) a frame the source could not read.
+void skipUnreadable(const FrameRead& read, log::RateLimiter* limiter, RobotRunResult* out) {
+  ++out->unreadable_frames;
+  uint64_t suppressed = 0;
+  if (limiter->allow(&suppressed))
+    log::warn("skipping frame ", read.index, ": ", read.error, " (", suppressed, " more)");
+}
+
+/// Tracks one frame: keyframe out through the link, tracking state, live pose, avoidance, records.
+void trackFrame(const RgbdFrame& frame, VisualOdometry& vo, RobotLink& link, RunState* state,
+                std::optional<AvoidanceController>& controller, int* last_keyframe, RobotRunResult* out) {
+  const TrackingResult r = vo.track(frame);
+  if (r.new_keyframe) {
+    *last_keyframe = r.new_keyframe->id;
+    sendKeyframe(r, frame, link, state, out);
+  }
+  link.setTrackingState(*last_keyframe, r.segment, r.state);
+  state->frames.push_back({r.timestamp, r.T_odom_cam, r.segment, r.reference_keyframe});
+  out->live.push_back({r.timestamp, link.mapFromOdom(r.segment) * r.T_odom_cam});
+  if (controller) avoid(*controller, link, out->live.back(), &*out->avoidance);
+  out->odometry.push_back({r.timestamp, r.T_odom_cam});
+  out->times.push_back(r.times);
+  out->segments = std::max(out->segments, r.segment + 1);
+}
+
+/// Pulls frames until the source ends. A recording is paced by its timestamps when options.realtime; a
+/// live source paces itself (next() waits for the sensor).
+void trackFrames(FrameSource& source, VisualOdometry& vo, RobotLink& link, const RobotRunOptions& options,
+                 RunState* state, RobotRunResult* out) {
   std::optional<AvoidanceController> controller;
   if (options.avoidance) {
     controller.emplace(*options.avoidance);
     out->avoidance.emplace();
   }
-  const Clock::time_point wall0 = Clock::now();
-  const double t0 = dataset.entry(first).rgb_timestamp;
+  const bool pace = options.realtime && !source.live();
+  const int total = static_cast<int>(source.sizeHint());
+  Clock::time_point wall0;
+  std::optional<double> t0;
   log::RateLimiter limiter(1.0);
-  int last_keyframe = -1;
-  for (size_t i = first; i < end; ++i) {
-    if (stopRequested(options) ||
-        (options.realtime && !paceFrame(options, wall0, dataset.entry(i).rgb_timestamp - t0))) {
+  int last_keyframe = -1, done = 0;
+  for (;;) {
+    if (stopRequested(options)) {
       out->interrupted = true;
       return;
     }
-    const Result<RgbdFrame> frame = dataset.load(i);
-    if (!frame) {
-      ++out->unreadable_frames;
-      uint64_t suppressed = 0;
-      if (limiter.allow(&suppressed))
-        log::warn("skipping frame ", i, ": ", frame.error(), " (", suppressed, " more)");
+    const FrameRead read = source.next();
+    if (read.kind == FrameRead::Kind::kEnd) return;
+    if (read.kind == FrameRead::Kind::kFailed) {
+      out->source_error = read.error;
+      return;
+    }
+    ++done;
+    if (read.kind == FrameRead::Kind::kUnreadable) {
+      skipUnreadable(read, &limiter, out);
       continue;
     }
-    const TrackingResult r = vo.track(*frame);
-    if (r.new_keyframe) {
-      last_keyframe = r.new_keyframe->id;
-      sendKeyframe(r, *frame, link, state, out);
+    if (pace) {
+      if (!t0) t0 = read.frame.timestamp, wall0 = Clock::now();
+      if (!paceFrame(options, wall0, read.frame.timestamp - *t0)) {
+        out->interrupted = true;
+        return;
+      }
     }
-    link.setTrackingState(last_keyframe, r.segment, r.state);
-    state->frames.push_back({r.timestamp, r.T_odom_cam, r.segment, r.reference_keyframe});
-    out->live.push_back({r.timestamp, link.mapFromOdom(r.segment) * r.T_odom_cam});
-    if (controller) avoid(*controller, link, out->live.back(), &*out->avoidance);
-    out->odometry.push_back({r.timestamp, r.T_odom_cam});
-    out->times.push_back(r.times);
-    out->segments = std::max(out->segments, r.segment + 1);
-    if (options.progress) options.progress(static_cast<int>(i - first + 1), static_cast<int>(end - first));
+    trackFrame(read.frame, vo, link, state, controller, &last_keyframe, out);
+    if (options.progress) options.progress(done, std::max(total, done));
   }
 }
 
@@ -182,22 +208,25 @@ void reanchorFinalMap(const RobotLink& link, RobotRunResult* out) {
 
 RobotRunResult runRobot(const TumDataset& dataset, const CameraIntrinsics& camera,
                         const OdometryConfig& odometry, RobotLink& link, const RobotRunOptions& options) {
+  const std::unique_ptr<FrameSource> source =
+      makeTumSource(dataset, static_cast<size_t>(std::max(0, options.first_frame)), options.end_frame);
+  return runRobot(*source, camera, odometry, link, options);
+}
+
+RobotRunResult runRobot(FrameSource& source, const CameraIntrinsics& camera, const OdometryConfig& odometry,
+                        RobotLink& link, const RobotRunOptions& options) {
   RobotRunResult out;
   const Clock::time_point start = Clock::now();
   RunState state;
-  const size_t first = static_cast<size_t>(std::clamp<long long>(options.first_frame, 0, dataset.size()));
-  const size_t end =
-      options.end_frame < 0
-          ? dataset.size()
-          : static_cast<size_t>(std::clamp<long long>(options.end_frame, first, dataset.size()));
   try {
     VisualOdometry vo(camera, odometry);
-    if (first < end) trackFrames(dataset, vo, link, options, first, end, &state, &out);
+    trackFrames(source, vo, link, options, &state, &out);
     out.losses = vo.trackingLosses();
   } catch (const std::exception& e) {
-    log::error("robot run stopped at frame ", first + state.frames.size(), ": ", e.what());
+    log::error("robot run stopped after ", state.frames.size(), " frames: ", e.what());
     out.interrupted = true;
   }
+  out.dropped_frames = static_cast<int>(source.droppedFrames());
   out.frames = static_cast<int>(state.frames.size());
   out.keyframes = static_cast<int>(state.keyframes.size());
   try {

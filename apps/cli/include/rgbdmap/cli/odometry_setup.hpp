@@ -2,6 +2,7 @@
 // What a dataset-reading command needs, assembled once from (lowest to highest priority): built-in
 // defaults (TUM fr1), the dataset's camera.yaml, the --config YAML file, and command-line overrides.
 #include <functional>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -30,6 +31,12 @@ OdometrySetup loadOdometrySetup(cli::Args& args, const std::string& dataset_dir,
 /// configuration before its errors (unknown keys included) are collected.
 OdometrySetup loadOdometrySetup(cli::Args& args, const std::string& dataset_dir,
                                 std::vector<std::string>* errors,
+                                const std::function<void(ConfigReader&)>& read_more);
+
+/// The same with the camera a frame source carries (camera_info of a bag, a device) in place of a dataset's
+/// camera.yaml (`camera_name` says where it came from, for the log).
+OdometrySetup loadOdometrySetup(cli::Args& args, const std::optional<CameraIntrinsics>& source_camera,
+                                const std::string& camera_name, std::vector<std::string>* errors,
                                 const std::function<void(ConfigReader&)>& read_more);
 
 /// Applies --log-level if given.

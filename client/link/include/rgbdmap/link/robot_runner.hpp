@@ -16,6 +16,7 @@
 #include "rgbdmap/common/trajectory.hpp"
 #include "rgbdmap/common/tum_dataset.hpp"
 #include "rgbdmap/link/robot_link.hpp"
+#include "rgbdmap/source/frame_source.hpp"
 
 namespace rgbdmap {
 
@@ -34,9 +35,9 @@ class StopRequest {
 };
 
 struct RobotRunOptions {
-  int first_frame = 0;
-  int end_frame = -1;          ///< exclusive; -1 = all
-  bool realtime = true;        ///< pace frames by the dataset timestamps (false: --fast)
+  int first_frame = 0;   ///< runRobot(TumDataset...) only: a FrameSource comes with its own range
+  int end_frame = -1;    ///< exclusive; -1 = all
+  bool realtime = true;  ///< pace a recording by its timestamps (false: --fast); a live source paces itself
   double final_wait_s = 20.0;  ///< at the end: wait for every ack and a correction covering the last keyframe
   /// Called after each frame with (frames done, frames in the range); e.g. the CLI's progress line.
   std::function<void(int done, int total)> progress;
@@ -85,6 +86,8 @@ struct RobotRunResult {
   Trajectory keyframes_final;  ///< keyframe poses, final corrected (map frame)
   std::vector<StageTimes> times;
   int frames = 0, keyframes = 0, losses = 0, segments = 0, unreadable_frames = 0;
+  int dropped_frames = 0;      ///< a live source's frames the odometry was too slow for (newest wins)
+  std::string source_error;    ///< set: the source failed (device lost, truncated bag) and the run ended
   int keyframes_not_sent = 0;  ///< sendKeyframe failed (encoding, window full past the timeout, stopped)
   bool all_acked = false, final_correction_received = false;
   bool interrupted = false;  ///< options.stop ended the run
@@ -108,5 +111,9 @@ void reanchorFinalMap(const RobotLink& link, RobotRunResult* result);
 
 RobotRunResult runRobot(const TumDataset& dataset, const CameraIntrinsics& camera,
                         const OdometryConfig& odometry, RobotLink& link, const RobotRunOptions& options);
+/// The same over any frame source, until it ends (or options.stop; close() the source too to end a
+/// blocking live read at once).
+RobotRunResult runRobot(FrameSource& source, const CameraIntrinsics& camera, const OdometryConfig& odometry,
+                        RobotLink& link, const RobotRunOptions& options);
 
 }  // namespace rgbdmap

@@ -1,0 +1,112 @@
+// TumRecorder and RecordingSource.
+#include "rgbdmap/source/frame_recorder.hpp"
+
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <sstream>
+
+#include <opencv2/imgcodecs.hpp>
+
+#include "rgbdmap/common/atomic_file.hpp"
+
+namespace rgbdmap {
+namespace {
+
+namespace fs = std::filesystem;
+
+std::string stamp(double t) {
+  char buf[64];
+  std::snprintf(buf, sizeof buf, "%.6f", t);
+  return buf;
+}
+
+std::string number(double v) {
+  char buf[64];
+  for (int precision = 6; precision <= 17; ++precision) {
+    std::snprintf(buf, sizeof buf, "%.*g", precision, v);
+    if (std::strtod(buf, nullptr) == v) break;
+  }
+  return buf;
+}
+
+std::string cameraYaml(const CameraIntrinsics& k) {
+  std::ostringstream os;
+  os << "# recorded by rgbdmap; depth is registered to colour, depth_scale raw units per metre\ncamera:\n"
+     << "  fx: " << number(k.fx) << "\n  fy: " << number(k.fy) << "\n  cx: " << number(k.cx)
+     << "\n  cy: " << number(k.cy) << "\n  width: " << k.width << "\n  height: " << k.height
+     << "\n  distortion: [";
+  for (size_t i = 0; i < k.distortion.size(); ++i) os << (i ? ", " : "") << number(k.distortion[i]);
+  os << "]\n  depth_scale: " << number(k.depth_scale) << "\n";
+  return os.str();
+}
+
+Status writePng(const std::string& path, const cv::Mat& image) {
+  std::vector<uchar> png;
+  const std::vector<int> params = {cv::IMWRITE_PNG_STRATEGY, cv::IMWRITE_PNG_STRATEGY_HUFFMAN_ONLY};
+  try {
+    if (!cv::imencode(".png", image, png, params)) return Status::failure(path + ": cannot encode PNG");
+  } catch (const cv::Exception& e) {
+    return Status::failure(path + ": " + e.what());
+  }
+  AtomicWriteOptions o;
+  o.sync = false;  // the folders are synced as a whole by finish()
+  return writeFileAtomic(path, std::string_view(reinterpret_cast<const char*>(png.data()), png.size()), o);
+}
+
+}  // namespace
+
+Result<TumRecorder> TumRecorder::create(const std::string& dir, const CameraIntrinsics& camera) {
+  for (const char* sub : {"rgb", "depth"}) {
+    std::error_code ec;
+    fs::create_directories(fs::path(dir) / sub, ec);
+    if (ec) return Result<TumRecorder>::failure(dir + "/" + sub + ": cannot create: " + ec.message());
+  }
+  TumRecorder r;
+  r.dir_ = dir;
+  r.camera_ = camera;
+  r.rgb_list_ = "# color images\n# timestamp filename\n";
+  r.depth_list_ = "# depth maps\n# timestamp filename\n";
+  return r;
+}
+
+Status TumRecorder::add(const RgbdFrame& frame) {
+  const std::string ts = stamp(frame.timestamp);
+  if (Status s = writePng(dir_ + "/rgb/" + ts + ".png", frame.color); !s) return s;
+  if (Status s = writePng(dir_ + "/depth/" + ts + ".png", frame.depth); !s) return s;
+  if (frame.depth_scale != camera_.depth_scale)
+    return Status::failure("frame " + ts + ": depth scale " + number(frame.depth_scale) +
+                           " differs from the " + "recording's " + number(camera_.depth_scale));
+  rgb_list_ += ts + " rgb/" + ts + ".png\n";
+  depth_list_ += ts + " depth/" + ts + ".png\n";
+  if (++lines_ % kListEvery == 0) return writeLists();
+  return Status::success();
+}
+
+Status TumRecorder::writeLists() const {
+  if (Status s = writeFileAtomic(dir_ + "/camera.yaml", cameraYaml(camera_)); !s) return s;
+  if (Status s = writeFileAtomic(dir_ + "/rgb.txt", rgb_list_); !s) return s;
+  return writeFileAtomic(dir_ + "/depth.txt", depth_list_);
+}
+
+Status TumRecorder::finish(const std::optional<Trajectory>& ground_truth) {
+  for (const char* sub : {"/rgb", "/depth"})
+    if (Status s = syncFolder(dir_ + sub); !s) return s;
+  if (ground_truth && !ground_truth->empty())
+    if (Status s = writeTumTrajectory(dir_ + "/groundtruth.txt", *ground_truth, "ground truth of the source");
+        !s)
+      return s;
+  return writeLists();
+}
+
+RecordingSource::RecordingSource(std::unique_ptr<FrameSource> inner, TumRecorder recorder)
+    : inner_(std::move(inner)), recorder_(std::move(recorder)) {}
+
+FrameRead RecordingSource::next() {
+  FrameRead read = inner_->next();
+  if (read.kind != FrameRead::Kind::kFrame) return read;
+  if (Status s = recorder_.add(read.frame); !s) return FrameRead::failed("recording: " + s.error());
+  return read;
+}
+
+}  // namespace rgbdmap
