@@ -123,7 +123,10 @@ document.getElementById('topdown').onclick = () => {
 };
 
 function frameMap() {  // point the camera at the map once, when the first voxels arrive
-  const box = new THREE.Box3().setFromObject(world);
+  world.updateMatrixWorld(true);
+  const box = new THREE.Box3();
+  for (const r of Object.values(state.robots))  // voxels only: an empty geometry's bounds are NaN
+    if (r.voxels.size > 0) box.union(new THREE.Box3().setFromObject(r.points));
   if (box.isEmpty()) return false;
   const c = box.getCenter(new THREE.Vector3()), size = box.getSize(new THREE.Vector3()).length();
   controls.target.copy(c);
@@ -176,7 +179,8 @@ function animate() {
   if (changed && !framed) framed = frameMap();
   controls.update();
   renderer.render(scene, camera);
-  if (changed || state.messages % 20 === 0) legend();
+  if (changed) legend();
+  document.body.dataset.state = `${renderer.domElement.width}x${renderer.domElement.height} cam ${camera.position.toArray().map((v) => v.toFixed(2))} target ${controls.target.toArray().map((v) => v.toFixed(2))} framed ${framed} voxels ${state.voxels} msgs ${state.messages}`;
   if (state.voxels > 0 && framed) {
     state.drawn = true;
     document.title = `rgbdmap viewer: ${state.voxels} voxels`;
@@ -187,5 +191,6 @@ window.addEventListener('resize', () => {
   camera.updateProjectionMatrix();
   renderer.setSize(window.innerWidth, window.innerHeight);
 });
+setInterval(legend, 500);
 connect();
 animate();
