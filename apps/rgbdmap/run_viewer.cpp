@@ -88,7 +88,11 @@ void keepViewerOpen(const RunViewer& run_viewer) {
   char byte = 0;
   while (read(g_signal_pipe[0], &byte, 1) < 0 && errno == EINTR) {
   }
-  log::info("viewer: closing");
+  const viewer::ViewerStats s = run_viewer.viewer->stats();
+  log::info("viewer: closing (", s.connections, " connections, ", s.messages_sent, " messages, ",
+            s.bytes_sent, " bytes sent, dropped ", s.dropped_messages, ", malformed ", s.malformed,
+            ", unknown ops ", s.unknown_ops, ", refused subscriptions ", s.refused_subscriptions,
+            ", refused connections ", s.refused_connections, ")");
 }
 
 }  // namespace rgbdmap::cmd
