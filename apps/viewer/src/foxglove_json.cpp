@@ -82,7 +82,8 @@ std::map<std::string, json> buildSchemas() {
                                                           {"frame_id", string()},
                                                           {"add", array(number())},
                                                           {"remove", array(number())},
-                                                          {"voxels", integer()}});
+                                                          {"voxels", integer()},
+                                                          {"map_utime", integer()}});
   s["rgbdmap.RobotStatus"] = object("rgbdmap.RobotStatus", {{"robot", string()},
                                                             {"keyframes", integer()},
                                                             {"loops", integer()},

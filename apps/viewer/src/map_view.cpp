@@ -41,6 +41,7 @@ Status MapView::applyMap(const std::string& robot, const msg::MapUpdate& update)
     return s;
   }
   r->s.map_revision = update.map_revision;
+  r->s.map_utime = update.header.utime;
   r->s.resolution_m = update.resolution_m;
   ++r->s.map_changes;
   changed();

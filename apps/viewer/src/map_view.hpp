@@ -25,6 +25,7 @@ namespace rgbdmap::viewer {
 struct RobotSnapshot {
   uint64_t map_changes = 0, pose_changes = 0, slice_changes = 0, status_changes = 0;
   int64_t map_revision = -1;
+  int64_t map_utime = 0;  ///< the server's send time of the newest applied MapUpdate
   double resolution_m = 0.05;
   std::vector<msg::CorrectedPose> keyframes;  ///< optimised, in keyframe id order
   SE3 T_map_odom = SE3::Identity();

@@ -93,9 +93,10 @@ void Viewer::Impl::publishVoxels(size_t index, const RobotSnapshot& s, bool peri
     if (added.size() + removed.size() > p.voxels.size() / 2) {
       periodic_snapshot = true;  // mostly new (a rebuild after a loop closure): everyone gets a snapshot
     } else {
-      const json delta = {{"revision", p.revision},   {"full", false},      {"resolution", s.resolution_m},
-                          {"frame_id", "map"},        {"add", flat(added)}, {"remove", flat(removed)},
-                          {"voxels", p.voxels.size()}};
+      const json delta = {{"revision", p.revision},       {"full", false},
+                          {"resolution", s.resolution_m}, {"frame_id", "map"},
+                          {"add", flat(added)},           {"remove", flat(removed)},
+                          {"voxels", p.voxels.size()},    {"map_utime", s.map_utime}};
       server->publishDelta(delta_channel, std::make_shared<const std::string>(delta.dump()), utime);
     }
     p.cloud_pending = true;
@@ -104,7 +105,7 @@ void Viewer::Impl::publishVoxels(size_t index, const RobotSnapshot& s, bool peri
     const json snapshot = {{"revision", p.revision},       {"full", true},
                            {"resolution", s.resolution_m}, {"frame_id", "map"},
                            {"add", flat(p.voxels)},        {"remove", json::array()},
-                           {"voxels", p.voxels.size()}};
+                           {"voxels", p.voxels.size()},    {"map_utime", s.map_utime}};
     server->publishSnapshot(delta_channel, std::make_shared<const std::string>(snapshot.dump()), utime,
                             periodic_snapshot);
     if (periodic_snapshot) p.last_snapshot = Clock::now();
