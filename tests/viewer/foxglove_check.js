@@ -78,11 +78,16 @@ function check() {
     const status = latest.get(`/${r}/status`);
     if (status.robot !== r || status.keyframes !== e.keyframes.length || status.voxels !== e.voxels)
       fail(`${r}: status ${JSON.stringify(status)}`);
+    const loops = latest.get(`/${r}/loops`).entities[0].lines[0];
+    const inter = loops.colors.filter((c) => c.r > 0.8 && c.b > 0.8).length / 2;
+    if (!(loops.type === 2 && loops.points.length >= 2 && loops.points.length % 2 === 0 && inter >= 1))
+      fail(`${r}: loop edges: ${loops.points.length / 2} edges, ${inter} inter-robot`);
     const tf = latest.get('/tf').transforms.map((t) => `${t.parent_frame_id}>${t.child_frame_id}`);
     if (!tf.includes(`map>${r}`)) fail(`${r}: no map -> ${r} transform in /tf (${tf})`);
     console.log(`${r}: ${pointCount(cloud)} voxels (map.bt: ${e.voxels}), ${poses.length} keyframes ` +
                 `(worst position difference ${worst.toExponential(1)} m), slice ${grid.column_count} x ` +
-                `${cells / grid.column_count}, status keyframes ${status.keyframes} loops ${status.loops}`);
+                `${cells / grid.column_count}, status keyframes ${status.keyframes} loops ${status.loops}, ` +
+                `${loops.points.length / 2} loop edges drawn (${inter} inter-robot)`);
   }
   for (const id of channels.keys()) client.unsubscribe(id);
   // Frames already on their way may still arrive for a moment; after that the viewer (which publishes a

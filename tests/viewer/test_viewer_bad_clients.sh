@@ -21,7 +21,8 @@ port=18767
 fail=0
 "$bin/rgbdmap" run --frames 300 --realtime --out "$tmp/out" --viewer "$port" >"$tmp/run.log" 2>&1 &
 pid=$!
-for _ in $(seq 1 100); do grep -q "viewer: http" "$tmp/run.log" && break; sleep 0.2; done
+for _ in $(seq 1 600); do grep -q "viewer: http" "$tmp/run.log" && break; sleep 0.2; done  # after the synthesis
+grep -q "viewer: http" "$tmp/run.log" || { echo "FAIL: the viewer did not start"; tail -20 "$tmp/run.log"; exit 1; }
 NODE_PATH="$node_dir/node_modules" timeout 120 node "$here/bad_clients.js" 127.0.0.1 "$port" 12 || fail=1
 for _ in $(seq 1 240); do
   grep -q "the map stays at" "$tmp/run.log" && break

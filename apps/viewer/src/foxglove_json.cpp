@@ -75,6 +75,37 @@ std::map<std::string, json> buildSchemas() {
                                {"cell_stride", integer()},
                                {"fields", fieldsSchema()},
                                {"data", bytes()}});
+  const json colour =
+      object("foxglove.Color", {{"r", number()}, {"g", number()}, {"b", number()}, {"a", number()}});
+  const json line = object(
+      "foxglove.LinePrimitive",
+      {{"type",
+        {{"title", "foxglove.LineType"},
+         {"oneOf", json::array({{{"const", 0}, {"title", "LINE_STRIP"}},
+                                {{"const", 1}, {"title", "LINE_LOOP"}},
+                                {{"const", 2}, {"title", "LINE_LIST"}}})}}},
+       {"pose", poseSchema()},
+       {"thickness", number()},
+       {"scale_invariant", {{"type", "boolean"}}},
+       {"points", array(object("foxglove.Point3", {{"x", number()}, {"y", number()}, {"z", number()}}))},
+       {"color", colour},
+       {"colors", array(colour)},
+       {"indices", array(integer())}});
+  json entity_properties = {
+      {"timestamp", timeSchema()},
+      {"frame_id", string()},
+      {"id", string()},
+      {"lifetime", object("duration", {{"sec", integer()}, {"nsec", integer()}})},
+      {"frame_locked", {{"type", "boolean"}}},
+      {"metadata", array(object("foxglove.KeyValuePair", {{"key", string()}, {"value", string()}}))},
+      {"lines", array(line)}};
+  for (const char* kind : {"arrows", "cubes", "spheres", "cylinders", "triangles", "texts", "models"})
+    entity_properties[kind] = array(object("", json::object()));  // never filled: always empty
+  s["foxglove.SceneUpdate"] = object(
+      "foxglove.SceneUpdate",
+      {{"deletions", array(object("foxglove.SceneEntityDeletion",
+                                  {{"timestamp", timeSchema()}, {"type", integer()}, {"id", string()}}))},
+       {"entities", array(object("foxglove.SceneEntity", entity_properties))}});
   // rgbdmap's own: incremental voxels for the web page (coordinates flat x0,y0,z0,x1,...), robot status.
   s["rgbdmap.VoxelDelta"] = object("rgbdmap.VoxelDelta", {{"revision", integer()},
                                                           {"full", {{"type", "boolean"}}},
@@ -190,6 +221,28 @@ json frameTransformsJson(const std::vector<FrameTransform>& transforms, int64_t 
                     {"rotation", pose["orientation"]}});
   }
   return {{"transforms", std::move(list)}};
+}
+
+json loopEdgesJson(const std::vector<msg::MapLoopEdge>& loops, int64_t utime, const std::string& frame,
+                   const std::string& id) {
+  json points = json::array(), colours = json::array();
+  for (const msg::MapLoopEdge& e : loops)
+    for (const Vec3& p : {e.p_from, e.p_to}) {
+      points.push_back({{"x", p.x()}, {"y", p.y()}, {"z", p.z()}});
+      colours.push_back(e.inter_robot ? json{{"r", 0.9}, {"g", 0.1}, {"b", 0.9}, {"a", 1.0}}
+                                      : json{{"r", 1.0}, {"g", 0.55}, {"b", 0.0}, {"a", 1.0}});
+    }
+  json line = {{"type", 2},         {"pose", poseJson(SE3::Identity())},
+               {"thickness", 2.0},  {"scale_invariant", true},
+               {"points", points},  {"color", {{"r", 1.0}, {"g", 0.55}, {"b", 0.0}, {"a", 1.0}}},
+               {"colors", colours}, {"indices", json::array()}};
+  json entity = {
+      {"timestamp", timeJson(utime)},          {"frame_id", frame},     {"id", id},
+      {"lifetime", {{"sec", 0}, {"nsec", 0}}}, {"frame_locked", false}, {"metadata", json::array()},
+      {"lines", json::array({line})}};
+  for (const char* kind : {"arrows", "cubes", "spheres", "cylinders", "triangles", "texts", "models"})
+    entity[kind] = json::array();
+  return {{"deletions", json::array()}, {"entities", json::array({entity})}};
 }
 
 json gridJson(const msg::OccupancySlice& slice, const std::string& frame) {

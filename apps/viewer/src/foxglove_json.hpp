@@ -47,6 +47,11 @@ struct FrameTransform {
 };
 nlohmann::json frameTransformsJson(const std::vector<FrameTransform>& transforms, int64_t utime);
 
+/// foxglove.SceneUpdate with one entity `id`: a line list, one segment per loop edge (same-chain loops
+/// orange, inter-robot loops magenta).
+nlohmann::json loopEdgesJson(const std::vector<msg::MapLoopEdge>& loops, int64_t utime,
+                             const std::string& frame, const std::string& id);
+
 /// foxglove.Grid of an occupancy slice: one int8 field "occupancy" (-1 unknown, 0 free .. 100 occupied),
 /// row-major from the cell (0, 0) corner at T_map_grid.
 nlohmann::json gridJson(const msg::OccupancySlice& slice, const std::string& frame);

@@ -21,7 +21,8 @@ Status MapSubscriber::setKeys(const msg::KeyStore& server_keys, bool open) {
 Status MapSubscriber::subscribe(transport::Transport& transport) {
   using T = msg::MessageType;
   for (const std::string& robot : view_.robots()) {
-    for (const T type : {T::kMapUpdate, T::kPoseCorrections, T::kOccupancySlice, T::kServerStatus}) {
+    for (const T type :
+         {T::kMapUpdate, T::kPoseCorrections, T::kOccupancySlice, T::kServerStatus, T::kLoopEdges}) {
       const auto channel = msg::channelFor(type, robot);
       if (!channel) return Status::failure(channel.error());
       auto handler = [this, robot, type](const std::string&, const uint8_t* data, size_t size) {
@@ -67,6 +68,10 @@ void MapSubscriber::onMessage(const std::string& robot, msg::MessageType type, c
     case msg::MessageType::kOccupancySlice:
       if (auto m = msg::decodeMessage<msg::OccupancySlice>(*opened, &rejects_))
         view_.applySlice(robot, std::move(*m));
+      break;
+    case msg::MessageType::kLoopEdges:
+      if (auto m = msg::decodeMessage<msg::LoopEdges>(*opened, &rejects_))
+        view_.applyLoops(robot, std::move(*m));
       break;
     case msg::MessageType::kServerStatus:
       if (auto m = msg::decodeMessage<msg::ServerStatus>(*opened, &rejects_)) view_.applyStatus(robot, *m);

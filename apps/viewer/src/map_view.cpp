@@ -72,6 +72,16 @@ void MapView::applySlice(const std::string& robot, msg::OccupancySlice slice) {
   changed();
 }
 
+void MapView::applyLoops(const std::string& robot, msg::LoopEdges loops) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  Robot* r = find(robot);
+  if (!r) return;
+  r->s.last_seen_utime = std::max(r->s.last_seen_utime, loops.header.utime);
+  r->s.loops = std::move(loops.edges);
+  ++r->s.loop_changes;
+  changed();
+}
+
 void MapView::applyStatus(const std::string& robot, const msg::ServerStatus& status) {
   std::lock_guard<std::mutex> lock(mutex_);
   Robot* r = find(robot);

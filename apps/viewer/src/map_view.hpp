@@ -23,13 +23,14 @@ namespace rgbdmap::viewer {
 
 /// One robot's state as a snapshot (copied out under the lock).
 struct RobotSnapshot {
-  uint64_t map_changes = 0, pose_changes = 0, slice_changes = 0, status_changes = 0;
+  uint64_t map_changes = 0, pose_changes = 0, slice_changes = 0, status_changes = 0, loop_changes = 0;
   int64_t map_revision = -1;
   int64_t map_utime = 0;  ///< the server's send time of the newest applied MapUpdate
   double resolution_m = 0.05;
   std::vector<msg::CorrectedPose> keyframes;  ///< optimised, in keyframe id order
   SE3 T_map_odom = SE3::Identity();
   std::optional<msg::OccupancySlice> slice;
+  std::vector<msg::MapLoopEdge> loops;  ///< accepted loop edges of the robot's map
   std::optional<msg::RobotStatus> status;
   std::string server_state;
   uint64_t bytes_down = 0;  ///< server -> robot bytes seen on its channels
@@ -47,6 +48,7 @@ class MapView {
   Status applyMap(const std::string& robot, const msg::MapUpdate& update);
   void applyCorrections(const std::string& robot, const msg::PoseCorrections& corrections);
   void applySlice(const std::string& robot, msg::OccupancySlice slice);
+  void applyLoops(const std::string& robot, msg::LoopEdges loops);
   void applyStatus(const std::string& robot, const msg::ServerStatus& status);
   void countBytes(const std::string& robot, size_t bytes);
 

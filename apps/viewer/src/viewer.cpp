@@ -41,6 +41,7 @@ std::vector<ChannelInfo> Viewer::Impl::makeChannels() {
     c.pose = add("/" + robot + "/pose", "foxglove.PoseInFrame");
     c.slice = add("/" + robot + "/slice", "foxglove.Grid");
     c.status = add("/" + robot + "/status", "rgbdmap.RobotStatus");
+    c.loops = add("/" + robot + "/loops", "foxglove.SceneUpdate");
     channels.push_back(c);
     published.push_back(std::make_unique<RobotPublished>());
   }

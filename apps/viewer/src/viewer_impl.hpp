@@ -19,7 +19,7 @@ namespace rgbdmap::viewer {
 
 /// The channel ids of one robot's topics.
 struct RobotChannels {
-  uint32_t voxels = 0, voxel_delta = 0, trajectory = 0, pose = 0, slice = 0, status = 0;
+  uint32_t voxels = 0, voxel_delta = 0, trajectory = 0, pose = 0, slice = 0, status = 0, loops = 0;
 };
 
 /// What the publisher last sent for one robot.

@@ -58,6 +58,9 @@ void Viewer::Impl::publishRobot(size_t index, bool periodic_snapshot) {
     publishPoses(index, s);
     publishTransforms();
   }
+  if (s.loop_changes != p.seen.loop_changes)
+    send(channels[index].loops, loopEdgesJson(s.loops, nowUtime(), "map", view.robots()[index] + "/loops"),
+         nowUtime());
   if (s.slice_changes != p.seen.slice_changes && s.slice)
     send(channels[index].slice, gridJson(*s.slice, "map"), s.slice->header.utime);
   if (s.status_changes != p.seen.status_changes || s.map_changes != p.seen.map_changes ||

@@ -36,7 +36,8 @@ function robot(name) {
   r.line = new THREE.Line(new THREE.BufferGeometry(), new THREE.LineBasicMaterial({ color: colour }));
   r.marker = new THREE.Mesh(new THREE.SphereBufferGeometry(0.08, 12, 8), new THREE.MeshBasicMaterial({ color: colour }));
   r.marker.visible = false;
-  world.add(r.points, r.line, r.marker);
+  r.loops = new THREE.LineSegments(new THREE.BufferGeometry(), new THREE.LineBasicMaterial({ vertexColors: THREE.VertexColors }));
+  world.add(r.points, r.line, r.marker, r.loops);
   state.robots[name] = r;
   return r;
 }
@@ -88,6 +89,22 @@ function applyTrajectory(r, m) {
   r.keyframes = m.poses.length;
 }
 
+function applyLoops(r, m) {  // foxglove.SceneUpdate: one entity with one line list
+  const line = m.entities[0].lines[0];
+  const pos = new Float32Array(3 * line.points.length), col = new Float32Array(3 * line.points.length);
+  line.points.forEach((p, i) => {
+    pos.set([p.x, p.y, p.z], 3 * i);
+    const c = line.colors[i] || line.color;
+    col.set([c.r, c.g, c.b], 3 * i);
+  });
+  const g = new THREE.BufferGeometry();
+  g.setAttribute('position', new THREE.BufferAttribute(pos, 3));
+  g.setAttribute('color', new THREE.BufferAttribute(col, 3));
+  r.loops.geometry.dispose();
+  r.loops.geometry = g;
+  r.loopEdges = line.points.length / 2;
+}
+
 function applyPose(r, m) {
   r.marker.position.set(m.pose.position.x, m.pose.position.y, m.pose.position.z);
   r.marker.visible = true;
@@ -105,7 +122,7 @@ function legend() {
     const div = document.createElement('div');
     div.className = 'robot';
     div.innerHTML = `<span class="swatch" style="background:${hex}"></span><b>${r.name}</b> ${s.state || ''}` +
-      `<div class="detail">${s.keyframes || r.keyframes} keyframes, ${s.loops || 0} loops, ${r.voxels.size} voxels</div>` +
+      `<div class="detail">${s.keyframes || r.keyframes} keyframes, ${s.loops || 0} loops (${r.loopEdges || 0} drawn), ${r.voxels.size} voxels</div>` +
       `<div class="detail">${(s.down_kbps || 0).toFixed(1)} kbit/s, last seen ${seen}</div>`;
     el.appendChild(div);
   }
@@ -149,7 +166,7 @@ function connect() {
       const subscriptions = [];
       for (const c of m.channels) {
         const parts = c.topic.split('/');  // "", robot, kind
-        if (parts.length !== 3 || !['voxel_delta', 'trajectory', 'pose', 'status'].includes(parts[2])) continue;
+        if (parts.length !== 3 || !['voxel_delta', 'trajectory', 'pose', 'status', 'loops'].includes(parts[2])) continue;
         robot(parts[1]);
         subs[c.id] = { robot: parts[1], kind: parts[2] };
         subscriptions.push({ id: c.id, channelId: c.id });
@@ -168,6 +185,7 @@ function connect() {
     else if (sub.kind === 'trajectory') applyTrajectory(r, m);
     else if (sub.kind === 'pose') applyPose(r, m);
     else if (sub.kind === 'status') r.status = m;
+    else if (sub.kind === 'loops') applyLoops(r, m);
   };
 }
 

@@ -11,6 +11,7 @@
 //   /R/pose          foxglove.PoseInFrame     R's newest keyframe pose in the map
 //   /R/slice         foxglove.Grid            R's latest occupancy slice
 //   /R/status        rgbdmap.RobotStatus      keyframes, loops, bandwidth, last seen
+//   /R/loops         foxglove.SceneUpdate     accepted loop edges of R's map (LoopEdges), one line list
 //   /tf              foxglove.FrameTransforms map -> R (newest keyframe), map -> R_odom (T_map_odom)
 #include <cstdint>
 #include <memory>
