@@ -36,7 +36,8 @@ function robot(name) {
   r.line = new THREE.Line(new THREE.BufferGeometry(), new THREE.LineBasicMaterial({ color: colour }));
   r.marker = new THREE.Mesh(new THREE.SphereBufferGeometry(0.08, 12, 8), new THREE.MeshBasicMaterial({ color: colour }));
   r.marker.visible = false;
-  r.loops = new THREE.LineSegments(new THREE.BufferGeometry(), new THREE.LineBasicMaterial({ vertexColors: THREE.VertexColors }));
+  r.loops = new THREE.LineSegments(new THREE.BufferGeometry(),
+    new THREE.LineBasicMaterial({ vertexColors: THREE.VertexColors, transparent: true, opacity: 0.6 }));
   world.add(r.points, r.line, r.marker, r.loops);
   state.robots[name] = r;
   return r;
