@@ -44,6 +44,10 @@ open((ws) => {
   ws.on('message', () => {});
 });
 
+}
+
+// Then, once those two hold their connections, the clients that take or waste connection slots.
+function attack2() {
 // 3. Connection storm: 200 connections opened and dropped at once (more than --max-clients).
 for (let i = 0; i < 200; ++i) {
   const ws = new WebSocket(url, proto);
@@ -73,6 +77,7 @@ handshake((s) => s.write(Buffer.from([0x81, 0xff, 0, 0, 1, 0, 0, 0, 0, 0, 1, 2, 
 
 }
 setTimeout(attack, 1000);  // after the good client and the slow readers are in
+setTimeout(attack2, 3000);
 
 // 5. Slow readers: subscribe to every channel, then stop reading (the socket's receive side is paused).
 for (let i = 0; i < 3; ++i) {

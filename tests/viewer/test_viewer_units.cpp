@@ -63,6 +63,20 @@ TEST(ViewerJson, PoseAndTransformCarryTranslationAndUnitQuaternion) {
   EXPECT_NEAR(t["rotation"]["z"].get<double>(), std::sin(0.25), 1e-12);
 }
 
+TEST(ViewerJson, LoopEdgesAreOneLineListWithInterRobotColours) {
+  std::vector<msg::MapLoopEdge> loops = {{"a", 1, "a", 5, false, Vec3(0, 0, 0), Vec3(1, 0, 0)},
+                                         {"a", 2, "b", 3, true, Vec3(0, 1, 0), Vec3(0, 2, 0)}};
+  const nlohmann::json scene = loopEdgesJson(loops, 0, "map", "a/loops");
+  ASSERT_EQ(scene["entities"].size(), 1u);
+  const nlohmann::json& line = scene["entities"][0]["lines"][0];
+  EXPECT_EQ(line["type"], 2);  // LINE_LIST
+  ASSERT_EQ(line["points"].size(), 4u);
+  EXPECT_DOUBLE_EQ(line["points"][1]["x"].get<double>(), 1.0);
+  EXPECT_NE(line["colors"][0], line["colors"][2]);  // a loop and an inter-robot loop differ
+  EXPECT_TRUE(scene["entities"][0]["cubes"].is_array());
+  EXPECT_EQ(nlohmann::json::parse(schemaFor("foxglove.SceneUpdate"))["title"], "foxglove.SceneUpdate");
+}
+
 /// A writer that blocks until released (a client that does not read), recording what it wrote.
 struct BlockingWriter {
   std::mutex mutex;
