@@ -11,6 +11,13 @@ find_package(OpenSSL REQUIRED)  # HMAC-SHA256 of the message envelope
 find_package(octomap REQUIRED)
 find_package(Ceres REQUIRED)
 find_package(CycloneDDS REQUIRED)
+# civetweb (libcivetweb-dev): HTTP + WebSocket server of rgbdmap-viewer. Debian's civetweb-config.cmake names
+# a civetweb program the -dev package does not ship, so the library is found directly.
+find_path(CIVETWEB_INCLUDE_DIR civetweb.h REQUIRED)
+find_library(CIVETWEB_LIBRARY civetweb REQUIRED)
+add_library(civetweb::civetweb UNKNOWN IMPORTED)
+set_target_properties(civetweb::civetweb PROPERTIES IMPORTED_LOCATION "${CIVETWEB_LIBRARY}"
+                                                    INTERFACE_INCLUDE_DIRECTORIES "${CIVETWEB_INCLUDE_DIR}")
 find_program(LCM_GEN lcm-gen REQUIRED)
 find_path(LCM_INCLUDE_DIR lcm/lcm.h REQUIRED)
 find_library(LCM_LIBRARY lcm REQUIRED)

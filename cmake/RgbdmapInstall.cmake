@@ -7,7 +7,7 @@ set(RGBDMAP_INSTALL_FULL_CONFDIR "${CMAKE_INSTALL_FULL_SYSCONFDIR}/rgbdmap")
 set(RGBDMAP_INSTALL_SYSTEMD_DIR "${CMAKE_INSTALL_PREFIX}/lib/systemd/system")
 set(RGBDMAP_INSTALL_SYSUSERS_DIR "${CMAKE_INSTALL_PREFIX}/lib/sysusers.d")
 
-install(TARGETS rgbdmap rgbdmap-client rgbdmap-server rgbdmap-monitor RUNTIME DESTINATION ${CMAKE_INSTALL_BINDIR})
+install(TARGETS rgbdmap rgbdmap-client rgbdmap-server rgbdmap-monitor rgbdmap-viewer RUNTIME DESTINATION ${CMAKE_INSTALL_BINDIR})
 
 # Configuration: the documented defaults, an example DDS configuration for a robot network (to be edited),
 # the services' environment files (client.env: copy to client-<robot>.env per robot).
@@ -28,6 +28,8 @@ install(FILES ${_deploy}/dds/cyclonedds-loopback.xml ${_deploy}/dds/cyclonedds-r
 install(FILES ${_generated}/systemd/rgbdmap-server.service ${_generated}/systemd/rgbdmap-client@.service
         DESTINATION ${RGBDMAP_INSTALL_SYSTEMD_DIR})
 install(FILES ${_deploy}/package/rgbdmap.sysusers DESTINATION ${RGBDMAP_INSTALL_SYSUSERS_DIR} RENAME rgbdmap.conf)
+install(FILES ${PROJECT_SOURCE_DIR}/apps/viewer/web/index.html ${PROJECT_SOURCE_DIR}/apps/viewer/web/viewer.js
+        DESTINATION ${RGBDMAP_INSTALL_FULL_DATADIR}/viewer)
 install(FILES ${PROJECT_SOURCE_DIR}/README.md ${_deploy}/lcm.md DESTINATION ${CMAKE_INSTALL_DOCDIR})
 install(FILES ${PROJECT_SOURCE_DIR}/proto/README.md DESTINATION ${CMAKE_INSTALL_DOCDIR} RENAME protocol.md)
 install(DIRECTORY ${PROJECT_SOURCE_DIR}/docs/ DESTINATION ${CMAKE_INSTALL_DOCDIR}/docs)

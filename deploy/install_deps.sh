@@ -12,24 +12,45 @@ packages=(
   # libroscpp-core-dev), live OpenNI2 cameras;
   # python3-rosbag reads back the bags the tests write with the official Python reader
   librosbag-storage-dev libroscpp-core-dev libopenni2-dev python3-rosbag
+  # the live map viewer (apps/viewer): HTTP + WebSocket server, three.js for its page (served, no CDN)
+  libcivetweb-dev libjs-three
+  # the viewer's tests: headless Chromium (page screenshot), Node (the Foxglove reference client, below)
+  chromium
   # commands the scripts under deploy/ and tests/ call beyond coreutils, grep, sed and bash:
   # ip (iproute2), unshare (util-linux), pgrep (procps), /usr/bin/time (time), awk (mawk), jq (JSON)
   iproute2 util-linux procps time mawk jq
   # packaging: dpkg-shlibdeps derives the .deb's Depends (deploy/package.sh)
   dpkg-dev
 )
+# Node.js and npm from Debian unless some other installation already provides the commands.
+command -v node >/dev/null 2>&1 || packages+=(nodejs)
+command -v npm >/dev/null 2>&1 || packages+=(npm)
 missing=()
 for p in "${packages[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
 done
-if [ ${#missing[@]} -eq 0 ]; then
-  exit 0
+if [ ${#missing[@]} -gt 0 ]; then
+  echo "install_deps: installing ${missing[*]}" >&2
+  if [ "$(id -u)" -ne 0 ]; then
+    echo "install_deps: missing packages and not root; run: sudo $0" >&2
+    exit 1
+  fi
+  export DEBIAN_FRONTEND=noninteractive
+  apt-get update -qq
+  apt-get install -y --no-install-recommends "${missing[@]}"
 fi
-echo "install_deps: installing ${missing[*]}" >&2
-if [ "$(id -u)" -ne 0 ]; then
-  echo "install_deps: missing packages and not root; run: sudo $0" >&2
-  exit 1
+
+# The Foxglove WebSocket reference client for the viewer's test (tests/viewer/foxglove_check.js): npm
+# packages in a folder outside the source tree, never at build time. RGBDMAP_NODE_DIR moves it (the test
+# reads the same variable); RGBDMAP_SKIP_NODE=1 skips it (the test then skips with a message).
+node_dir="${RGBDMAP_NODE_DIR:-/usr/local/lib/rgbdmap-node}"
+if [ -z "${RGBDMAP_SKIP_NODE:-}" ] && [ ! -f "$node_dir/node_modules/@foxglove/ws-protocol/package.json" ]; then
+  if [ "$(id -u)" -ne 0 ] && [ ! -w "$(dirname "$node_dir")" ]; then
+    echo "install_deps: cannot write $node_dir; run as root or set RGBDMAP_NODE_DIR" >&2
+    exit 1
+  fi
+  echo "install_deps: npm install @foxglove/ws-protocol ws into $node_dir" >&2
+  mkdir -p "$node_dir"
+  npm install --silent --no-audit --no-fund --prefix "$node_dir" @foxglove/ws-protocol@0.8.0 ws@8.23.0 >&2 \
+    || echo "install_deps: npm install failed; the viewer's Foxglove client test will skip" >&2
 fi
-export DEBIAN_FRONTEND=noninteractive
-apt-get update -qq
-apt-get install -y --no-install-recommends "${missing[@]}"

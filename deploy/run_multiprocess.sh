@@ -6,10 +6,13 @@
 # clients are done, evaluates every trajectory and the server's merged keyframes, and prints a summary.
 #
 # Usage: bash deploy/run_multiprocess.sh [--transport lcm|dds] [--robots N] [--dataset DIR] [--out DIR]
-#          [--frames F] [--check MAX_ATE_M] [--no-netns]
+#          [--frames F] [--check MAX_ATE_M] [--no-netns] [--viewer PORT]
 #   --frames F     frames of the synthetic sequence (default 300), or the first F frames of --dataset
 #   --check M      exit 1 unless every keyframe was acknowledged, all robots end in one map, the merged
 #                  keyframe ATE is below M metres and the monitor printed a status (used by the CI test)
+#   --viewer PORT  also run rgbdmap-viewer (http://127.0.0.1:PORT/, Foxglove ws://127.0.0.1:PORT) beside the
+#                  monitor, stopped after the server (use --no-netns to reach it from a browser on this
+#                  machine); RGBDMAP_VIEWER_PROBE, if set, is a command run in the background once it listens
 #   --no-netns     run on the host network (the default re-runs itself inside tests/transport/run_in_netns.sh,
 #                  a private namespace with only loopback, when that is permitted)
 # Outputs in --out (default out/multiprocess_<transport>): keys/, server.yaml, client_<R>.yaml, map/
@@ -18,7 +21,7 @@
 set -euo pipefail
 repo="$(cd "$(dirname "$0")/.." && pwd)"
 bin="${RGBDMAP_BIN:-$repo/build/bin}"
-transport=lcm robots=2 dataset="" out="" frames="" check="" netns=1
+transport=lcm robots=2 dataset="" out="" frames="" check="" netns=1 viewer=
 while [ $# -gt 0 ]; do
   case "$1" in
     --transport) transport="$2"; shift 2 ;;
@@ -28,7 +31,8 @@ while [ $# -gt 0 ]; do
     --frames) frames="$2"; shift 2 ;;
     --check) check="$2"; shift 2 ;;
     --no-netns) netns=0; shift ;;
-    -h|--help) sed -n '2,19p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
+    --viewer) viewer="$2"; shift 2 ;;
+    -h|--help) sed -n '2,22p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
     *) echo "unknown argument: $1 (see --help)" >&2; exit 2 ;;
   esac
 done
@@ -50,6 +54,7 @@ if [ "$netns" = 1 ] && [ -z "${RGBDMAP_TRANSPORT_NETNS:-}" ]; then
     [ -n "$frames" ] && args+=(--frames "$frames")
     [ -n "$dataset" ] && args+=(--dataset "$(cd "$dataset" && pwd)")
     [ -n "$check" ] && args+=(--check "$check")
+    [ -n "$viewer" ] && args+=(--viewer "$viewer")
     exec bash "$repo/tests/transport/run_in_netns.sh" bash "$0" "${args[@]}"
   fi
   echo "note: 'unshare -n' not permitted; running on the host network (loopback-only settings)" >&2
@@ -118,6 +123,15 @@ server_pid=$(child_of "$server_wrap")
 "$bin/rgbdmap-monitor" --transport "$url" --robots "$robot_list" --keys-file "$out/keys/server_keys.txt" \
   --period 2 --save-map "$out/maps_monitor" >"$out/logs/monitor.log" 2>"$out/logs/monitor.err" &
 monitor_pid=$!; pids+=("$monitor_pid")
+viewer_wrap=""
+if [ -n "$viewer" ]; then
+  timed viewer "$bin/rgbdmap-viewer" --transport "$url" --robots "$robot_list" \
+    --keys-file "$out/keys/server_keys.txt" --port "$viewer" >"$out/logs/viewer.log" 2>&1
+  viewer_wrap=$!; pids+=("$viewer_wrap")
+  for _ in $(seq 1 50); do grep -q "serving http" "$out/logs/viewer.log" && break; sleep 0.1; done
+  echo "   viewer: http://127.0.0.1:$viewer/ (Foxglove: ws://127.0.0.1:$viewer)"
+  [ -n "${RGBDMAP_VIEWER_PROBE:-}" ] && { bash -c "$RGBDMAP_VIEWER_PROBE" >"$out/logs/viewer_probe.log" 2>&1 & }
+fi
 client_wraps=()
 for i in $(seq 0 $((robots - 1))); do
   r="${ids[$i]}"; rng=$(range "$i")
@@ -139,6 +153,12 @@ kill -INT "$server_pid"
 wait "$server_wrap" || { echo "server exited with $?" >&2; failed=1; }
 kill -INT "$monitor_pid" 2>/dev/null || true
 wait "$monitor_pid" || true
+if [ -n "$viewer_wrap" ]; then
+  kill -INT "$(child_of "$viewer_wrap")" 2>/dev/null || true
+  wait "$viewer_wrap" || { echo "viewer exited with $?" >&2; failed=1; }
+  tail -n 1 "$out/logs/viewer.log"
+fi
+wait  # the viewer probe, if any
 trap - EXIT
 
 # --- evaluation -------------------------------------------------------------------------------------------

@@ -26,6 +26,7 @@
 #include "rgbdmap/server/server_config.hpp"
 #include "run_plan.hpp"
 #include "run_report.hpp"
+#include "run_viewer.hpp"
 
 namespace rgbdmap::cmd {
 namespace {
@@ -51,7 +52,9 @@ const char* kRunUsage =
     "  --scene loop|sweep      synthetic scene when no dataset is given (default loop)\n"
     "  --frames N              synthetic frame count (default 300), or the first N frames of --dataset\n"
     "  --seed S                synthetic seed (default 1)\n"
-    "  --threads N             OpenCV threads per robot (default 1)\n";
+    "  --threads N             OpenCV threads per robot (default 1)\n"
+    "  --viewer [PORT]         live map viewer at http://127.0.0.1:PORT/ and for Foxglove (default 8765),\n"
+    "                          kept open after the run until Ctrl-C\n";
 
 /// The datasets the robots read and, per dataset, its camera, odometry and reader settings.
 struct RunInputs {
@@ -64,7 +67,7 @@ struct RunInputs {
 RunOptions parseRun(cli::Args& args, ServerAppConfig* server_config, std::vector<std::string>* errors) {
   auto allowed = app::datasetOptionNames();
   allowed.insert(allowed.end(), {"dataset", "source", "out", "scene", "frames", "seed", "threads", "robots",
-                                 "overlap", "transport", "realtime", "server-config"});
+                                 "overlap", "transport", "realtime", "server-config", "viewer"});
   args.checkAllowed(allowed);
   RunOptions o = parseRunOptions(args, errors);
   if (args.has("source") && args.has("dataset"))
@@ -249,7 +252,8 @@ int writeOutputs(const RunOptions& o, const RunInputs& in, const std::vector<Rob
 }  // namespace
 
 int run(int argc, char** argv) {
-  cli::Args args(argc, argv, {"help", "realtime"});
+  ViewerArgv viewer_argv(argc, argv);
+  cli::Args args(viewer_argv.argc(), viewer_argv.argv(), {"help", "realtime"});
   if (args.has("help")) {
     std::printf("%s%s", kRunUsage, app::datasetOptionsHelp());
     return 0;
@@ -257,6 +261,7 @@ int run(int argc, char** argv) {
   std::vector<std::string> errors;
   ServerAppConfig server_config;
   RunOptions o = parseRun(args, &server_config, &errors);
+  const int viewer_port = viewerPort(args, &errors);
   if (!errors.empty()) return cli::usageError(errors, kRunUsage);
   cv::setNumThreads(static_cast<int>(o.threads));
   RunInputs in;
@@ -268,11 +273,20 @@ int run(int argc, char** argv) {
   const std::vector<RobotPlan> plans = planRobots(o, dataset_frames, in.synthetic);
   auto deployment = deploy(o, server_config, in, plans);
   if (!deployment) return log::error(deployment.error()), 1;
+  std::unique_ptr<RunViewer> viewer;
+  if (viewer_port >= 0) {
+    auto started = startRunViewer(viewer_port, transportUrl(o.transport), plans, **deployment);
+    if (!started) return log::error(started.error()), 1;
+    viewer = std::move(*started);
+  }
   log::info("running ", plans.size(), " robot(s) over ", transportUrl(o.transport), ", server map directory ",
             o.out, "/map");
   std::vector<RobotOutcome> robots;
   ServerOutcome server = runDeployment(o, in, plans, **deployment, &robots);
-  return writeOutputs(o, in, plans, server_config.server.occupancy_enabled, **deployment, &robots, &server);
+  const int status =
+      writeOutputs(o, in, plans, server_config.server.occupancy_enabled, **deployment, &robots, &server);
+  if (viewer) keepViewerOpen(*viewer);
+  return status;
 }
 
 }  // namespace rgbdmap::cmd

@@ -96,6 +96,7 @@ Status LocalDeployment::startTransportsAndLinks() {
 
 void LocalDeployment::settle(double idle_timeout_s, double robot_timeout_s) {
   server_->waitIdle(idle_timeout_s);
+  server_->flushMapStreams(idle_timeout_s);  // the final map to every subscriber (robots, a viewer)
   const MapServerStats stats = server_->stats();
   const auto keyframes = server_->keyframes();
   for (size_t i = 0; i < robots_.size(); ++i) {

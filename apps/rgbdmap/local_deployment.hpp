@@ -41,6 +41,8 @@ class LocalDeployment {
   void stop();
 
   MapServer& server() { return *server_; }
+  /// The server's transport (on memq:// the bus every party shares; the viewer subscribes to it).
+  transport::Transport& serverTransport() { return *server_transport_; }
   RobotLink& link(size_t robot) { return *robots_[robot].link; }
   size_t robotCount() const { return robots_.size(); }
 

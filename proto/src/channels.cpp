@@ -29,6 +29,8 @@ const char* channelSuffix(MessageType type) {
       return "keyframe_chunk";
     case MessageType::kChunkAck:
       return "chunk_ack";
+    case MessageType::kLoopEdges:
+      return "loops";
   }
   return "unknown";
 }

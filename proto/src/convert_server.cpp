@@ -1,10 +1,11 @@
-// Wire <-> internal for the server's messages: KeyframeAck, PoseCorrections, OccupancySlice, MapUpdate,
-// VelocityCommand, ServerStatus.
+// Wire <-> internal for the server's messages: KeyframeAck, PoseCorrections, LoopEdges, OccupancySlice,
+// MapUpdate, VelocityCommand, ServerStatus.
 #include <cmath>
 
 #include "convert_common.hpp"
 #include "rgbdmap/proto/codec.hpp"
 #include "rgbdmap_lcm/keyframe_ack_t.hpp"
+#include "rgbdmap_lcm/loop_edges_t.hpp"
 #include "rgbdmap_lcm/map_update_t.hpp"
 #include "rgbdmap_lcm/occupancy_slice_t.hpp"
 #include "rgbdmap_lcm/pose_corrections_t.hpp"
@@ -61,6 +62,42 @@ Result<PoseCorrections> fromWireCorrections(const rgbdmap_lcm::pose_corrections_
     if (!T) return R::failure(T.error());
     m.keyframes.push_back(CorrectedPose{k.keyframe_id, *T});
   }
+  return m;
+}
+
+rgbdmap_lcm::loop_edges_t toWireLoops(const LoopEdges& m) {
+  rgbdmap_lcm::loop_edges_t w;
+  w.header = toWire(m.header);
+  w.robot_id = m.robot_id;
+  w.graph_revision = m.graph_revision;
+  w.num_edges = detail::count(m.edges);
+  w.edges.resize(m.edges.size());
+  for (size_t i = 0; i < m.edges.size(); ++i) {
+    const MapLoopEdge& e = m.edges[i];
+    rgbdmap_lcm::loop_edge_t& o = w.edges[i];
+    o.robot_from = e.robot_from;
+    o.keyframe_from = e.keyframe_from;
+    o.robot_to = e.robot_to;
+    o.keyframe_to = e.keyframe_to;
+    o.inter_robot = e.inter_robot;
+    for (int a = 0; a < 3; ++a) {
+      o.p_from[a] = e.p_from[a];
+      o.p_to[a] = e.p_to[a];
+    }
+  }
+  return w;
+}
+
+Result<LoopEdges> fromWireLoops(const rgbdmap_lcm::loop_edges_t& w) {
+  LoopEdges m;
+  m.header = fromWire(w.header);
+  m.robot_id = w.robot_id;
+  m.graph_revision = w.graph_revision;
+  m.edges.reserve(w.edges.size());
+  for (const rgbdmap_lcm::loop_edge_t& o : w.edges)
+    m.edges.push_back(MapLoopEdge{o.robot_from, o.keyframe_from, o.robot_to, o.keyframe_to,
+                                  o.inter_robot != 0, Vec3(o.p_from[0], o.p_from[1], o.p_from[2]),
+                                  Vec3(o.p_to[0], o.p_to[1], o.p_to[2])});
   return m;
 }
 
@@ -169,6 +206,7 @@ Result<ServerStatus> fromWireStatus(const rgbdmap_lcm::server_status_t& w) {
 
 RGBDMAP_PROTO_CODEC(KeyframeAck, toWireAck, fromWireAck)
 RGBDMAP_PROTO_CODEC(PoseCorrections, toWireCorrections, fromWireCorrections)
+RGBDMAP_PROTO_CODEC(LoopEdges, toWireLoops, fromWireLoops)
 RGBDMAP_PROTO_CODEC(OccupancySlice, toWireSlice, fromWireSlice)
 RGBDMAP_PROTO_CODEC(MapUpdate, toWireMap, fromWireMap)
 RGBDMAP_PROTO_CODEC(VelocityCommand, toWireVelocity, fromWireVelocity)

@@ -29,6 +29,8 @@ const char* toString(MessageType type) {
       return "KeyframeChunk";
     case MessageType::kChunkAck:
       return "ChunkAck";
+    case MessageType::kLoopEdges:
+      return "LoopEdges";
   }
   return "unknown";
 }

@@ -43,6 +43,18 @@ Status validate(const PoseCorrections& m) {
   return Status::success();
 }
 
+Status validate(const LoopEdges& m) {
+  if (Status s = validateToRobot(m.header, m.robot_id); !s) return s;
+  if (m.graph_revision < 0) return invalid("negative revision");
+  if (m.edges.size() > static_cast<size_t>(kMaxLoopEdges)) return invalid("too many loop edges");
+  for (const MapLoopEdge& e : m.edges) {
+    if (!isRobotId(e.robot_from) || !isRobotId(e.robot_to)) return invalid("invalid robot id");
+    if (e.keyframe_from < 0 || e.keyframe_to < 0) return invalid("negative id");
+    if (!e.p_from.allFinite() || !e.p_to.allFinite()) return invalid("non-finite position");
+  }
+  return Status::success();
+}
+
 Status validate(const OccupancySlice& m) {
   if (Status s = validateToRobot(m.header, m.robot_id); !s) return s;
   if (!isValidPose(m.T_map_grid)) return invalid("invalid pose");

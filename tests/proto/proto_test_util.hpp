@@ -114,6 +114,15 @@ inline msg::PoseCorrections sampleCorrections() {
   return m;
 }
 
+inline msg::LoopEdges sampleLoops() {
+  msg::LoopEdges m;
+  m.robot_id = "robot_1";
+  m.graph_revision = 42;
+  m.edges.push_back({"robot_1", 3, "robot_1", 17, false, Vec3(0.1, -0.2, 1.5), Vec3(0.3, -0.1, 2.5)});
+  m.edges.push_back({"robot_1", 9, "robot_2", 4, true, Vec3(-1.0, 0.0, 0.5), Vec3(-1.2, 0.1, 0.4)});
+  return m;
+}
+
 inline msg::OccupancySlice sampleSlice() {
   msg::OccupancySlice m;
   m.robot_id = "robot_1";
@@ -156,7 +165,7 @@ inline std::vector<Bytes> sampleEnvelopes(msg::Signer* robot, msg::Signer* serve
           server->seal(sampleCorrections(), t).value(), server->seal(sampleSlice(), t).value(),
           server->seal(sampleMap(), t).value(),         server->seal(sampleVelocity(), t).value(),
           server->seal(sampleStatus(), t).value(),      robot->seal(sampleChunk(), t).value(),
-          server->seal(sampleChunkAck(), t).value()};
+          server->seal(sampleChunkAck(), t).value(),    server->seal(sampleLoops(), t).value()};
 }
 
 }  // namespace rgbdmap::testing

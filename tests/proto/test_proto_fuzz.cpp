@@ -47,6 +47,8 @@ Status decodeAny(const OpenedEnvelope& e, RejectCounters* c) {
       return decodeAs<KeyframeChunk>(e, c);
     case MessageType::kChunkAck:
       return decodeAs<ChunkAck>(e, c);
+    case MessageType::kLoopEdges:
+      return decodeAs<LoopEdges>(e, c);
   }
   return Status::failure("unknown type");
 }

@@ -1,6 +1,8 @@
 // Round trip of every message: internal -> payload -> internal, and through a signed envelope.
 #include <gtest/gtest.h>
 
+#include <cmath>
+
 #include "proto/proto_test_util.hpp"
 #include "rgbdmap/proto/channels.hpp"
 #include "rgbdmap/proto/codec.hpp"
@@ -163,6 +165,30 @@ TEST(ProtoRoundTrip, EmptyCollections) {
   PoseCorrections c = testing::sampleCorrections();
   c.keyframes.clear();
   EXPECT_TRUE(throughEnvelope(c).keyframes.empty());
+}
+
+TEST(ProtoRoundTrip, LoopEdges) {
+  const LoopEdges m = testing::sampleLoops(), m2 = throughEnvelope(m);
+  EXPECT_EQ(m2.robot_id, m.robot_id);
+  EXPECT_EQ(m2.graph_revision, m.graph_revision);
+  ASSERT_EQ(m2.edges.size(), m.edges.size());
+  for (size_t i = 0; i < m.edges.size(); ++i) {
+    EXPECT_EQ(m2.edges[i].robot_from, m.edges[i].robot_from);
+    EXPECT_EQ(m2.edges[i].keyframe_from, m.edges[i].keyframe_from);
+    EXPECT_EQ(m2.edges[i].robot_to, m.edges[i].robot_to);
+    EXPECT_EQ(m2.edges[i].keyframe_to, m.edges[i].keyframe_to);
+    EXPECT_EQ(m2.edges[i].inter_robot, m.edges[i].inter_robot);
+    EXPECT_EQ(m2.edges[i].p_from, m.edges[i].p_from);
+    EXPECT_EQ(m2.edges[i].p_to, m.edges[i].p_to);
+  }
+  LoopEdges bad = m;
+  bad.edges[1].p_to.x() = std::nan("");
+  EXPECT_FALSE(validate(bad));
+  bad = m;
+  bad.edges[0].robot_to = "bad id";
+  EXPECT_FALSE(validate(bad));
+  EXPECT_EQ(channelFor(MessageType::kLoopEdges, "robot_1").value(), "rgbdmap/robot_1/loops");
+  EXPECT_EQ(directionOf(MessageType::kLoopEdges), Direction::kServerToRobot);
 }
 
 TEST(ProtoChannels, NamesAndDirections) {

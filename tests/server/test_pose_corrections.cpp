@@ -8,6 +8,7 @@
 
 // A private header of the server library (server/core/src): the function is internal, the test is of it.
 #include "../../server/core/src/pose_corrections.hpp"
+#include "rgbdmap/proto/validate.hpp"
 
 namespace rgbdmap {
 namespace {
@@ -76,6 +77,51 @@ TEST(PoseCorrections, KeepsTheNewestKeyframesWithinTheMessageLimit) {
   ASSERT_EQ(a.keyframes.size(), static_cast<size_t>(msg::kMaxCorrections));
   EXPECT_EQ(a.keyframes.front().keyframe_id, 3);
   EXPECT_EQ(a.keyframes.back().keyframe_id, n - 1);
+}
+
+}  // namespace
+}  // namespace rgbdmap
+
+namespace rgbdmap {
+namespace {
+
+PoseGraphEdge graphEdge(int64_t id, int64_t from, int64_t to, EdgeKind kind) {
+  PoseGraphEdge e;
+  e.id = id;
+  e.from = from;
+  e.to = to;
+  e.kind = kind;
+  return e;
+}
+
+TEST(LoopEdgesMessage, EnabledLoopsOfEachRobotsMapWithOptimisedPositions) {
+  std::vector<IndexedNode> nodes;
+  for (int i = 0; i < 4; ++i) nodes.push_back(node(i, "a", 1, i));
+  nodes.push_back(node(4, "b", 1, 0));
+  nodes.push_back(node(5, "c", 1, 0));  // c: a map of its own
+  for (int i = 0; i < 5; ++i) nodes[i].kf.map_id = 0;
+  nodes[5].kf.map_id = 5;
+  const std::vector<PoseGraphEdge> edges = {
+      graphEdge(0, 0, 1, EdgeKind::kOdometry), graphEdge(1, 3, 0, EdgeKind::kLoop),
+      graphEdge(2, 4, 2, EdgeKind::kInterRobot), graphEdge(3, 3, 1, EdgeKind::kLoop),  // 3: disabled
+      graphEdge(4, 2, 9, EdgeKind::kLoop)};  // names a node that does not exist
+  const auto out = buildLoopEdges(nodes, edges, {3}, {"a", "b", "c"}, 7);
+  ASSERT_EQ(out.size(), 3u);
+  const msg::LoopEdges& a = out.at("a");
+  EXPECT_EQ(a.graph_revision, 7);
+  ASSERT_EQ(a.edges.size(), 2u);
+  EXPECT_EQ(a.edges[0].robot_from, "a");
+  EXPECT_EQ(a.edges[0].keyframe_from, 3);
+  EXPECT_EQ(a.edges[0].keyframe_to, 0);
+  EXPECT_FALSE(a.edges[0].inter_robot);
+  EXPECT_TRUE(a.edges[0].p_from.isApprox(nodes[3].kf.T_map_kf.translation()));
+  EXPECT_EQ(a.edges[1].robot_from, "b");
+  EXPECT_TRUE(a.edges[1].inter_robot);
+  EXPECT_EQ(out.at("b").edges.size(), 2u);  // the same merged map
+  EXPECT_TRUE(out.at("c").edges.empty());
+  msg::LoopEdges sent = a;  // as the publisher seals it
+  sent.header.sender = msg::kServerId;
+  EXPECT_TRUE(msg::validate(sent)) << msg::validate(sent).error();
 }
 
 }  // namespace

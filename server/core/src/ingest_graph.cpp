@@ -126,6 +126,10 @@ void IngestPipeline::onOptimized(const OptimizedPoses& result) {
   const auto corrections =
       buildCorrections(index_.nodes(), currentSessionsLocked(), counters_.graph_revision);
   noteCorrectionsLocked(corrections, std::chrono::steady_clock::now());
+  std::vector<std::string> robots;  // the loop edges of each corrected robot's map (for visualisers)
+  for (const auto& [robot, c] : corrections) robots.push_back(robot);
+  const auto loops = buildLoopEdges(index_.nodes(), graph_.edges(), graph_.disabledEdges(), robots,
+                                    counters_.graph_revision);
   std::vector<MapNodePose> map_poses = mapPosesLocked();
   lock.unlock();
   if (map_worker_) map_worker_->updatePoses(std::move(map_poses));
@@ -133,6 +137,7 @@ void IngestPipeline::onOptimized(const OptimizedPoses& result) {
     log::debug("server: corrections to ", robot, ": ", c.keyframes.size(), " keyframes");
     publisher_.publish(robot, c);
   }
+  for (const auto& [robot, l] : loops) publisher_.publish(robot, l);
 }
 
 void IngestPipeline::applyOptimizedLocked(const OptimizedPoses& result) {

@@ -178,6 +178,13 @@ bool MapServer::waitIdle(double timeout_s) {
       std::max(0.0, std::chrono::duration<double>(deadline - Clock::now()).count()));
 }
 
+bool MapServer::flushMapStreams(double timeout_s) {
+  Impl& m = *impl_;
+  if (!m.map_worker) return true;
+  m.map_worker->flushStreams();
+  return m.map_worker->waitIdle(timeout_s);
+}
+
 MapServerStats MapServer::stats() const {
   const Impl& m = *impl_;
   MapServerStats s = m.pipeline.stats();

@@ -41,6 +41,10 @@ void MapWorker::start() { worker_.start(); }
 
 void MapWorker::stop() { worker_.stop(); }
 
+void MapWorker::flushStreams() {
+  worker_.post([this] { publishStreams(); });
+}
+
 void MapWorker::addKeyframe(MapKeyframeJob job) {
   bool with_images = !job.depth.empty();
   if (with_images && queued_images_.load() >= kMaxQueuedImages) {

@@ -70,6 +70,8 @@ class MapWorker {
   void updatePoses(std::vector<MapNodePose> poses);
   /// Queue empty, nothing in progress and no octree rebuild pending; false on timeout.
   bool waitIdle(double timeout_s) const;
+  /// Queues a map stream publication (what the stream period does) behind the work already queued.
+  void flushStreams();
   void fillStats(MapServerStats* stats) const;
   /// See MapServer::writeMapOutputs; `keyframes` give the robots' optimised trajectories.
   Status writeOutputs(const std::string& out_dir, const std::vector<ServerKeyframe>& keyframes) const;

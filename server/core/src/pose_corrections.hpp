@@ -6,6 +6,7 @@
 #include <vector>
 
 #include "keyframe_index.hpp"
+#include "rgbdmap/graph/pose_graph.hpp"
 #include "rgbdmap/proto/messages.hpp"
 
 namespace rgbdmap {
@@ -18,5 +19,14 @@ namespace rgbdmap {
 std::map<std::string, msg::PoseCorrections> buildCorrections(
     const std::vector<IndexedNode>& nodes, const std::map<std::string, int64_t>& current_sessions,
     int64_t graph_revision);
+
+/// LoopEdges for each robot in `robots`: the enabled loop and inter-robot edges of `edges` whose first
+/// keyframe is in the map (graph component) of the robot's newest keyframe, with both ends' optimised
+/// positions. `nodes` indexed by node id; at most msg::kMaxLoopEdges per robot (the newest edges).
+std::map<std::string, msg::LoopEdges> buildLoopEdges(const std::vector<IndexedNode>& nodes,
+                                                     const std::vector<PoseGraphEdge>& edges,
+                                                     const std::vector<int64_t>& disabled_edges,
+                                                     const std::vector<std::string>& robots,
+                                                     int64_t graph_revision);
 
 }  // namespace rgbdmap

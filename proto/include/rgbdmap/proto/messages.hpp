@@ -30,8 +30,9 @@ enum class MessageType : int16_t {
   kServerStatus = 9,
   kKeyframeChunk = 10,  ///< chunked keyframe transfer (udpm://): see KeyframeChunk, ChunkAck
   kChunkAck = 11,
+  kLoopEdges = 12,  ///< the accepted loop edges of a robot's map (visualisers)
 };
-constexpr int kNumMessageTypes = 11;
+constexpr int kNumMessageTypes = 12;
 const char* toString(MessageType type);
 bool isKnownType(int type);
 
@@ -45,6 +46,7 @@ constexpr int kMaxCapabilities = 32;
 constexpr int kMaxKeypoints = 10000;
 constexpr int kDescriptorBytes = 32;     ///< ORB: 256 bits
 constexpr int kMaxCorrections = 100000;  ///< keyframes in one PoseCorrections
+constexpr int kMaxLoopEdges = 100000;    ///< edges in one LoopEdges
 constexpr int kMaxRobots = 1024;
 constexpr int kMaxRejectCounts = 256;  ///< ServerStatus::rejects entries
 constexpr int kMaxGridSide = 4096;
@@ -172,6 +174,25 @@ struct OccupancySlice {
   int width = 0, height = 0;
   float z_min_m = 0.0f, z_max_m = 2.0f;
   std::vector<int8_t> cells;  ///< width * height, row-major; -1 unknown, 0..100 occupancy
+};
+
+/// One accepted loop edge between two optimised keyframes (positions in the map frame).
+struct MapLoopEdge {
+  std::string robot_from;
+  int keyframe_from = 0;
+  std::string robot_to;
+  int keyframe_to = 0;
+  bool inter_robot = false;  ///< the keyframes are of different odometry chains
+  Vec3 p_from = Vec3::Zero(), p_to = Vec3::Zero();
+};
+
+/// Server -> robot after an optimisation: the loop edges of the robot's map (for visualisers).
+struct LoopEdges {
+  static constexpr MessageType kType = MessageType::kLoopEdges;
+  Header header;
+  std::string robot_id;
+  int64_t graph_revision = 0;
+  std::vector<MapLoopEdge> edges;
 };
 
 enum class MapCompression : int8_t { kNone = 0, kZstd = 1 };

@@ -22,6 +22,7 @@ Status validate(const Heartbeat& m);
 Status validate(const Keyframe& m);
 Status validate(const KeyframeAck& m);
 Status validate(const PoseCorrections& m);
+Status validate(const LoopEdges& m);
 Status validate(const OccupancySlice& m);
 Status validate(const MapUpdate& m);
 Status validate(const VelocityCommand& m);

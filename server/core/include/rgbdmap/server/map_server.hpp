@@ -159,6 +159,10 @@ class MapServer {
   /// corrections published, the map worker has inserted every handed keyframe and no octree rebuild is
   /// pending; false on timeout.
   bool waitIdle(double timeout_s);
+  /// Publishes each robot's map stream now if its map changed since the last one (instead of at the next
+  /// stream period), and waits (up to timeout_s) until that is done: the final map reaches subscribers
+  /// (robots, monitors, viewers) before a run stops. False on timeout.
+  bool flushMapStreams(double timeout_s);
   MapServerStats stats() const;
   /// Keyframes with their current (optimised) poses, in ingestion order.
   std::vector<ServerKeyframe> keyframes() const;

@@ -1,0 +1,124 @@
+// Viewer: set-up (channels, keys, the HTTP port) and lifecycle.
+#include "rgbdmap/viewer/viewer.hpp"
+
+#include <filesystem>
+
+#include "foxglove_json.hpp"
+#include "viewer_impl.hpp"
+
+namespace rgbdmap::viewer {
+
+int64_t nowUtime() {
+  return std::chrono::duration_cast<std::chrono::microseconds>(
+             std::chrono::system_clock::now().time_since_epoch())
+      .count();
+}
+
+std::string defaultWebDir() {
+#ifdef RGBDMAP_VIEWER_SOURCE_WEB_DIR
+  if (std::filesystem::exists(std::string(RGBDMAP_VIEWER_SOURCE_WEB_DIR) + "/index.html"))
+    return RGBDMAP_VIEWER_SOURCE_WEB_DIR;
+#endif
+#ifdef RGBDMAP_VIEWER_INSTALLED_WEB_DIR
+  return RGBDMAP_VIEWER_INSTALLED_WEB_DIR;
+#else
+  return "web";
+#endif
+}
+
+std::vector<ChannelInfo> Viewer::Impl::makeChannels() {
+  std::vector<ChannelInfo> list;
+  uint32_t next = 1;
+  auto add = [&](const std::string& topic, const std::string& schema, bool incremental = false) {
+    list.push_back({next, topic, schema, schemaFor(schema), incremental});
+    return next++;
+  };
+  for (const std::string& robot : view.robots()) {
+    RobotChannels c;
+    c.voxels = add("/" + robot + "/voxels", "foxglove.PointCloud");
+    c.voxel_delta = add("/" + robot + "/voxel_delta", "rgbdmap.VoxelDelta", true);
+    c.trajectory = add("/" + robot + "/trajectory", "foxglove.PosesInFrame");
+    c.pose = add("/" + robot + "/pose", "foxglove.PoseInFrame");
+    c.slice = add("/" + robot + "/slice", "foxglove.Grid");
+    c.status = add("/" + robot + "/status", "rgbdmap.RobotStatus");
+    c.loops = add("/" + robot + "/loops", "foxglove.SceneUpdate");
+    channels.push_back(c);
+    published.push_back(std::make_unique<RobotPublished>());
+  }
+  tf_channel = add("/tf", "foxglove.FrameTransforms");
+  return list;
+}
+
+void Viewer::Impl::requestSnapshot(uint32_t channel) {
+  for (size_t i = 0; i < channels.size(); ++i)
+    if (channels[i].voxel_delta == channel) published[i]->snapshot_wanted = true;
+  view.notifyAll();
+}
+
+Result<std::unique_ptr<Viewer>> Viewer::create(ViewerOptions options, const msg::KeyStore& server_keys) {
+  using R = Result<std::unique_ptr<Viewer>>;
+  if (options.robots.empty()) return R::failure("viewer: no robots");
+  if (options.web_dir.empty()) options.web_dir = defaultWebDir();
+  const std::vector<std::string> robots = options.robots;
+  auto impl = std::make_unique<Impl>(std::move(options), robots);
+  if (const Status s = impl->subscriber.setKeys(server_keys, impl->options.open); !s)
+    return R::failure(s.error());
+  WsServerOptions ws;
+  ws.bind = impl->options.bind;
+  ws.port = impl->options.port;
+  ws.web_dir = impl->options.web_dir;
+  ws.three_dir = impl->options.three_dir;
+  ws.max_clients = impl->options.max_clients;
+  ws.limits.max_queue_bytes = impl->options.max_queue_bytes;
+  Impl* raw = impl.get();
+  impl->server =
+      std::make_unique<WsServer>(ws, impl->makeChannels(), [raw](uint32_t c) { raw->requestSnapshot(c); });
+  return std::unique_ptr<Viewer>(new Viewer(std::move(impl)));
+}
+
+Viewer::Viewer(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
+
+Viewer::~Viewer() { stop(); }
+
+Status Viewer::subscribe(transport::Transport& transport) { return impl_->subscriber.subscribe(transport); }
+
+Status Viewer::start() {
+  Impl& m = *impl_;
+  if (m.started) return Status::failure("viewer already started");
+  if (const Status s = m.server->start(); !s) return s;
+  m.started = true;
+  m.thread = std::thread([&m] { m.run(); });
+  return Status::success();
+}
+
+void Viewer::stop() {
+  Impl& m = *impl_;
+  m.subscriber.disable();
+  m.stopping = true;
+  m.view.notifyAll();
+  if (m.thread.joinable()) m.thread.join();
+  m.server->stop();
+}
+
+int Viewer::port() const { return impl_->server->port(); }
+
+ViewerStats Viewer::stats() const {
+  const WsServerStats w = impl_->server->stats();
+  ViewerStats s;
+  s.clients = w.clients;
+  s.connections = w.connections;
+  s.messages_sent = w.messages_sent;
+  s.bytes_sent = w.bytes_sent;
+  s.dropped_messages = w.dropped_messages;
+  s.malformed = w.malformed;
+  s.unknown_ops = w.unknown_ops;
+  s.refused_subscriptions = w.refused_subscriptions;
+  s.refused_connections = w.refused_connections;
+  s.map_updates = impl_->subscriber.mapUpdates();
+  s.map_errors = impl_->subscriber.mapErrors();
+  s.rejected_stream_messages = impl_->subscriber.rejected();
+  s.voxels = impl_->voxels_total;
+  return s;
+}
+
+}  // namespace rgbdmap::viewer

@@ -1,0 +1,164 @@
+// The viewer's publisher thread: waits for the MapView to change (or a client to want a snapshot) and
+// publishes what changed. Voxels: a delta against the set last published on /R/voxel_delta (a full
+// snapshot when a client waits for one, every snapshot_period_s, or when the map was rebuilt so that most
+// of it changed), and a PointCloud of all of them at most every cloud_period_s.
+#include <cmath>
+
+#include "viewer_impl.hpp"
+
+namespace rgbdmap::viewer {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+using nlohmann::json;
+
+double secondsSince(Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); }
+
+/// Voxel centre -> a key of its cell (21 bits per axis, offset so that +-52 km fit at 5 cm).
+uint64_t voxelKey(const Voxel& v, double resolution) {
+  auto cell = [&](float x) {
+    return static_cast<uint64_t>(std::floor(x / resolution) + (1 << 20)) & 0x1fffff;
+  };
+  return (cell(v.x) << 42) | (cell(v.y) << 21) | cell(v.z);
+}
+
+json flat(const std::vector<Voxel>& voxels) {
+  json a = json::array();
+  for (const Voxel& v : voxels) {
+    a.push_back(std::round(v.x * 1000.0f) / 1000.0f);
+    a.push_back(std::round(v.y * 1000.0f) / 1000.0f);
+    a.push_back(std::round(v.z * 1000.0f) / 1000.0f);
+  }
+  return a;
+}
+
+}  // namespace
+
+void Viewer::Impl::send(uint32_t channel, const json& message, int64_t utime) {
+  server->publishLatest(channel, std::make_shared<const std::string>(message.dump()), utime);
+}
+
+void Viewer::Impl::run() {
+  uint64_t seen = 0;
+  while (!stopping) {
+    seen = view.waitForChange(seen, 0.25);
+    if (stopping) break;
+    for (size_t i = 0; i < channels.size(); ++i) {
+      const bool periodic = secondsSince(published[i]->last_snapshot) >= options.snapshot_period_s;
+      publishRobot(i, periodic);
+    }
+  }
+}
+
+void Viewer::Impl::publishRobot(size_t index, bool periodic_snapshot) {
+  RobotPublished& p = *published[index];
+  const RobotSnapshot s = view.snapshot(view.robots()[index]);
+  publishVoxels(index, s, periodic_snapshot);
+  if (s.pose_changes != p.seen.pose_changes) {
+    publishPoses(index, s);
+    publishTransforms();
+  }
+  if (s.loop_changes != p.seen.loop_changes)
+    send(channels[index].loops, loopEdgesJson(s.loops, nowUtime(), "map", view.robots()[index] + "/loops"),
+         nowUtime());
+  if (s.slice_changes != p.seen.slice_changes && s.slice)
+    send(channels[index].slice, gridJson(*s.slice, "map"), s.slice->header.utime);
+  if (s.status_changes != p.seen.status_changes || s.map_changes != p.seen.map_changes ||
+      secondsSince(p.last_status) >= 1.0)
+    publishStatus(index, s);
+  p.seen = s;
+}
+
+void Viewer::Impl::publishVoxels(size_t index, const RobotSnapshot& s, bool periodic_snapshot) {
+  RobotPublished& p = *published[index];
+  const uint32_t delta_channel = channels[index].voxel_delta;
+  const bool changed = s.map_changes != p.seen.map_changes;
+  const bool wanted = p.snapshot_wanted.exchange(false) || server->wantsSnapshot(delta_channel);
+  const int64_t utime = nowUtime();
+  if (changed) {
+    int64_t map_revision = 0;
+    std::vector<Voxel> voxels = view.occupiedVoxels(view.robots()[index], &map_revision);
+    std::unordered_set<uint64_t> keys;
+    keys.reserve(voxels.size());
+    std::vector<Voxel> added, removed;
+    for (const Voxel& v : voxels) {
+      const uint64_t k = voxelKey(v, s.resolution_m);
+      keys.insert(k);
+      if (!p.voxel_keys.count(k)) added.push_back(v);
+    }
+    for (const Voxel& v : p.voxels)
+      if (!keys.count(voxelKey(v, s.resolution_m))) removed.push_back(v);
+    p.voxel_keys = std::move(keys);
+    p.voxels = std::move(voxels);
+    voxels_total = 0;
+    for (const auto& q : published) voxels_total += q->voxels.size();
+    ++p.revision;
+    if (added.size() + removed.size() > p.voxels.size() / 2) {
+      periodic_snapshot = true;  // mostly new (a rebuild after a loop closure): everyone gets a snapshot
+    } else {
+      const json delta = {{"revision", p.revision},       {"full", false},
+                          {"resolution", s.resolution_m}, {"frame_id", "map"},
+                          {"add", flat(added)},           {"remove", flat(removed)},
+                          {"voxels", p.voxels.size()},    {"map_utime", s.map_utime}};
+      server->publishDelta(delta_channel, std::make_shared<const std::string>(delta.dump()), utime);
+    }
+    p.cloud_pending = true;
+  }
+  if (periodic_snapshot || wanted) {
+    const json snapshot = {{"revision", p.revision},       {"full", true},
+                           {"resolution", s.resolution_m}, {"frame_id", "map"},
+                           {"add", flat(p.voxels)},        {"remove", json::array()},
+                           {"voxels", p.voxels.size()},    {"map_utime", s.map_utime}};
+    server->publishSnapshot(delta_channel, std::make_shared<const std::string>(snapshot.dump()), utime,
+                            periodic_snapshot);
+    if (periodic_snapshot) p.last_snapshot = Clock::now();
+  }
+  if (p.cloud_pending && secondsSince(p.last_cloud) >= options.cloud_period_s) {
+    send(channels[index].voxels, pointCloudJson(p.voxels, utime, "map"), utime);
+    p.last_cloud = Clock::now();
+    p.cloud_pending = false;
+  }
+}
+
+void Viewer::Impl::publishPoses(size_t index, const RobotSnapshot& s) {
+  std::vector<SE3> poses;
+  for (const msg::CorrectedPose& k : s.keyframes) poses.push_back(k.T_map_cam);
+  const int64_t utime = nowUtime();
+  send(channels[index].trajectory, posesInFrameJson(poses, utime, "map"), utime);
+  if (!poses.empty()) send(channels[index].pose, poseInFrameJson(poses.back(), utime, "map"), utime);
+}
+
+void Viewer::Impl::publishTransforms() {
+  std::vector<FrameTransform> transforms;
+  for (const std::string& robot : view.robots()) {
+    const RobotSnapshot s = view.snapshot(robot);
+    if (s.keyframes.empty()) continue;
+    transforms.push_back({"map", robot, s.keyframes.back().T_map_cam});
+    transforms.push_back({"map", robot + "_odom", s.T_map_odom});
+  }
+  const int64_t utime = nowUtime();
+  send(tf_channel, frameTransformsJson(transforms, utime), utime);
+}
+
+void Viewer::Impl::publishStatus(size_t index, const RobotSnapshot& s) {
+  RobotPublished& p = *published[index];
+  const double dt = std::max(1e-3, secondsSince(p.last_status));
+  const double kbps = 8e-3 * static_cast<double>(s.bytes_down - p.bytes_down_at_last_status) / dt;
+  p.bytes_down_at_last_status = s.bytes_down;
+  p.last_status = Clock::now();
+  const int64_t utime = nowUtime();
+  const double last_seen =
+      s.last_seen_utime > 0 ? 1e-6 * static_cast<double>(utime - s.last_seen_utime) : -1.0;
+  const json status = {{"robot", view.robots()[index]},
+                       {"keyframes", s.status ? s.status->keyframes : static_cast<int>(s.keyframes.size())},
+                       {"loops", s.status ? s.status->loop_closures : 0},
+                       {"map_revision", s.map_revision},
+                       {"voxels", p.voxels.size()},
+                       {"bytes_down", s.bytes_down},
+                       {"down_kbps", kbps},
+                       {"last_seen_s", last_seen},
+                       {"state", s.server_state.empty() ? "no status" : s.server_state}};
+  send(channels[index].status, status, utime);
+}
+
+}  // namespace rgbdmap::viewer

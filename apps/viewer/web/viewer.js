@@ -1,0 +1,215 @@
+// rgbdmap live map viewer page: a Foxglove WebSocket client (subprotocol foxglove.websocket.v1, JSON
+// encoding) of the viewer that served it. Subscribes to every robot's voxel_delta, trajectory, pose and
+// status topics and draws them with three.js. The map frame is the first camera's optical frame (y down),
+// so the scene is turned upside down (x, y, z) -> (x, -y, -z) to show height upwards.
+/* global THREE */
+'use strict';
+
+const ROBOT_COLOURS = [0xe6194b, 0x3cb44b, 0x4363d8, 0xf58231, 0x911eb4, 0x46f0f0, 0xf032e6, 0x808000];
+const state = { robots: {}, voxels: 0, drawn: false, messages: 0 };
+window.rgbdmapViewer = state;  // read by the tests (headless Chromium)
+
+const container = document.getElementById('view');
+const renderer = new THREE.WebGLRenderer({ antialias: true, preserveDrawingBuffer: true });
+renderer.setPixelRatio(window.devicePixelRatio || 1);
+renderer.setSize(window.innerWidth, window.innerHeight);
+renderer.setClearColor(0xf4f4f4);
+container.appendChild(renderer.domElement);
+const scene = new THREE.Scene();
+const world = new THREE.Group();
+world.rotation.x = Math.PI;
+scene.add(world);
+scene.add(new THREE.AmbientLight(0xffffff, 0.9));
+const camera = new THREE.PerspectiveCamera(60, window.innerWidth / window.innerHeight, 0.05, 500);
+camera.position.set(4, 5, 6);
+const controls = new THREE.OrbitControls(camera, renderer.domElement);
+controls.target.set(0, 0, 0);
+const grid = new THREE.GridHelper(20, 40, 0xcccccc, 0xe0e0e0);
+scene.add(grid);
+
+function robot(name) {
+  if (state.robots[name]) return state.robots[name];
+  const colour = ROBOT_COLOURS[Object.keys(state.robots).length % ROBOT_COLOURS.length];
+  const r = { name, colour, voxels: new Map(), resolution: 0.05, dirty: false, status: null, keyframes: 0 };
+  r.points = new THREE.Points(new THREE.BufferGeometry(),
+                              new THREE.PointsMaterial({ size: 0.05, vertexColors: THREE.VertexColors }));
+  r.line = new THREE.Line(new THREE.BufferGeometry(), new THREE.LineBasicMaterial({ color: colour }));
+  r.marker = new THREE.Mesh(new THREE.SphereBufferGeometry(0.08, 12, 8), new THREE.MeshBasicMaterial({ color: colour }));
+  r.marker.visible = false;
+  r.loops = new THREE.LineSegments(new THREE.BufferGeometry(),
+    new THREE.LineBasicMaterial({ vertexColors: THREE.VertexColors, transparent: true, opacity: 0.6 }));
+  world.add(r.points, r.line, r.marker, r.loops);
+  state.robots[name] = r;
+  return r;
+}
+
+function heightColour(t) {  // blue -> cyan -> green -> yellow -> red, as the viewer's point clouds
+  const c = (v) => Math.min(1, Math.max(0, v));
+  return [c(Math.min(4 * t - 1.5, -4 * t + 4.5)), c(Math.min(4 * t - 0.5, -4 * t + 3.5)),
+          c(Math.min(4 * t + 0.5, -4 * t + 2.5))];
+}
+
+function rebuildVoxels(r) {
+  const n = r.voxels.size;
+  const pos = new Float32Array(3 * n), col = new Float32Array(3 * n);
+  let low = Infinity, high = -Infinity;
+  for (const v of r.voxels.values()) { low = Math.min(low, -v[1]); high = Math.max(high, -v[1]); }
+  let i = 0;
+  for (const v of r.voxels.values()) {
+    pos.set(v, 3 * i);
+    col.set(heightColour(high > low ? (-v[1] - low) / (high - low) : 0.5), 3 * i);
+    ++i;
+  }
+  const g = new THREE.BufferGeometry();
+  g.setAttribute('position', new THREE.BufferAttribute(pos, 3));
+  g.setAttribute('color', new THREE.BufferAttribute(col, 3));
+  r.points.geometry.dispose();
+  r.points.geometry = g;
+  r.points.material.size = r.resolution;
+  r.dirty = false;
+}
+
+function applyVoxels(r, m) {
+  const key = (x, y, z) => Math.round(x / m.resolution * 2) + ',' + Math.round(y / m.resolution * 2) + ',' +
+                           Math.round(z / m.resolution * 2);
+  r.resolution = m.resolution;
+  if (m.full) r.voxels.clear();
+  for (let i = 0; i + 2 < m.remove.length; i += 3) r.voxels.delete(key(m.remove[i], m.remove[i + 1], m.remove[i + 2]));
+  for (let i = 0; i + 2 < m.add.length; i += 3)
+    r.voxels.set(key(m.add[i], m.add[i + 1], m.add[i + 2]), [m.add[i], m.add[i + 1], m.add[i + 2]]);
+  r.dirty = true;
+}
+
+function applyTrajectory(r, m) {
+  const pos = new Float32Array(3 * m.poses.length);
+  m.poses.forEach((p, i) => pos.set([p.position.x, p.position.y, p.position.z], 3 * i));
+  const g = new THREE.BufferGeometry();
+  g.setAttribute('position', new THREE.BufferAttribute(pos, 3));
+  r.line.geometry.dispose();
+  r.line.geometry = g;
+  r.keyframes = m.poses.length;
+}
+
+function applyLoops(r, m) {  // foxglove.SceneUpdate: one entity with one line list
+  const line = m.entities[0].lines[0];
+  const pos = new Float32Array(3 * line.points.length), col = new Float32Array(3 * line.points.length);
+  line.points.forEach((p, i) => {
+    pos.set([p.x, p.y, p.z], 3 * i);
+    const c = line.colors[i] || line.color;
+    col.set([c.r, c.g, c.b], 3 * i);
+  });
+  const g = new THREE.BufferGeometry();
+  g.setAttribute('position', new THREE.BufferAttribute(pos, 3));
+  g.setAttribute('color', new THREE.BufferAttribute(col, 3));
+  r.loops.geometry.dispose();
+  r.loops.geometry = g;
+  r.loopEdges = line.points.length / 2;
+}
+
+function applyPose(r, m) {
+  r.marker.position.set(m.pose.position.x, m.pose.position.y, m.pose.position.z);
+  r.marker.visible = true;
+}
+
+function legend() {
+  const el = document.getElementById('legend');
+  el.innerHTML = '';
+  let total = 0;
+  for (const r of Object.values(state.robots)) {
+    total += r.voxels.size;
+    const s = r.status || {};
+    const hex = '#' + r.colour.toString(16).padStart(6, '0');
+    const seen = s.last_seen_s === undefined || s.last_seen_s < 0 ? 'never' : s.last_seen_s.toFixed(1) + ' s ago';
+    const div = document.createElement('div');
+    div.className = 'robot';
+    div.innerHTML = `<span class="swatch" style="background:${hex}"></span><b>${r.name}</b> ${s.state || ''}` +
+      `<div class="detail">${s.keyframes || r.keyframes} keyframes, ${s.loops || 0} loops (${r.loopEdges || 0} drawn), ${r.voxels.size} voxels</div>` +
+      `<div class="detail">${(s.down_kbps || 0).toFixed(1)} kbit/s, last seen ${seen}</div>`;
+    el.appendChild(div);
+  }
+  state.voxels = total;
+}
+
+let topDown = false;
+document.getElementById('topdown').onclick = () => {
+  topDown = !topDown;
+  const t = controls.target, d = camera.position.distanceTo(t);
+  if (topDown) camera.position.set(t.x, t.y + d, t.z + 0.001);
+  else camera.position.set(t.x + d * 0.5, t.y + d * 0.6, t.z + d * 0.6);
+  document.getElementById('topdown').textContent = topDown ? 'perspective view' : 'top-down view';
+  controls.update();
+};
+
+function frameMap() {  // point the camera at the map once, when the first voxels arrive
+  world.updateMatrixWorld(true);
+  const box = new THREE.Box3();
+  for (const r of Object.values(state.robots))  // voxels only: an empty geometry's bounds are NaN
+    if (r.voxels.size > 0) box.union(new THREE.Box3().setFromObject(r.points));
+  if (box.isEmpty()) return false;
+  const c = box.getCenter(new THREE.Vector3()), size = box.getSize(new THREE.Vector3()).length();
+  controls.target.copy(c);
+  camera.position.set(c.x + size * 0.5, c.y + size * 0.7, c.z + size * 0.6);
+  grid.position.y = box.min.y;
+  controls.update();
+  return true;
+}
+
+function connect() {
+  const ws = new WebSocket(`ws://${location.host}/`, ['foxglove.websocket.v1']);
+  ws.binaryType = 'arraybuffer';
+  const subs = {};  // subscription id -> { robot, kind }
+  ws.onopen = () => { document.getElementById('conn').textContent = 'connected'; };
+  ws.onclose = () => { document.getElementById('conn').textContent = 'disconnected, retrying...'; setTimeout(connect, 2000); };
+  ws.onmessage = (event) => {
+    if (typeof event.data === 'string') {
+      const m = JSON.parse(event.data);
+      if (m.op !== 'advertise') return;
+      const subscriptions = [];
+      for (const c of m.channels) {
+        const parts = c.topic.split('/');  // "", robot, kind
+        if (parts.length !== 3 || !['voxel_delta', 'trajectory', 'pose', 'status', 'loops'].includes(parts[2])) continue;
+        robot(parts[1]);
+        subs[c.id] = { robot: parts[1], kind: parts[2] };
+        subscriptions.push({ id: c.id, channelId: c.id });
+      }
+      ws.send(JSON.stringify({ op: 'subscribe', subscriptions }));
+      return;
+    }
+    const view = new DataView(event.data);
+    if (view.getUint8(0) !== 1) return;
+    const sub = subs[view.getUint32(1, true)];
+    if (!sub) return;
+    const m = JSON.parse(new TextDecoder().decode(new Uint8Array(event.data, 13)));
+    const r = robot(sub.robot);
+    ++state.messages;
+    if (sub.kind === 'voxel_delta') applyVoxels(r, m);
+    else if (sub.kind === 'trajectory') applyTrajectory(r, m);
+    else if (sub.kind === 'pose') applyPose(r, m);
+    else if (sub.kind === 'status') r.status = m;
+    else if (sub.kind === 'loops') applyLoops(r, m);
+  };
+}
+
+let framed = false;
+function animate() {
+  requestAnimationFrame(animate);
+  let changed = false;
+  for (const r of Object.values(state.robots)) if (r.dirty) { rebuildVoxels(r); changed = true; }
+  if (changed && !framed) framed = frameMap();
+  controls.update();
+  renderer.render(scene, camera);
+  if (changed) legend();
+  document.body.dataset.state = `${renderer.domElement.width}x${renderer.domElement.height} cam ${camera.position.toArray().map((v) => v.toFixed(2))} target ${controls.target.toArray().map((v) => v.toFixed(2))} framed ${framed} voxels ${state.voxels} msgs ${state.messages}`;
+  if (state.voxels > 0 && framed) {
+    state.drawn = true;
+    document.title = `rgbdmap viewer: ${state.voxels} voxels`;
+  }
+}
+window.addEventListener('resize', () => {
+  camera.aspect = window.innerWidth / window.innerHeight;
+  camera.updateProjectionMatrix();
+  renderer.setSize(window.innerWidth, window.innerHeight);
+});
+setInterval(legend, 500);
+connect();
+animate();
