@@ -4,11 +4,15 @@
 #   e2e    end-to-end runs on synthetic or real data (odometry, loop closure, the server, the programs)
 #   slow   more than ~20 s in Release (always e2e too)
 #   netns  network tests in a private loopback-only namespace (skipped without root)
-#   cli    the programs driven by shell scripts (cli.*, run.transports.netns, integration.netns)
+#   cli    the programs driven by shell scripts (cli.*, run.transports.netns, integration.*, faults.*,
+#          viewer.*)
+#   accuracy  e2e tests of accuracy bounds on whole sequences (odometry, full system on fr1_rpy)
 # Usage:
 #   bash deploy/test.sh           the full suite (CI): every test in Release (build/), then every test but the
-#                                 cli tier again under AddressSanitizer + UBSan (build-asan/, RelWithDebInfo;
-#                                 the cli tier's multi-process runs are timing-sensitive under ASan)
+#                                 cli and accuracy tiers again under AddressSanitizer + UBSan (build-asan/,
+#                                 RelWithDebInfo; the cli tier's multi-process runs are timing-sensitive under
+#                                 ASan; the accuracy tests repeat, on longer sequences, code paths the
+#                                 shorter e2e tests run under the sanitizers, and take ~3 min there)
 #   bash deploy/test.sh --quick   the unit tier only, Release, no sanitizers (about half a minute after the
 #                                 build)
 #   Further arguments go to ctest, e.g. `bash deploy/test.sh -L e2e` or `-R '^server\.'`.
@@ -29,7 +33,7 @@ if [ "$quick" = 1 ]; then
 fi
 ctest --test-dir "$build_dir" --output-on-failure -j "$(nproc)" "$@"
 if [ "${RGBDMAP_SKIP_SANITIZERS:-0}" != "1" ]; then
-  echo "== sanitizer pass (ASan + UBSan): every tier but cli"
+  echo "== sanitizer pass (ASan + UBSan): every tier but cli and accuracy"
   # The server tests' recorded keyframe stream is copied from the Release tree (byte-identical). A unity
   # build (16 sources per compiler run) at -O1 -g1 compiles in ~5 min on 2 cores instead of ~19 min.
   BUILD_DIR="$root/build-asan" BUILD_TYPE=RelWithDebInfo CMAKE_EXTRA_ARGS="-DRGBDMAP_SANITIZE=ON \
@@ -38,7 +42,7 @@ if [ "${RGBDMAP_SKIP_SANITIZERS:-0}" != "1" ]; then
     "$root/deploy/build.sh"
   export UBSAN_OPTIONS=halt_on_error=1:print_stacktrace=1 ASAN_OPTIONS=detect_leaks=1
   log="$root/build-asan/sanitizer_tests.log"
-  if ! ctest --test-dir "$root/build-asan" --output-on-failure -j "$(nproc)" -LE '^cli$' "$@" 2>&1 | tee "$log"; then
+  if ! ctest --test-dir "$root/build-asan" --output-on-failure -j "$(nproc)" -LE '^(cli|accuracy)$' "$@" 2>&1 | tee "$log"; then
     # LeakSanitizer's own tracer sometimes crashes at exit after a test passed ("Tracer caught signal 11",
     # google/sanitizers#1353): not a leak, not our failure. Then, and only then, the failed tests run again.
     grep -q "LeakSanitizer has encountered a fatal error" "$log" || exit 1
