@@ -6,6 +6,7 @@
 #include <utility>
 
 #include "rgbdmap/common/trajectory.hpp"
+#include "rgbdmap/server/stats_json.hpp"
 
 namespace rgbdmap::cmd {
 namespace {
@@ -39,6 +40,8 @@ Json serverJson(const MapServerStats& s, const ServerOutcome& server, size_t rob
           {"loop_candidates", s.loop_candidates},
           {"loop_candidates_rejected", rejected},
           {"optimizations", s.optimizations},
+          {"graph_solves", s.graph_solves},
+          {"bundle_adjustment", bundleAdjustmentJson(s.ba)},
           {"server_ms_per_keyframe_median", jsonNumber(s.ingest_ms_median)},
           {"server_ms_per_keyframe_p90", jsonNumber(s.ingest_ms_p90)},
           {"server_cpu_ms_per_keyframe_median", jsonNumber(s.ingest_cpu_ms_median)},

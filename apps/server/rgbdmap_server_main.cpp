@@ -16,6 +16,7 @@
 #include "rgbdmap/common/text_lines.hpp"
 #include "rgbdmap/common/trajectory.hpp"
 #include "rgbdmap/server/map_server.hpp"
+#include "rgbdmap/server/stats_json.hpp"
 #include "rgbdmap/server/server_config.hpp"
 #include "rgbdmap/transport/transport.hpp"
 
@@ -72,6 +73,8 @@ rgbdmap::Json summaryJson(const rgbdmap::MapServer& server) {
           {"loops_disabled", s.loops_disabled},
           {"maps", s.maps},
           {"optimizations", s.optimizations},
+          {"graph_solves", s.graph_solves},
+          {"bundle_adjustment", rgbdmap::bundleAdjustmentJson(s.ba)},
           {"optimizations_for_heartbeats", s.optimizations_for_heartbeats},
           {"corrections_resent", s.corrections_resent},
           {"messages_rejected", s.messages_rejected},

@@ -182,7 +182,7 @@ TEST(LoopConsistency, DropsAnEdgeContradictedByMostOfItsTriangles) {
   store.add({3, 1, T_w_c.inverse() * T_w_a, Mat6::Identity(), 100, 0.1});
   store.add({3, 2, T_w_c.inverse() * T_w_b, Mat6::Identity(), 100, 0.1});
   auto edge = [&](int to, const SE3& T_w_to) {
-    return LoopEdge{9, to, T_w_x.inverse() * T_w_to, Mat6::Identity(), 80, 0.2};
+    return LoopEdge{9, to, T_w_x.inverse() * T_w_to, Mat6::Identity(), 80, 0.2, {}};
   };
   std::vector<LoopEdge> edges = {edge(1, T_w_a), edge(2, T_w_b), edge(3, T_w_c)};
   EXPECT_EQ(checkEdgeConsistency(edges, store, {}), (std::vector<char>{1, 1, 1}));

@@ -23,6 +23,7 @@ std::vector<LoopEdge> IngestPipeline::integrateLocked(const StoredKeyframe& stor
   addToGraphLocked(node, kf, prev);
   if (split) noteSplitLocked(node, kf);
   joinSplitSuccessorLocked(node);
+  addToBatchLocked(node, features);
   LoopKeyframe lk;
   lk.id = static_cast<int>(stored.node_id);
   lk.robot_id = robot;
@@ -85,10 +86,28 @@ IndexedNode IngestPipeline::makeNodeLocked(const StoredKeyframe& stored, int rob
 void IngestPipeline::addToGraphLocked(const IndexedNode& node, const msg::Keyframe& kf,
                                       std::optional<int64_t> prev) {
   const int64_t id = node.kf.node_id;
-  if (const Status s = graph_.addNode(id, node.chain, node.kf.T_map_kf); !s)
+  if (const Status s = graph_.addNode(id, node.chain, node.kf.T_map_kf); !s) {
     log::error("server: graph node ", id, ": ", s.error());
-  if (graph_.nodes().size() == 1) graph_.setFixed(id);  // the first keyframe of the first robot
+    return;
+  }
+  const bool first = graph_.nodes().size() == 1;  // the first keyframe of the first robot holds the gauge
+  if (first) graph_.setFixed(id);
+  batch_.nodes.push_back({id, node.chain, node.kf.T_map_kf, first});
   if (prev) addOdometryEdgeLocked(id, *prev, kf.T_prev_cur, odometryInformation(kf.information, config_));
+}
+
+void IngestPipeline::addToBatchLocked(const IndexedNode& node, const FrameFeatures& features) {
+  const std::optional<CameraIntrinsics> camera = registry_.camera(node.kf.robot_id);
+  if (!camera || !config_.ba.enabled) return;
+  LandmarkKeyframe k;
+  k.id = node.kf.node_id;
+  k.map_id = node.kf.map_id;
+  k.camera = {camera->fx, camera->fy, camera->cx, camera->cy};
+  k.width = camera->width;
+  k.height = camera->height;
+  k.T_map_kf = node.kf.T_map_kf;
+  k.features = std::make_shared<const FrameFeatures>(features);
+  batch_.keyframes.push_back(std::move(k));
 }
 
 void IngestPipeline::addOdometryEdgeLocked(int64_t from, int64_t to, const SE3& T_prev_cur,
@@ -100,7 +119,11 @@ void IngestPipeline::addOdometryEdgeLocked(int64_t from, int64_t to, const SE3& 
   e.T_from_to = T_prev_cur.inverse();
   e.information = information;
   e.kind = EdgeKind::kOdometry;
-  if (const Status s = graph_.addEdge(e); !s) log::error("server: odometry edge: ", s.error());
+  if (const Status s = graph_.addEdge(e); !s) {
+    log::error("server: odometry edge: ", s.error());
+    return;
+  }
+  batch_.edges.push_back(e);
 }
 
 Status IngestPipeline::addLoopEdgeLocked(const LoopEdge& edge) {
@@ -112,13 +135,16 @@ Status IngestPipeline::addLoopEdgeLocked(const LoopEdge& edge) {
   e.information = loopInformation(edge.information, config_);
   e.kind = index_.node(edge.from_id).chain != index_.node(edge.to_id).chain ? EdgeKind::kInterRobot
                                                                             : EdgeKind::kLoop;
-  return graph_.addEdge(e);
+  if (const Status s = graph_.addEdge(e); !s) return s;
+  batch_.edges.push_back(e);
+  if (!edge.inlier_pairs.empty()) batch_.matches[e.id] = {e.from, e.to, edge.inlier_pairs};
+  return Status::success();
 }
 
-void IngestPipeline::onOptimized(const OptimizedPoses& result) {
+void IngestPipeline::onOptimized(const MapOptimization& result) {
   Lock lock(mutex_);
-  if (!result.ok) {
-    log::warn("server: optimisation ", result.revision, " failed: ", result.error);
+  if (!result.graph.ok) {
+    log::warn("server: optimisation ", result.revision, " failed: ", result.graph.error);
     return;
   }
   applyOptimizedLocked(result);
@@ -140,16 +166,21 @@ void IngestPipeline::onOptimized(const OptimizedPoses& result) {
   for (const auto& [robot, l] : loops) publisher_.publish(robot, l);
 }
 
-void IngestPipeline::applyOptimizedLocked(const OptimizedPoses& result) {
+void IngestPipeline::applyOptimizedLocked(const MapOptimization& optimization) {
+  const OptimizedPoses& result = optimization.graph;
   graph_.applyOptimized(result.T_map_kf, result.disabled_edges);
   for (const auto& [id, pose] : graph_.poses()) index_.node(id).kf.T_map_kf = pose;
   index_.setComponents(graph_.components());
   for (const IndexedNode& n : index_.nodes())
     if (n.valid) detector_.updatePose(static_cast<int>(n.kf.node_id), n.kf.map_id, n.kf.T_map_kf);
   ++counters_.optimizations;
-  counters_.last_optimize_ms = result.report.time_ms;
+  if (optimization.graph_solved) {
+    ++counters_.graph_solves;
+    counters_.last_optimize_ms = result.report.time_ms;
+  }
+  counters_.ba = optimization.ba;
   counters_.loops_disabled = static_cast<int>(graph_.disabledEdges().size());
-  counters_.graph_revision = revision_base_ + static_cast<int64_t>(result.revision);
+  counters_.graph_revision = revision_base_ + static_cast<int64_t>(optimization.revision);
 }
 
 std::map<std::string, int64_t> IngestPipeline::currentSessionsLocked() const {

@@ -172,7 +172,10 @@ void IngestPipeline::addLiveLocked(const StoredKeyframe& stored, const FrameFeat
   counters_.loops_accepted += added;
   ++counters_.keyframes;
   registry_.countKeyframe(n.kf.robot_id);
-  if (added > 0 || std::exchange(graph_joined_, false)) submitOptimizationLocked();
+  // With bundle adjustment every keyframe goes to the optimiser (a local BA refines it and its neighbours);
+  // a pose-graph solve when loops came or chains joined. Without, the additions wait for the next solve.
+  const bool solve = added > 0 || std::exchange(graph_joined_, false);
+  if (solve || config_.ba.enabled) submitOptimizationLocked(solve);
 }
 
 /// Adds the detector's loop edges to the graph and stores them. Returns how many were added.
@@ -203,13 +206,16 @@ int IngestPipeline::addDetectedLoopsLocked(const std::vector<LoopEdge>& edges, i
   return added;
 }
 
-void IngestPipeline::submitOptimizationLocked() {
-  if (submit_) submit_(graph_);
+void IngestPipeline::submitOptimizationLocked(bool solve) {
+  batch_.solve = batch_.solve || solve;
+  if (submit_) submit_(std::exchange(batch_, {}));
 }
 
 void IngestPipeline::submitRestoredLoops() {
   std::lock_guard<std::mutex> lock(mutex_);
-  if (counters_.restored_loops > 0 || std::exchange(graph_joined_, false)) submitOptimizationLocked();
+  // The restored graph goes to the optimiser in one batch; a solve when it has loops or joined chains.
+  const bool solve = counters_.restored_loops > 0 || std::exchange(graph_joined_, false);
+  if (solve || !batch_.empty()) submitOptimizationLocked(solve);
 }
 
 MapServerStats IngestPipeline::stats() const {

@@ -21,6 +21,7 @@
 #include "hello_hold.hpp"
 #include "ingest_timings.hpp"
 #include "keyframe_index.hpp"
+#include "map_optimizer.hpp"
 #include "map_worker.hpp"
 #include "reorder_buffer.hpp"
 #include "rgbdmap/graph/pose_graph.hpp"
@@ -36,8 +37,9 @@ namespace rgbdmap {
 
 class IngestPipeline {
  public:
-  /// Hands a snapshot of the graph to the optimiser (called with the state lock held, so keep it short).
-  using SubmitGraph = std::function<void(const PoseGraph& snapshot)>;
+  /// Hands what was added to the graph since the last call to the optimiser (called with the state lock
+  /// held, so keep it short).
+  using SubmitGraph = std::function<void(OptimizerBatch batch)>;
 
   /// References must outlive the pipeline. revision_base: added to the optimiser's revisions.
   IngestPipeline(const MapServerConfig& config, RobotRegistry& registry, RobotPublisher& publisher,
@@ -56,7 +58,7 @@ class IngestPipeline {
   // ---- the ingest worker
   void onHello(const msg::Hello& hello);
   void onKeyframe(const msg::Keyframe& keyframe);
-  void onOptimized(const OptimizedPoses& result);
+  void onOptimized(const MapOptimization& result);
   /// Gives up on late predecessors and follows the robots' heartbeats with corrections
   /// (ingest_corrections.cpp).
   void onTick();
@@ -91,7 +93,8 @@ class IngestPipeline {
   void addLiveLocked(const StoredKeyframe& stored, const FrameFeatures& features,
                      const DecodedImages* images);
   int addDetectedLoopsLocked(const std::vector<LoopEdge>& edges, int robot);
-  void submitOptimizationLocked();
+  /// Hands batch_ to the optimiser; `solve`: loop edges were added or chains joined.
+  void submitOptimizationLocked(bool solve = false);
 
   // ingest_order.cpp: chain order
   /// A stored keyframe into the graph now (its predecessor is there, refused, or it has none), followed by
@@ -121,7 +124,9 @@ class IngestPipeline {
   void addToGraphLocked(const IndexedNode& node, const msg::Keyframe& kf, std::optional<int64_t> prev);
   void addOdometryEdgeLocked(int64_t from, int64_t to, const SE3& T_prev_cur, const Mat6& information);
   Status addLoopEdgeLocked(const LoopEdge& edge);
-  void applyOptimizedLocked(const OptimizedPoses& result);
+  void applyOptimizedLocked(const MapOptimization& result);
+  /// The keyframe's features and camera for bundle adjustment, into batch_.
+  void addToBatchLocked(const IndexedNode& node, const FrameFeatures& features);
   std::map<std::string, int64_t> currentSessionsLocked() const;
   std::vector<MapNodePose> mapPosesLocked() const;
 
@@ -148,7 +153,8 @@ class IngestPipeline {
 
   mutable std::mutex mutex_;  ///< everything below
   KeyframeIndex index_;
-  PoseGraph graph_;
+  PoseGraph graph_;  ///< structure and current poses; the optimiser solves its own copy, fed by batch_
+  OptimizerBatch batch_;  ///< additions since the last submit
   LoopDetector detector_;
   int64_t next_edge_id_ = 0;
   int64_t next_node_id_ = 0;  ///< of the next stored keyframe (node ids are dense in store order)

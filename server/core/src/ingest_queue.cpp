@@ -28,7 +28,7 @@ void IngestQueue::stop() {
     events_stopped_ = true;
     hellos_.clear();
     hello_order_.clear();
-    results_.clear();
+    result_.reset();
     keyframes_.clear();
   }
   {
@@ -77,18 +77,20 @@ void IngestQueue::demote(const std::string& robot) {
   keyframes_.demote(robot, until);
 }
 
-void IngestQueue::pushOptimized(std::shared_ptr<const OptimizedPoses> result) {
+void IngestQueue::pushOptimized(std::shared_ptr<const MapOptimization> result) {
   std::lock_guard<std::mutex> lock(events_mutex_);
   if (events_stopped_) return;
-  results_.push_back([this, result = std::move(result)] {
-    pipeline_.onOptimized(*result);
-    {
-      std::lock_guard<std::mutex> revision_lock(revision_mutex_);
-      applied_revision_ = std::max(applied_revision_, result->revision);
-    }
-    revision_cv_.notify_all();
-  });
-  postServeLocked();
+  // Each result holds every pose: a newer one replaces one not applied yet (its serve task takes it).
+  if (!std::exchange(result_, std::move(result))) postServeLocked();
+}
+
+void IngestQueue::applyResult(const std::shared_ptr<const MapOptimization>& result) {
+  pipeline_.onOptimized(*result);
+  {
+    std::lock_guard<std::mutex> revision_lock(revision_mutex_);
+    applied_revision_ = std::max(applied_revision_, result->revision);
+  }
+  revision_cv_.notify_all();
 }
 
 /// One event: a pending Hello first, then an optimisation result, then the next robot's keyframe.
@@ -102,11 +104,10 @@ void IngestQueue::serveNext() {
     lock.unlock();
     return pipeline_.onHello(hello);
   }
-  if (!results_.empty()) {
-    Task task = std::move(results_.front());
-    results_.pop_front();
+  if (result_) {
+    const std::shared_ptr<const MapOptimization> result = std::exchange(result_, nullptr);
     lock.unlock();
-    return task();
+    return applyResult(result);
   }
   std::optional<msg::Keyframe> keyframe = keyframes_.pop();
   lock.unlock();

@@ -3,7 +3,7 @@
 // Each posted task serves one event, chosen when it runs (issue #11, fair share):
 //   1. a robot's Hello (at most one pending per robot: a newer one replaces it), so a session never waits
 //      behind keyframes;
-//   2. optimisation results, in order;
+//   2. the newest optimisation result (it holds every pose: one not applied yet is replaced);
 //   3. keyframes, from per-robot bounded queues served round-robin (RobotQueues): a robot flooding the
 //      server fills only its own queue, and is served after the robots within their share for a while.
 //      A keyframe that does not fit is dropped unacknowledged (the robot resends it) and counted.
@@ -46,7 +46,7 @@ class IngestQueue {
   /// kDemotionS (RobotQueues).
   void demote(const std::string& robot);
   static constexpr double kDemotionS = 5.0;
-  void pushOptimized(std::shared_ptr<const OptimizedPoses> result);
+  void pushOptimized(std::shared_ptr<const MapOptimization> result);
   /// A snapshot with this revision went to the optimiser (its result will come back through pushOptimized).
   void noteSubmitted(uint64_t revision);
 
@@ -61,6 +61,7 @@ class IngestQueue {
   /// Posts one "serve the next event" task; false once stopped. Caller holds events_mutex_.
   bool postServeLocked();
   void serveNext();  ///< on the worker
+  void applyResult(const std::shared_ptr<const MapOptimization>& result);
   bool waitRevisionsUntil(std::chrono::steady_clock::time_point deadline) const;
   bool revisionsApplied() const;  ///< caller holds revision_mutex_
 
@@ -69,7 +70,7 @@ class IngestQueue {
   mutable std::mutex events_mutex_;           ///< the events below
   std::map<std::string, msg::Hello> hellos_;  ///< the latest pending Hello per robot
   std::deque<std::string> hello_order_;       ///< robots with a pending Hello, oldest first
-  std::deque<Task> results_;                  ///< optimisation results
+  std::shared_ptr<const MapOptimization> result_;  ///< the newest optimisation result not applied yet
   RobotQueues keyframes_;
   bool events_stopped_ = false;
 

@@ -1,6 +1,7 @@
 // MapServer: wires the parts together and owns their lifetimes.
 //   transport (receive thread) -> TransportGate -> Inbox -> IngestQueue (ingest worker) -> IngestPipeline
-//   IngestPipeline -> PoseGraphOptimizer (its worker) -> IngestQueue -> IngestPipeline -> PoseCorrections
+//   IngestPipeline -> MapOptimizer (its worker: pose graph, bundle adjustment) -> IngestQueue ->
+//   IngestPipeline -> PoseCorrections
 //   IngestPipeline -> MapWorker (octree, slices, map stream); StatusPublisher; all send via RobotPublisher.
 #include "rgbdmap/server/map_server.hpp"
 
@@ -11,6 +12,7 @@
 #include "inbox.hpp"
 #include "ingest_pipeline.hpp"
 #include "ingest_queue.hpp"
+#include "map_optimizer.hpp"
 #include "map_worker.hpp"
 #include "rgbdmap/common/logging.hpp"
 #include "rgbdmap/proto/channels.hpp"
@@ -75,7 +77,7 @@ struct MapServer::Impl {
   TransportGate gate;
   std::unique_ptr<MapStore> store;
   std::unique_ptr<MapWorker> map_worker;  ///< null when occupancy is off
-  std::unique_ptr<PoseGraphOptimizer> optimizer;
+  std::unique_ptr<MapOptimizer> optimizer;
   std::unique_ptr<StoreRetry> store_retry;  ///< MapStore::recover() while the store is failed
   bool started = false;
 };
@@ -89,7 +91,7 @@ Status MapServer::Impl::openAndRestore() {
   if (!opened) return Status::failure(opened.error());
   store = std::move(*opened);
   pipeline.attach(store.get(),
-                  [this](const PoseGraph& snapshot) { queue.noteSubmitted(optimizer->submit(snapshot)); });
+                  [this](OptimizerBatch batch) { queue.noteSubmitted(optimizer->submit(std::move(batch))); });
   return pipeline.restore();
 }
 
@@ -107,9 +109,9 @@ void MapServer::Impl::startWorkers() {
     pipeline.startFeeding(map_worker.get());
     map_worker->start();
   }
-  optimizer = std::make_unique<PoseGraphOptimizer>(
-      config.graph,
-      [this](const std::shared_ptr<const OptimizedPoses>& result) { queue.pushOptimized(result); });
+  optimizer = std::make_unique<MapOptimizer>(
+      MapOptimizerConfig{config.graph, config.ba},
+      [this](const std::shared_ptr<const MapOptimization>& result) { queue.pushOptimized(result); });
   queue.start();
   status.setStateSource([this] { return store->health().failed ? "store failed" : "running"; });
   status.start();
@@ -173,6 +175,14 @@ bool MapServer::waitIdle(double timeout_s) {
   const auto deadline =
       Clock::now() + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(timeout_s));
   if (!m.queue.waitIdleUntil(deadline)) return false;
+  // A map that changed since its last global bundle adjustment gets one now (a quiet map would get it
+  // after ba.global_when_idle_s anyway): idle means nothing left to refine.
+  if (m.optimizer && m.optimizer->globalDue()) {
+    OptimizerBatch global;
+    global.global = true;
+    m.queue.noteSubmitted(m.optimizer->submit(std::move(global)));
+    if (!m.queue.waitIdleUntil(deadline)) return false;
+  }
   if (!m.map_worker) return true;
   return m.map_worker->waitIdle(
       std::max(0.0, std::chrono::duration<double>(deadline - Clock::now()).count()));

@@ -1,5 +1,6 @@
 #include "rgbdmap/server/map_server_config.hpp"
 
+#include "rgbdmap/ba/ba_config_table.hpp"
 #include "rgbdmap/graph/pose_graph_config_table.hpp"
 #include "rgbdmap/loop/loop_config_tables.hpp"
 #include "rgbdmap/map/map_config_tables.hpp"
@@ -72,12 +73,32 @@ const ConfigTable<C>& ownTable() {
 
 }  // namespace
 
+const ConfigTable<BundleAdjustmentConfig>& bundleAdjustmentConfigTable() {
+  using B = BundleAdjustmentConfig;
+  using R = ConfigRange;
+  static const ConfigTable<B> table =
+      ConfigTable<B>()
+          .add("enabled", &B::enabled, "false: the pose graph alone, no landmarks")
+          .add("max_local_per_batch", &B::max_local_per_batch, R::closed(0, 1000),
+               "new keyframes of one optimiser batch that get a local BA (the newest)")
+          .add("global_after_loop_span", &B::global_after_loop_span, R::closed(1, 1000000),
+               "a loop whose ends are more keyframes apart than this (or in two chains) is followed by a "
+               "global BA")
+          .add("global_every_keyframes", &B::global_every_keyframes, R::closed(0, 1000000),
+               "a global BA after this many new keyframes of a map (0: not for growth alone)")
+          .add("global_when_idle_s", &B::global_when_idle_s, R::closed(0.0, 3600.0),
+               "a global BA of a changed map once no keyframe came for this long (0: only on request)")
+          .nest("", &B::landmarks, landmarkMapConfigTable());
+  return table;
+}
+
 const ConfigTable<MapServerConfig>& mapServerConfigTable() {
   static const ConfigTable<C> table =
       ConfigTable<C>()
           .section("server", "")  // the sections in this order
           .section("loop", "")
           .section("graph", "")
+          .section("ba", "")
           .section("map", "")
           .section("slice", "")
           .append(ownTable())
@@ -85,6 +106,9 @@ const ConfigTable<MapServerConfig>& mapServerConfigTable() {
           .nest("loop.", &C::loop, loopDetectorConfigTable())
           .section("graph", "Ceres pose graph on SE(3)")
           .nest("graph.", &C::graph, poseGraphConfigTable())
+          .section("ba", "bundle adjustment (issue #14): landmark tracks, local BA after each keyframe, global BA "
+                         "after large loops, merges and when the map is quiet")
+          .nest("ba.", &C::ba, bundleAdjustmentConfigTable())
           .section("map", "occupancy octree (issue #5), built on the server's map worker thread")
           .nest("map.", &C::occupancy, occupancyMapConfigTable())
           .section("slice", "OccupancySlice to each robot after its keyframes (ROS OccupancyGrid values)")
@@ -100,6 +124,8 @@ std::string MapServerConfig::validate() const {
   if (const std::string l = loop.validate(); !l.empty()) problems.push_back(l);
   if (const std::string g = joinProblems(poseGraphConfigTable().problems(graph)); !g.empty())
     problems.push_back("graph: " + g);
+  if (const std::string b = joinProblems(bundleAdjustmentConfigTable().problems(ba)); !b.empty())
+    problems.push_back("ba: " + b);
   if (occupancy_enabled) {
     if (const std::string o = occupancy.validate(); !o.empty()) problems.push_back("occupancy: " + o);
     if (const std::string sl = slice.validate(); !sl.empty()) problems.push_back("slice: " + sl);

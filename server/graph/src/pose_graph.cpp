@@ -70,6 +70,24 @@ Status PoseGraph::setPose(int64_t id, const SE3& T_map_kf) {
   return Status::success();
 }
 
+Status PoseGraph::setEdgeMeasurement(int64_t id, const SE3& T_from_to) {
+  const auto it = edge_index_.find(id);
+  if (it == edge_index_.end()) return Status::failure("unknown edge " + std::to_string(id));
+  if (!se3::isValid(T_from_to, 1e-4)) return Status::failure("invalid pose for edge " + std::to_string(id));
+  PoseGraphEdge& e = edges_[it->second];
+  Mat6 sqrt_info;
+  if (!sqrtInformation(residualInformation(T_from_to, e.information), &sqrt_info))
+    return Status::failure("edge " + std::to_string(id) + ": information not positive definite");
+  e.T_from_to = se3::normalized(T_from_to);
+  sqrt_information_[it->second] = sqrt_info;
+  return Status::success();
+}
+
+const PoseGraphEdge* PoseGraph::edge(int64_t id) const {
+  const auto it = edge_index_.find(id);
+  return it == edge_index_.end() ? nullptr : &edges_[it->second];
+}
+
 std::optional<SE3> PoseGraph::pose(int64_t id) const {
   const auto it = node_index_.find(id);
   if (it == node_index_.end()) return std::nullopt;

@@ -103,7 +103,10 @@ LoopVerification verifyLoop(int from_id, const FrameFeatures& from, int to_id, c
   v.rejection = checkPose(ransac, refined, refined_geometric, config, thresholds, v.motion_measure);
   if (v.rejection != LoopRejection::kNone) return v;
   v.edge =
-      LoopEdge{from_id, to_id, refined.T_cur_ref, refined.information, refined.inliers, v.motion_measure};
+      LoopEdge{from_id, to_id, refined.T_cur_ref, refined.information, refined.inliers, v.motion_measure, {}};
+  // toPointMatches keeps the order of `raw`: match i is raw[i] (from = query, to = train).
+  for (size_t i = 0; i < raw.size(); ++i)
+    if (refined.inlier_mask[i]) v.edge->inlier_pairs.emplace_back(raw[i].query, raw[i].train);
   return v;
 }
 

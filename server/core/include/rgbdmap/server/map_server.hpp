@@ -6,7 +6,9 @@
 //   - the ingest worker owns all map state: Hello -> session; Keyframe -> decode + validate images ->
 //     store durably -> acknowledge -> loop detection -> pose graph; optimisation results -> apply ->
 //     PoseCorrections to every robot;
-//   - the PoseGraphOptimizer worker solves snapshots of the graph (ingestion never waits for a solve);
+//   - the map optimiser's worker owns the pose graph and the landmark map: it takes the additions of the
+//     ingest worker, solves the pose graph after loops, runs local bundle adjustment after each keyframe
+//     and global bundle adjustment after large loops (ingestion never waits for either);
 // plus a status thread that publishes ServerStatus.
 //
 // Identity of a keyframe: (robot, sender session, segment, keyframe id). A robot process that restarts has a
@@ -27,6 +29,7 @@
 #include <thread>
 #include <vector>
 
+#include "rgbdmap/ba/landmark_map.hpp"
 #include "rgbdmap/common/result.hpp"
 #include "rgbdmap/common/se3.hpp"
 #include "rgbdmap/graph/pose_graph.hpp"
@@ -70,14 +73,27 @@ struct ServerRobotStats {
   std::optional<CameraIntrinsics> camera;
 };
 
+/// Bundle adjustment (issue #14), cumulative: landmark tracks and the local and global adjustments.
+struct BundleAdjustmentStats {
+  int64_t local_runs = 0, local_failures = 0, global_runs = 0;
+  double local_ms_median = 0.0, local_ms_p90 = 0.0;  ///< wall time of one local BA (its own worker)
+  double global_ms_last = 0.0, global_ms_max = 0.0;
+  int global_keyframes_last = 0;  ///< keyframes of the last global BA
+  int64_t edges_in_tracks = 0;    ///< loop edges whose inlier matches are in the tracks
+  int64_t edges_taken_back = 0;   ///< of those, taken out again when the pose graph disabled the edge
+  LandmarkStats landmarks;
+};
+
 struct MapServerStats {
   int keyframes = 0;
   int loops_accepted = 0;  ///< verified by the detector and added to the graph
   int loops_disabled = 0;  ///< currently disabled by the graph's consistency check
   int loop_candidates = 0;
   std::array<int, kLoopRejectionCount> loops_rejected_by_reason{};
-  int optimizations = 0;
-  double last_optimize_ms = 0.0;
+  int optimizations = 0;  ///< optimiser results applied (pose-graph solves and bundle adjustments)
+  int graph_solves = 0;   ///< of which with a pose-graph solve
+  double last_optimize_ms = 0.0;  ///< of the last pose-graph solve
+  BundleAdjustmentStats ba;
   /// Corrections that follow the robots' heartbeats: sent again (the first may have been lost), and
   /// optimisations asked for a robot's last keyframe that no corrections covered yet.
   uint64_t corrections_resent = 0;

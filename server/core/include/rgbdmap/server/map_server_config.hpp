@@ -5,6 +5,7 @@
 #include <string>
 #include <vector>
 
+#include "rgbdmap/ba/landmark_map.hpp"
 #include "rgbdmap/common/config_table.hpp"
 #include "rgbdmap/graph/pose_graph.hpp"
 #include "rgbdmap/loop/loop_detector.hpp"
@@ -12,6 +13,23 @@
 #include "rgbdmap/map/occupancy_slice.hpp"
 
 namespace rgbdmap {
+
+/// Bundle adjustment on the server (issue #14): what the landmark map does and when adjustments run.
+struct BundleAdjustmentConfig {
+  bool enabled = true;  ///< false: the pose graph alone (as before issue #14)
+  LandmarkMapConfig landmarks;
+  /// New keyframes of one optimiser batch that get a local BA (the newest); the others are matched by
+  /// projection only, and the next global BA catches them up.
+  int max_local_per_batch = 2;
+  /// A loop edge whose ends are more than this many keyframes apart (or in different chains) closes a large
+  /// cycle: a global BA follows its pose-graph solve.
+  int global_after_loop_span = 30;
+  /// A map with this many keyframes added since its last global BA gets one (0: never for growth alone).
+  int global_every_keyframes = 50;
+  /// A map changed since its last global BA gets one once no keyframe came for this long (0: only when
+  /// asked, e.g. by waitIdle).
+  double global_when_idle_s = 2.0;
+};
 
 struct MapServerConfig {
   std::string map_dir = "map";  ///< durable keyframes, loop edges and robot cameras
@@ -52,6 +70,7 @@ struct MapServerConfig {
   double edge_sigma_floor_deg = 0.5;
   LoopDetectorConfig loop;
   PoseGraphConfig graph;
+  BundleAdjustmentConfig ba;
   /// Occupancy map (issue #5), built on its own worker thread, never on the ingest worker.
   bool occupancy_enabled = true;
   OccupancyMapConfig occupancy;
@@ -68,5 +87,7 @@ struct MapServerConfig {
 /// Every key of the server's file but server.transport, keys_file and open_mode (server_config.hpp): its own
 /// (server.*, map.enabled, map.stream_period_s, slice.period_s), then loop.*, graph.*, map.*, slice.*.
 const ConfigTable<MapServerConfig>& mapServerConfigTable();
+/// The `ba:` section (keys without the prefix).
+const ConfigTable<BundleAdjustmentConfig>& bundleAdjustmentConfigTable();
 
 }  // namespace rgbdmap

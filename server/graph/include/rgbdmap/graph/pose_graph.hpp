@@ -83,6 +83,11 @@ class PoseGraph {
   /// Holds a node in place during optimisation (the first keyframe of the first robot, anchors).
   Status setFixed(int64_t id, bool fixed = true);
   Status setPose(int64_t id, const SE3& T_map_kf);
+  /// Replaces an edge's measurement (its information stays), e.g. by the relative pose bundle adjustment
+  /// refined; fails on an unknown edge or an invalid pose.
+  Status setEdgeMeasurement(int64_t id, const SE3& T_from_to);
+  /// The edge with this id, or null.
+  const PoseGraphEdge* edge(int64_t id) const;
 
   /// Optimises all nodes. Loop edges whose whitened chi2 stays above outlier_chi2 are disabled (and
   /// re-admitted once they fit again). Each connected component without a fixed node has its first node

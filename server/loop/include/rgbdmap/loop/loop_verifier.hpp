@@ -5,6 +5,8 @@
 // E is a weighted sum of metres and radians; k1 has units 1/m and k2 1/rad so E is a pure number.
 #include <optional>
 #include <string>
+#include <utility>
+#include <vector>
 
 #include "rgbdmap/common/camera.hpp"
 #include "rgbdmap/common/se3.hpp"
@@ -71,6 +73,9 @@ struct LoopEdge {
   Mat6 information = Mat6::Zero();  ///< of T_from_to, tangent order (rho, omega), left perturbation
   int inliers = 0;
   double motion_measure = 0.0;  ///< E
+  /// The refined inliers as feature index pairs (from's feature, to's feature): the landmark tracks of
+  /// bundle adjustment are made of them. Empty for edges restored from the map store.
+  std::vector<std::pair<int, int>> inlier_pairs;
 };
 
 struct LoopVerification {

@@ -1,0 +1,89 @@
+// Bundle adjustment cost on one core (issue #14): local BA against its window size and global BA against the
+// map size, on synthetic scenes with exact ground truth (ba_synth.hpp: ~1,000 features a keyframe at the
+// default density, tracks from the true matches with the 4 previous keyframes, poses perturbed by 2 cm and
+// 0.6 deg). Prints one line per configuration: time (median of repeats), observations, keyframe error.
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <random>
+#include <string>
+#include <vector>
+
+#include "rgbdmap/ba/ba_synth.hpp"
+#include "rgbdmap/ba/landmark_map.hpp"
+
+namespace rgbdmap {
+namespace {
+
+struct Built {
+  BaSynthScene scene;
+  LandmarkMap map;
+};
+
+Built build(int keyframes, const LandmarkMapConfig& config, unsigned seed) {
+  BaSynthConfig sc;
+  sc.keyframes = keyframes;
+  sc.step_m = 0.2;  // a point is seen by ~15 keyframes, as keyframes of a real map see theirs
+  sc.points = 1500 + 60 * keyframes;
+  sc.seed = seed;
+  Built b{makeBaSynthScene(sc), LandmarkMap(config)};
+  std::mt19937 rng(seed);
+  std::normal_distribution<double> n(0.0, 1.0);
+  for (int k = 0; k < keyframes; ++k) {
+    SE3 T = b.scene.T_map_kf[k];
+    if (k > 0)
+      T = se3::exp((Vec6() << 0.02 * n(rng), 0.02 * n(rng), 0.02 * n(rng), 0.01 * n(rng), 0.01 * n(rng),
+                    0.01 * n(rng)).finished()) * T;
+    b.map.addKeyframe(synthKeyframe(b.scene, k, T));
+    for (int j = std::max(0, k - 4); j < k; ++j) b.map.addMatches(synthTrueMatches(b.scene, k, j));
+  }
+  return b;
+}
+
+double rmsError(const Built& b) {
+  double sum = 0;
+  for (size_t k = 0; k < b.scene.T_map_kf.size(); ++k)
+    sum += (b.map.pose(static_cast<int64_t>(k))->translation() - b.scene.T_map_kf[k].translation()).squaredNorm();
+  return std::sqrt(sum / static_cast<double>(b.scene.T_map_kf.size()));
+}
+
+void localBa(int window) {
+  LandmarkMapConfig config;
+  config.local_window = window;
+  std::vector<double> ms;
+  int obs = 0, frames = 0;
+  for (int rep = 0; rep < 5; ++rep) {
+    Built b = build(60, config, 10 + rep);
+    const BundleResult r = b.map.localAdjust(59, 0);
+    ms.push_back(r.report.time_ms);
+    obs = r.report.observations;
+    frames = r.report.frames;
+  }
+  std::sort(ms.begin(), ms.end());
+  std::printf("local BA   window %3d: %7.1f ms median  (%d frames incl. fixed, %d observations)\n", window,
+              ms[ms.size() / 2], frames, obs);
+}
+
+void globalBa(int keyframes) {
+  LandmarkMapConfig config;
+  Built b = build(keyframes, config, 3);
+  const double before = rmsError(b);
+  const BundleResult r = b.map.globalAdjust(0, 0);
+  std::printf("global BA %4d keyframes: %8.1f ms  (%d points, %d observations, %d iterations; keyframe rms %.4f -> "
+              "%.5f m)\n",
+              keyframes, r.report.time_ms, r.report.points, r.report.observations, r.report.iterations, before,
+              rmsError(b));
+}
+
+}  // namespace
+}  // namespace rgbdmap
+
+int main(int argc, char** argv) {
+  const bool quick = argc > 1 && std::string(argv[1]) == "--quick";
+  std::printf("bundle adjustment, one thread (synthetic, ~1000 features per keyframe)\n");
+  for (int w : {5, 10, 15, 20}) rgbdmap::localBa(w);
+  for (int n : quick ? std::vector<int>{100} : std::vector<int>{100, 250, 500, 1000}) rgbdmap::globalBa(n);
+  return 0;
+}

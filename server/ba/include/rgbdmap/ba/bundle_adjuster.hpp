@@ -1,0 +1,88 @@
+#pragma once
+// One bundle adjustment: keyframe poses and landmark positions refined against every observation, with
+// Ceres (Schur complement over the landmarks). Plain structs in and out: the caller (LandmarkMap) decides
+// the window, which keyframes are held fixed, and what to do with the observations found to be outliers.
+//
+// Two solves, as ORB-SLAM's local BA: a first solve with a Huber loss, then observations whose whitened
+// chi2 exceeds the 95 % quantile (2 or 3 dof) or that fall behind their camera are left out and a second
+// solve without them refines the rest. Their indices are returned so that the tracks can drop them.
+#include <atomic>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "rgbdmap/ba/ba_cost.hpp"
+#include "rgbdmap/common/result.hpp"
+#include "rgbdmap/common/se3.hpp"
+
+namespace rgbdmap {
+
+struct BaSolveConfig {
+  double pixel_sigma = 1.0;           ///< keypoint sigma at octave 0, px
+  double scale_factor = 1.2;          ///< ORB pyramid scale: sigma grows by this per octave
+  double inverse_depth_sigma = 0.01;  ///< sigma of 1/depth, 1/m (0.01: 1 cm at 1 m, 4 cm at 2 m)
+  bool use_depth = true;              ///< the inverse-depth residual where a keypoint has depth
+  /// Estimate each keyframe's rolling-shutter rotation w (ba_cost.hpp); false: w stays as given (0).
+  bool rolling_shutter = true;
+  /// Prior sigma of w (rad): 0.05 rad is ~1.5 rad/s over a 33 ms readout.
+  double rolling_shutter_sigma_rad = 0.05;
+  double chi2_2dof = 5.991;           ///< Huber threshold and outlier test, 2 rows (95 %)
+  double chi2_3dof = 7.815;           ///< same, 3 rows
+  int first_iterations = 5;           ///< Levenberg-Marquardt iterations before the outlier test
+  int second_iterations = 10;         ///< after it; 0 skips the second solve
+  double max_time_s = 1.0;            ///< wall-clock limit of each solve
+  int num_threads = 1;
+};
+
+struct BaFrame {
+  int64_t id = 0;
+  BaIntrinsics camera;
+  SE3 T_kf_map = SE3::Identity();
+  bool fixed = false;
+  Vec3 w = Vec3::Zero();  ///< rolling-shutter rotation over the readout (rad)
+  bool fixed_w = false;   ///< w held (a fixed frame's, usually)
+};
+
+struct BaPoint {
+  int64_t id = 0;
+  Vec3 p_map = Vec3::Zero();
+};
+
+struct BaObservation {
+  int frame = 0;  ///< index into BaProblem::frames
+  int point = 0;  ///< index into BaProblem::points
+  Eigen::Vector2d px = Eigen::Vector2d::Zero();  ///< undistorted keypoint
+  int octave = 0;
+  double depth_m = 0.0;       ///< 0: no depth
+  double row_fraction = 0.0;  ///< the keypoint's sensor row from the middle, fraction of the height
+};
+
+struct BaProblem {
+  std::vector<BaFrame> frames;
+  std::vector<BaPoint> points;
+  std::vector<BaObservation> observations;
+};
+
+struct BaReport {
+  int frames = 0, fixed_frames = 0, points = 0, observations = 0;
+  int iterations = 0;
+  double initial_cost = 0.0, final_cost = 0.0;  ///< Ceres cost (0.5 * robust sum) of the first / last solve
+  double initial_rms_px = 0.0, final_rms_px = 0.0;  ///< reprojection RMS over the inliers, octave-0 px
+  double time_ms = 0.0;
+  bool cancelled = false;
+};
+
+struct BaSolution {
+  std::vector<SE3> T_kf_map;    ///< per frame (fixed frames unchanged)
+  std::vector<Vec3> w;          ///< per frame, rolling-shutter rotation
+  std::vector<Vec3> p_map;      ///< per point
+  std::vector<int> outliers;    ///< indices into observations
+  BaReport report;
+};
+
+/// Solves the problem. Fails on an empty problem, indices out of range, non-finite input or no free frame.
+/// `cancel` (optional) stops the running solve; the best estimate so far is returned with cancelled set.
+Result<BaSolution> solveBundle(const BaProblem& problem, const BaSolveConfig& config,
+                               const std::atomic<bool>* cancel = nullptr);
+
+}  // namespace rgbdmap

@@ -1,0 +1,166 @@
+#pragma once
+// Landmark tracks over the server's keyframes, and the bundle adjustments that refine them.
+//
+// A landmark is one 3-D point (map frame) with its observations: (keyframe, feature index) pairs, at most
+// one per keyframe. Tracks come from two sources:
+//   - verified matches: the inlier feature pairs of every accepted edge (local loops with the recent
+//     keyframes, loops, inter-robot loops), added only once the pose graph kept the edge, so a false loop
+//     never enters the tracks (removeMatches() takes the links of an edge the graph disabled later);
+//   - matching by projection: the landmarks seen by a new keyframe's covisible keyframes are projected into
+//     it and matched to nearby keypoints by descriptor (ORB-SLAM's SearchByProjection), which makes tracks
+//     long. A keypoint that already belongs to another landmark fuses the two (ORB-SLAM's Fuse), unless a
+//     keyframe sees both.
+// A landmark is created from a pair where one side has depth (RGB-D: no triangulation needed), moves with
+// its first observer when the pose graph moves keyframes, and is removed when fewer than two observations
+// are left. Keyframes in different maps (robots not merged yet) never share a landmark.
+//
+// Bundle adjustments (bundle_adjuster.hpp) are built here: local (a keyframe's covisibility window free,
+// the other observers of its landmarks fixed) and global (every keyframe of a map, its anchor fixed). Their
+// outlier observations leave the tracks. Plain structs in and out; not thread-safe (one owner thread).
+#include <atomic>
+#include <cstdint>
+#include <memory>
+#include <unordered_map>
+#include <utility>
+#include <vector>
+
+#include "rgbdmap/ba/bundle_adjuster.hpp"
+#include "rgbdmap/common/result.hpp"
+#include "rgbdmap/common/se3.hpp"
+#include "rgbdmap/vision/features.hpp"
+
+namespace rgbdmap {
+
+struct LandmarkMapConfig {
+  BaSolveConfig solve;
+  int local_window = 10;      ///< keyframes a local BA moves: the new one and its most covisible
+  int local_fixed_max = 30;   ///< other observers of the window's landmarks held fixed (most shared first)
+  int min_covisibility = 15;  ///< landmarks two keyframes must share to be covisible
+  int projection_keyframes = 10;        ///< covisible keyframes whose landmarks are projected into a new one
+  double projection_radius_px = 6.0;    ///< search radius at octave 0 (grows with the landmark's octave)
+  int projection_max_distance = 60;     ///< Hamming distance accepted when matching by projection
+  double projection_ratio = 0.8;        ///< best vs second best within the radius
+  double projection_depth_chi2 = 9.0;   ///< a keypoint with depth must agree with the projected depth
+  int global_max_iterations = 10;       ///< iterations of a global BA (second solve)
+  double global_max_time_s = 2.0;       ///< wall-clock limit of each of its two solves
+  int global_min_observations = 2;      ///< landmarks with fewer observations stay out of a global BA
+  /// A keyframe with fewer observations in an adjustment is held there (too weakly constrained to move:
+  /// e.g. a keyframe restored after a restart that only new tracks reach).
+  int min_frame_observations = 30;
+
+  std::string validate() const;  ///< "" when valid, else every problem ("; "-separated)
+};
+
+/// A keyframe as the landmark map needs it: pose, camera, map, features (shared, read-only).
+struct LandmarkKeyframe {
+  int64_t id = 0;
+  int map_id = 0;
+  BaIntrinsics camera;
+  int width = 640, height = 480;
+  SE3 T_map_kf = SE3::Identity();
+  std::shared_ptr<const FrameFeatures> features;
+};
+
+/// Inlier feature pairs of a verified edge: feature `first` of keyframe `from`, `second` of `to`.
+struct EdgeMatches {
+  int64_t from = 0, to = 0;
+  std::vector<std::pair<int, int>> pairs;
+};
+
+struct BundleResult {
+  bool ok = false;
+  std::string error;
+  BaReport report;
+  std::vector<int64_t> moved;  ///< keyframes whose poses the adjustment changed
+  std::vector<int64_t> fixed;  ///< keyframes it held in place (their relative poses to `moved` are refined too)
+  std::vector<int64_t> weak;   ///< keyframes held for too few observations (min_frame_observations): their
+                               ///< relative poses to the others are not refined
+  int outliers_removed = 0;    ///< observations that left their tracks
+};
+
+struct LandmarkStats {
+  int64_t keyframes = 0, landmarks = 0, observations = 0;
+  int64_t links_from_matches = 0, links_from_projection = 0, fusions = 0;
+  int64_t observations_rejected = 0;  ///< by bundle adjustments (outliers) and removed edges
+  int64_t landmarks_culled = 0;
+};
+
+class LandmarkMap {
+ public:
+  explicit LandmarkMap(LandmarkMapConfig config = {});
+
+  /// Fails on a duplicate id, missing features, or arrays of different lengths.
+  Status addKeyframe(LandmarkKeyframe keyframe);
+  bool contains(int64_t id) const { return keyframes_.count(id) != 0; }
+  /// Links the pairs into tracks (keyframes in one map only; pairs out of range are skipped). Returns the
+  /// number of observations added or fused.
+  int addMatches(const EdgeMatches& matches);
+  /// Takes the links of these pairs out again (an edge the pose graph disabled after all): for each pair
+  /// whose two features are in one landmark, the newer keyframe's observation leaves it.
+  int removeMatches(const EdgeMatches& matches);
+  /// Matching by projection into `id` (its pose must be current): the landmarks of its covisible keyframes,
+  /// and of `seeds` (e.g. its odometry predecessor, for a keyframe no verified match linked yet) and theirs.
+  /// Returns the observations added or fused.
+  int extendByProjection(int64_t id, const std::vector<int64_t>& seeds = {});
+
+  /// New poses and maps (after a pose-graph solve or a merge); each landmark moves with its first observer.
+  void setPose(int64_t id, int map_id, const SE3& T_map_kf);
+  std::optional<SE3> pose(int64_t id) const;
+  /// The keyframe's rolling-shutter rotation as bundle adjustment estimated it (zero before).
+  std::optional<Vec3> rollingShutter(int64_t id) const;
+
+  /// Local BA around `id`; `anchor` (the map's anchor keyframe, -1 for none) stays fixed if in the window.
+  /// `cancel` stops it (the poses are then left as they were).
+  BundleResult localAdjust(int64_t id, int64_t anchor = -1, const std::atomic<bool>* cancel = nullptr);
+  /// Global BA over every keyframe of `map_id`; `anchor` (a keyframe of it) stays fixed.
+  BundleResult globalAdjust(int map_id, int64_t anchor, const std::atomic<bool>* cancel = nullptr);
+
+  /// Keyframes sharing at least min_covisibility landmarks with `id`, most shared first.
+  std::vector<std::pair<int64_t, int>> covisible(int64_t id) const;
+  std::vector<int64_t> keyframesOfMap(int map_id) const;
+  LandmarkStats stats() const;
+  /// The landmark of a keyframe's feature, -1 when none (tests).
+  int64_t landmarkOf(int64_t keyframe, int feature) const;
+  /// Observations of a landmark (tests); empty when it does not exist.
+  std::vector<std::pair<int64_t, int>> observationsOf(int64_t landmark) const;
+  std::optional<Vec3> positionOf(int64_t landmark) const;
+
+ private:
+  struct Keyframe {
+    LandmarkKeyframe kf;
+    std::vector<int64_t> landmark;  ///< per feature, -1 when none
+    Vec3 w = Vec3::Zero();          ///< rolling-shutter rotation over the readout, estimated by BA (rad)
+  };
+  struct Landmark {
+    Vec3 p_map = Vec3::Zero();
+    std::vector<std::pair<int64_t, int>> obs;  ///< (keyframe, feature), at most one per keyframe
+    int64_t reference = 0;                     ///< first observer: the landmark moves with it
+  };
+  struct Window;  // landmark_window.cpp
+
+  // landmark_tracks.cpp
+  Vec3 pointOf(const Keyframe& k, int feature) const;  ///< back-projected feature (needs depth), map frame
+  bool observes(const Landmark& l, int64_t keyframe) const;
+  int64_t createLandmark(Keyframe& a, int fa, Keyframe& b, int fb);
+  bool attach(int64_t landmark, Keyframe& k, int feature);
+  void detach(int64_t landmark, int64_t keyframe);
+  /// Merges `from` into `into` unless a keyframe sees both; true when merged.
+  bool fuse(int64_t into, int64_t from);
+  int link(Keyframe& a, int fa, Keyframe& b, int fb);
+  void eraseIfShort(int64_t landmark);
+  int descriptorDistance(const Landmark& l, const uint8_t* descriptor) const;
+  // landmark_window.cpp
+  Window localWindow(int64_t id, int64_t anchor) const;
+  Window globalWindow(int map_id, int64_t anchor) const;
+  BaProblem problemOf(const Window& w) const;
+  BundleResult solveAndApply(const Window& w, int second_iterations, double max_time_s,
+                             const std::atomic<bool>* cancel);
+
+  LandmarkMapConfig config_;
+  std::unordered_map<int64_t, Keyframe> keyframes_;
+  std::unordered_map<int64_t, Landmark> landmarks_;
+  int64_t next_landmark_ = 0;
+  LandmarkStats stats_;
+};
+
+}  // namespace rgbdmap

@@ -1,0 +1,317 @@
+// MapOptimizer: batches from the ingest worker -> pose graph (additions, robust solve) -> landmark tracks
+// (matches of kept edges) -> local and global bundle adjustment -> refined edges -> one result per batch.
+#include "map_optimizer.hpp"
+
+#include <algorithm>
+#include <utility>
+
+#include "rgbdmap/common/logging.hpp"
+
+namespace rgbdmap {
+namespace {
+
+double msSince(std::chrono::steady_clock::time_point t0) {
+  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+}
+
+}  // namespace
+
+void OptimizerBatch::append(OptimizerBatch&& other) {
+  std::move(other.nodes.begin(), other.nodes.end(), std::back_inserter(nodes));
+  std::move(other.edges.begin(), other.edges.end(), std::back_inserter(edges));
+  std::move(other.keyframes.begin(), other.keyframes.end(), std::back_inserter(keyframes));
+  for (auto& [id, m] : other.matches) matches.insert_or_assign(id, std::move(m));
+  solve = solve || other.solve;
+  global = global || other.global;
+}
+
+MapOptimizer::MapOptimizer(MapOptimizerConfig config, Callback callback)
+    : config_(std::move(config)),
+      callback_(std::move(callback)),
+      landmarks_(config_.ba.landmarks),
+      worker_({"rgbdmap-optim", 0, config_.ba.global_when_idle_s > 0 ? 0.5 : 0.0, [this] { onIdle(); }}) {
+  worker_.start();
+}
+
+MapOptimizer::~MapOptimizer() { stop(); }
+
+uint64_t MapOptimizer::submit(OptimizerBatch batch) {
+  uint64_t revision = 0;
+  bool post = false;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (stopping_) return 0;
+    revision = next_revision_++;
+    pending_.append(std::move(batch));
+    pending_revision_ = revision;
+    last_batch_ = std::chrono::steady_clock::now();
+    post = !std::exchange(task_queued_, true);
+  }
+  if (post) worker_.post([this] { processPending(); });
+  return revision;
+}
+
+bool MapOptimizer::globalDue() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return global_due_;
+}
+
+void MapOptimizer::stop() {
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    stopping_ = true;
+    pending_ = {};
+  }
+  cancel_ = true;
+  worker_.stop();
+}
+
+void MapOptimizer::processPending() {
+  OptimizerBatch b;
+  uint64_t revision = 0;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (stopping_) return;
+    b = std::exchange(pending_, {});
+    revision = pending_revision_;
+    task_queued_ = false;
+  }
+  applyAdditions(b);
+  OptimizedPoses solve;
+  const bool solved = b.solve && solveGraph(&solve);
+  const bool large_cycle = updateTracks();
+  if (config_.ba.enabled) {
+    std::vector<int64_t> ids;
+    for (const LandmarkKeyframe& k : b.keyframes) ids.push_back(k.id);
+    adjustNewKeyframes(ids);
+    std::set<int> maps;
+    for (const auto& [map, added] : added_since_global_)
+      if (config_.ba.global_every_keyframes > 0 && added >= config_.ba.global_every_keyframes) maps.insert(map);
+    if (b.global || large_cycle) maps.insert(changed_maps_.begin(), changed_maps_.end());
+    adjustGlobally(maps);
+  }
+  if (cancel_) return;
+  publish(revision, solved, solve);
+}
+
+void MapOptimizer::onIdle() {
+  uint64_t revision = 0;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    const double quiet_s =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - last_batch_).count();
+    if (stopping_ || task_queued_ || !config_.ba.enabled || quiet_s < config_.ba.global_when_idle_s) return;
+    revision = pending_revision_;
+  }
+  if (changed_maps_.empty()) return;
+  adjustGlobally(changed_maps_);
+  if (!cancel_) publish(revision, false, {});
+}
+
+void MapOptimizer::applyAdditions(const OptimizerBatch& b) {
+  for (const PoseGraphNode& n : b.nodes) {
+    SE3 pose = n.T_map_kf;
+    for (const PoseGraphEdge& e : b.edges)
+      if (e.kind == EdgeKind::kOdometry && e.from == n.id)
+        if (const auto prev = graph_.pose(e.to)) {
+          pose = se3::normalized(*prev * e.T_from_to.inverse());
+          break;
+        }
+    if (const Status s = graph_.addNode(n.id, n.robot, pose); !s) {
+      log::warn("optimiser: ", s.error());
+      continue;
+    }
+    if (n.fixed) graph_.setFixed(n.id);
+    chain_of_[n.id] = n.robot;
+  }
+  for (const PoseGraphEdge& e : b.edges) {
+    if (const Status s = graph_.addEdge(e); !s) {
+      log::warn("optimiser: ", s.error());
+      continue;
+    }
+    edges_of_node_[e.from].push_back(e.id);
+    edges_of_node_[e.to].push_back(e.id);
+  }
+  for (const auto& [id, m] : b.matches) waiting_[id] = {m, false};
+  refreshMaps();
+  for (const LandmarkKeyframe& k : b.keyframes) {
+    const auto pose = graph_.pose(k.id);
+    if (!pose || !config_.ba.enabled) continue;
+    LandmarkKeyframe kf = k;
+    kf.T_map_kf = *pose;
+    kf.map_id = map_of_[k.id];
+    if (const Status s = landmarks_.addKeyframe(std::move(kf)); !s) log::warn("optimiser: ", s.error());
+  }
+}
+
+void MapOptimizer::refreshMaps() {
+  std::set<int64_t> fixed;
+  for (const PoseGraphNode& n : graph_.nodes())
+    if (n.fixed) fixed.insert(n.id);
+  anchor_of_.clear();
+  for (const std::vector<int64_t>& component : graph_.components()) {
+    const int map = static_cast<int>(component.front());
+    int64_t anchor = component.front();
+    for (int64_t id : component)
+      if (fixed.count(id)) anchor = id;
+    anchor_of_[map] = anchor;
+    for (int64_t id : component) {
+      auto [it, inserted] = map_of_.try_emplace(id, map);
+      if (!inserted && it->second != map) {  // merged (or split off): landmarks follow their keyframes
+        it->second = map;
+        changed_maps_.insert(map);
+        landmarks_.setPose(id, map, *graph_.pose(id));
+      }
+    }
+  }
+}
+
+bool MapOptimizer::solveGraph(OptimizedPoses* out) {
+  const Result<OptimizeReport> report = graph_.optimize(config_.graph, &cancel_);
+  if (!report || report->cancelled) {
+    if (!cancel_) log::warn("optimiser: pose graph: ", report ? "cancelled" : report.error());
+    return false;
+  }
+  out->report = *report;
+  for (auto& [id, w] : waiting_) w.checked = true;  // the solve judged every edge added so far
+  refreshMaps();
+  for (const PoseGraphNode& n : graph_.nodes()) landmarks_.setPose(n.id, map_of_[n.id], n.T_map_kf);
+  return true;
+}
+
+bool MapOptimizer::isLargeCycle(const PoseGraphEdge& e) const {
+  if (e.kind == EdgeKind::kOdometry) return false;
+  if (chain_of_.at(e.from) != chain_of_.at(e.to)) return true;
+  return std::abs(e.from - e.to) > config_.ba.global_after_loop_span;
+}
+
+bool MapOptimizer::updateTracks() {
+  if (!config_.ba.enabled) return false;
+  const std::vector<int64_t>& disabled = graph_.disabledEdges();
+  for (int64_t id : disabled) {
+    const auto it = in_tracks_.find(id);
+    if (it == in_tracks_.end()) continue;
+    landmarks_.removeMatches(it->second);
+    waiting_[id] = {std::move(it->second), true};
+    in_tracks_.erase(it);
+    ++counters_.edges_taken_back;
+  }
+  bool large = false;
+  for (auto it = waiting_.begin(); it != waiting_.end();) {
+    const PoseGraphEdge* e = graph_.edge(it->first);
+    const bool off = std::binary_search(disabled.begin(), disabled.end(), it->first);
+    if (!e || !it->second.checked || off || map_of_[e->from] != map_of_[e->to] ||
+        !landmarks_.contains(e->from) || !landmarks_.contains(e->to)) {
+      it = e ? std::next(it) : waiting_.erase(it);
+      continue;
+    }
+    landmarks_.addMatches(it->second.matches);
+    changed_maps_.insert(map_of_[e->from]);
+    large = large || isLargeCycle(*e);
+    in_tracks_[it->first] = std::move(it->second.matches);
+    it = waiting_.erase(it);
+    ++counters_.edges_in_tracks;
+  }
+  return large;
+}
+
+void MapOptimizer::adjustNewKeyframes(const std::vector<int64_t>& ids) {
+  for (int64_t id : ids) {
+    if (!landmarks_.contains(id)) continue;
+    landmarks_.extendByProjection(id, odometryNeighbours(id));
+    const int map = map_of_[id];
+    ++added_since_global_[map];
+    changed_maps_.insert(map);
+  }
+  const size_t first = ids.size() > static_cast<size_t>(config_.ba.max_local_per_batch)
+                           ? ids.size() - static_cast<size_t>(config_.ba.max_local_per_batch)
+                           : 0;
+  for (size_t i = first; i < ids.size(); ++i) {
+    if (!landmarks_.contains(ids[i]) || cancel_) continue;
+    const auto t0 = std::chrono::steady_clock::now();
+    const BundleResult r = landmarks_.localAdjust(ids[i], anchor_of_[map_of_[ids[i]]], &cancel_);
+    local_ms_.add(msSince(t0));
+    ++counters_.local_runs;
+    if (!r.ok) {
+      ++counters_.local_failures;
+      continue;
+    }
+    applyBundle(r);
+  }
+}
+
+std::vector<int64_t> MapOptimizer::odometryNeighbours(int64_t id) const {
+  std::vector<int64_t> out;
+  const auto it = edges_of_node_.find(id);
+  if (it == edges_of_node_.end()) return out;
+  for (int64_t e_id : it->second)
+    if (const PoseGraphEdge* e = graph_.edge(e_id); e && e->kind == EdgeKind::kOdometry)
+      out.push_back(e->from == id ? e->to : e->from);
+  return out;
+}
+
+void MapOptimizer::adjustGlobally(const std::set<int>& maps) {
+  bool weak = false;
+  for (int map : std::set<int>(maps)) {
+    const auto anchor = anchor_of_.find(map);
+    if (anchor == anchor_of_.end() || cancel_) continue;
+    const auto t0 = std::chrono::steady_clock::now();
+    const BundleResult r = landmarks_.globalAdjust(map, anchor->second, &cancel_);
+    const double ms = msSince(t0);
+    added_since_global_[map] = 0;
+    changed_maps_.erase(map);
+    if (!r.ok) continue;
+    log::info("optimiser: global BA of map ", map, ": ", r.report.frames, " keyframes, ", r.report.points,
+              " landmarks, ", r.report.observations, " observations (", r.outliers_removed, " rejected), rms ",
+              r.report.initial_rms_px, " -> ", r.report.final_rms_px, " px, ", r.report.iterations,
+              " iterations, ", ms, " ms");
+    ++counters_.global_runs;
+    counters_.global_ms_last = ms;
+    counters_.global_ms_max = std::max(counters_.global_ms_max, ms);
+    counters_.global_keyframes_last = r.report.frames;
+    applyBundle(r);
+    weak = weak || !r.weak.empty();
+  }
+  // Keyframes too weakly observed to be adjusted (e.g. restored ones that only a few new tracks reach) are
+  // placed by their edges: a pose-graph solve over the refined edges follows.
+  OptimizedPoses ignored;
+  if (weak && !cancel_) solveGraph(&ignored);
+}
+
+void MapOptimizer::applyBundle(const BundleResult& r) {
+  std::set<int64_t> in(r.moved.begin(), r.moved.end());
+  in.insert(r.fixed.begin(), r.fixed.end());
+  for (int64_t id : r.moved) graph_.setPose(id, *landmarks_.pose(id));
+  const std::vector<int64_t>& disabled = graph_.disabledEdges();
+  // The edges at a moved keyframe whose other end the adjustment saw too take its relative pose.
+  for (int64_t id : r.moved)
+    for (int64_t e_id : edges_of_node_[id]) {
+      const PoseGraphEdge* e = graph_.edge(e_id);
+      if (!e || !in.count(e->from) || !in.count(e->to)) continue;
+      if (std::binary_search(disabled.begin(), disabled.end(), e_id)) continue;
+      graph_.setEdgeMeasurement(e_id, graph_.pose(e->from)->inverse() * *graph_.pose(e->to));
+    }
+}
+
+void MapOptimizer::publish(uint64_t revision, bool solved, const OptimizedPoses& solve) {
+  auto out = std::make_shared<MapOptimization>();
+  out->revision = revision;
+  out->graph_solved = solved;
+  out->graph = solve;
+  out->graph.revision = revision;
+  out->graph.ok = true;
+  out->graph.T_map_kf = graph_.poses();
+  out->graph.disabled_edges = graph_.disabledEdges();
+  out->graph.components = graph_.components();
+  counters_.landmarks = landmarks_.stats();
+  counters_.local_ms_median = local_ms_.median();
+  counters_.local_ms_p90 = local_ms_.quantile(0.9);
+  out->ba = counters_;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    global_due_ = config_.ba.enabled && !changed_maps_.empty();
+  }
+  if (callback_) callback_(out);
+}
+
+}  // namespace rgbdmap

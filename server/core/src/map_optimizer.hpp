@@ -1,0 +1,123 @@
+#pragma once
+// The map optimiser (issue #14): one worker thread that owns the optimisation state of every map
+//   - the pose graph: robust loop rejection, map merging, the fast first answer after a loop;
+//   - the landmark map: tracks over the keyframes' features, local bundle adjustment after each keyframe and
+//     global bundle adjustment after a loop that closes a large cycle, a merge, or when the map is quiet.
+// The ingest worker hands it additions (OptimizerBatch: nodes, edges, features, the inlier pairs of loop
+// edges), never a copy of the whole graph; batches that arrive while it works are taken together. Each
+// batch ends with a result (every node's pose, disabled edges, components) that the ingest worker applies
+// and turns into corrections. Matches of a loop edge enter the tracks only once the pose graph kept the
+// edge, and leave them if it disables the edge later: a false loop never shapes the landmarks.
+// After a bundle adjustment the edges between the keyframes it refined take the refined relative poses as
+// their measurements (ORB-SLAM's essential graph), so a later pose-graph solve spreads a loop's correction
+// without undoing the refinement.
+#include <atomic>
+#include <chrono>
+#include <cstdint>
+#include <functional>
+#include <map>
+#include <memory>
+#include <mutex>
+#include <set>
+#include <vector>
+
+#include "rgbdmap/ba/landmark_map.hpp"
+#include "rgbdmap/common/sample_reservoir.hpp"
+#include "rgbdmap/common/serial_worker.hpp"
+#include "rgbdmap/graph/pose_graph.hpp"
+#include "rgbdmap/graph/pose_graph_optimizer.hpp"
+#include "rgbdmap/server/map_server.hpp"
+
+namespace rgbdmap {
+
+struct MapOptimizerConfig {
+  PoseGraphConfig graph;
+  BundleAdjustmentConfig ba;
+};
+
+/// What the ingest worker hands over after a keyframe (or a restore).
+struct OptimizerBatch {
+  std::vector<PoseGraphNode> nodes;         ///< new keyframes; a node with an odometry edge to a known
+                                            ///< predecessor is placed by it, the others at their pose
+  std::vector<PoseGraphEdge> edges;         ///< new odometry and loop edges
+  std::vector<LandmarkKeyframe> keyframes;  ///< features of new keyframes, for bundle adjustment
+  std::map<int64_t, EdgeMatches> matches;   ///< inlier pairs of new loop edges, by edge id
+  bool solve = false;   ///< loop edges added or chains joined: a pose-graph solve first
+  bool global = false;  ///< a global BA of every map changed since its last one (waitIdle)
+  bool empty() const { return nodes.empty() && edges.empty() && keyframes.empty() && !solve && !global; }
+  void append(OptimizerBatch&& other);
+};
+
+
+struct MapOptimization {
+  uint64_t revision = 0;  ///< the highest submit() this result includes
+  OptimizedPoses graph;   ///< poses of every node, disabled edges, components; report of the last solve
+  bool graph_solved = false;
+  BundleAdjustmentStats ba;
+};
+
+class MapOptimizer {
+ public:
+  using Callback = std::function<void(const std::shared_ptr<const MapOptimization>&)>;
+
+  MapOptimizer(MapOptimizerConfig config, Callback callback);
+  ~MapOptimizer();  ///< stop()
+  MapOptimizer(const MapOptimizer&) = delete;
+  MapOptimizer& operator=(const MapOptimizer&) = delete;
+
+  /// Queues a batch and returns its revision at once (0 after stop()); its result comes to the callback.
+  uint64_t submit(OptimizerBatch batch);
+  /// A map changed since its last global BA (what a submit with `global` would do something for).
+  bool globalDue() const;
+  /// Cancels a running solve, drops pending batches and joins the worker. Idempotent.
+  void stop();
+
+ private:
+  void processPending();  ///< a task on worker_: every pending batch as one
+  void onIdle();          ///< worker_'s period: a global BA when the maps have been quiet
+  void applyAdditions(const OptimizerBatch& b);
+  void refreshMaps();  ///< map id (= first node of its component) and anchor of every node
+  bool solveGraph(OptimizedPoses* out);
+  /// Matches of kept edges into the tracks, of disabled edges out. Returns whether a large cycle closed.
+  bool updateTracks();
+  void adjustNewKeyframes(const std::vector<int64_t>& ids);
+  void adjustGlobally(const std::set<int>& maps);
+  void applyBundle(const BundleResult& r);
+  void publish(uint64_t revision, bool solved, const OptimizedPoses& solve);
+  bool isLargeCycle(const PoseGraphEdge& e) const;
+  std::vector<int64_t> odometryNeighbours(int64_t id) const;
+
+  MapOptimizerConfig config_;
+  Callback callback_;
+  std::atomic<bool> cancel_{false};
+
+  mutable std::mutex mutex_;  ///< pending_, revisions, stopping_, due_
+  OptimizerBatch pending_;
+  uint64_t pending_revision_ = 0;
+  uint64_t next_revision_ = 1;
+  bool task_queued_ = false;
+  bool stopping_ = false;
+  bool global_due_ = false;
+  std::chrono::steady_clock::time_point last_batch_ = std::chrono::steady_clock::now();
+
+  // ---- the worker's own state
+  PoseGraph graph_;
+  LandmarkMap landmarks_;
+  std::map<int64_t, int> map_of_;       ///< node -> map id (first node of its component)
+  std::map<int, int64_t> anchor_of_;    ///< map id -> the node that holds its gauge
+  std::map<int64_t, int> chain_of_;     ///< node -> its chain (PoseGraphNode::robot)
+  std::map<int64_t, std::vector<int64_t>> edges_of_node_;  ///< node -> ids of its edges
+  struct Waiting {
+    EdgeMatches matches;
+    bool checked = false;  ///< a pose-graph solve has judged the edge since it came
+  };
+  std::map<int64_t, Waiting> waiting_;        ///< matches of edges not in the tracks (yet)
+  std::map<int64_t, EdgeMatches> in_tracks_;  ///< matches of edges in the tracks
+  std::map<int, int> added_since_global_;     ///< map id -> keyframes added since its last global BA
+  std::set<int> changed_maps_;                ///< maps changed since their last global BA
+  BundleAdjustmentStats counters_;
+  SampleReservoir local_ms_;
+  SerialWorker worker_;  ///< last: stopped before the state above goes away
+};
+
+}  // namespace rgbdmap
