@@ -210,6 +210,7 @@ TEST(LandmarkMap, RollingShutterRotationIsEstimated) {
   auto run = [&](bool rolling_shutter) {
     LandmarkMapConfig config;
     config.solve.rolling_shutter = rolling_shutter;
+    config.solve.rolling_shutter_sigma_rad = 0.05;  // a strong rolling shutter (0.03 rad) to recover
     LandmarkMap map(config);
     for (int k = 0; k < o.keyframes; ++k) EXPECT_TRUE(map.addKeyframe(sceneKeyframe(s, k, start[k])));
     for (int k = 0; k < o.keyframes; ++k)

@@ -166,14 +166,34 @@ void trackFrames(FrameSource& source, VisualOdometry& vo, RobotLink& link, const
   }
 }
 
-/// T_map_odom of the frame's segment, through its reference keyframe's final correction when there is one.
-SE3 finalMapFromOdom(const FrameRecord& f, const std::map<int, KeyframeRecord>& keyframes,
-                     const RobotLink& link) {
-  const auto kf = keyframes.find(f.reference_keyframe);
-  if (kf != keyframes.end() && kf->second.segment == f.segment)
-    if (const std::optional<SE3> T_map_kf = link.correctedKeyframe(f.reference_keyframe))
-      return *T_map_kf * kf->second.T_odom_cam.inverse();
-  return link.mapFromOdom(f.segment);
+/// Per segment, the corrected keyframes in time order with their corrections C = T_map_kf * T_odom_kf^-1.
+using Corrections = std::map<int, std::vector<std::pair<double, SE3>>>;
+
+Corrections keyframeCorrections(const std::map<int, KeyframeRecord>& keyframes, const RobotLink& link) {
+  Corrections out;
+  for (const auto& [id, kf] : keyframes)
+    if (const std::optional<SE3> T_map_kf = link.correctedKeyframe(id))
+      out[kf.segment].emplace_back(kf.timestamp, *T_map_kf * kf.T_odom_cam.inverse());
+  for (auto& [segment, list] : out)
+    std::sort(list.begin(), list.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
+  return out;
+}
+
+/// T_map_odom at the frame's time: the corrections of the keyframes before and after it in its segment,
+/// interpolated by time (a keyframe's own frame gets exactly its optimised pose); the segment's newest
+/// correction when there is none.
+SE3 finalMapFromOdom(const FrameRecord& f, const Corrections& corrections, const RobotLink& link) {
+  const auto it = corrections.find(f.segment);
+  if (it == corrections.end() || it->second.empty()) return link.mapFromOdom(f.segment);
+  const auto& list = it->second;
+  const auto next = std::lower_bound(list.begin(), list.end(), f.timestamp,
+                                     [](const auto& c, double t) { return c.first < t; });
+  if (next == list.begin()) return next->second;
+  if (next == list.end()) return list.back().second;
+  const auto prev = std::prev(next);
+  const double span = next->first - prev->first;
+  const double alpha = span > 0.0 ? (f.timestamp - prev->first) / span : 1.0;
+  return se3::interpolate(prev->second, next->second, alpha);
 }
 
 void finish(const RunState& state, RobotLink& link, const RobotRunOptions& options, RobotRunResult* out) {
@@ -196,9 +216,10 @@ void finish(const RunState& state, RobotLink& link, const RobotRunOptions& optio
 void reanchorFinalMap(const RobotLink& link, RobotRunResult* out) {
   out->final_map.clear();
   out->keyframes_final.clear();
+  const Corrections corrections = keyframeCorrections(out->keyframe_records, link);
   for (const FrameRecord& f : out->frame_records)
     out->final_map.push_back(
-        {f.timestamp, se3::normalized(finalMapFromOdom(f, out->keyframe_records, link) * f.T_odom_cam)});
+        {f.timestamp, se3::normalized(finalMapFromOdom(f, corrections, link) * f.T_odom_cam)});
   for (const auto& [id, kf] : out->keyframe_records) {
     const std::optional<SE3> T_map_kf = link.correctedKeyframe(id);
     out->keyframes_final.push_back(

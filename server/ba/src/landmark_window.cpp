@@ -1,5 +1,6 @@
 // LandmarkMap: covisibility, the windows of local and global bundle adjustment, and their results applied.
 #include <algorithm>
+#include <cstdint>
 #include <map>
 #include <unordered_set>
 
@@ -80,10 +81,31 @@ LandmarkMap::Window LandmarkMap::globalWindow(int map_id, int64_t anchor) const 
     w.fixed.push_back(w.free.front());
     w.free.erase(w.free.begin());
   }
-  for (const auto& [id, l] : landmarks_)
-    if (static_cast<int>(l.obs.size()) >= config_.global_min_observations &&
-        keyframes_.at(l.obs.front().first).kf.map_id == map_id)
-      w.points.push_back(id);
+  // Every keyframe gets its longest tracks (most constraint per observation) until it has its share of
+  // global_max_observations; a landmark taken for one keyframe brings all its observations.
+  const size_t frames = w.free.size() + w.fixed.size();
+  const size_t share = config_.global_max_observations > 0
+                           ? std::max<size_t>(static_cast<size_t>(config_.min_frame_observations),
+                                              static_cast<size_t>(config_.global_max_observations) / frames)
+                           : SIZE_MAX;
+  std::unordered_map<int64_t, size_t> taken;  // keyframe -> its observations selected so far
+  std::unordered_set<int64_t> selected;
+  for (const auto* group : {&w.fixed, &w.free})
+    for (int64_t kf : *group) {
+      std::vector<std::pair<size_t, int64_t>> tracks;
+      for (int64_t l : keyframes_.at(kf).landmark)
+        if (l >= 0 && static_cast<int>(landmarks_.at(l).obs.size()) >= config_.global_min_observations)
+          tracks.emplace_back(landmarks_.at(l).obs.size(), l);
+      std::sort(tracks.begin(), tracks.end(), [](const auto& a, const auto& b) {
+        return a.first != b.first ? a.first > b.first : a.second < b.second;
+      });
+      for (const auto& [n, l] : tracks) {
+        if (taken[kf] >= share) break;
+        if (!selected.insert(l).second) continue;
+        for (const auto& o : landmarks_.at(l).obs) ++taken[o.first];
+        w.points.push_back(l);
+      }
+    }
   std::sort(w.points.begin(), w.points.end());
   return w;
 }

@@ -5,17 +5,10 @@
 #include <algorithm>
 #include <utility>
 
+#include "ingest_timings.hpp"
 #include "rgbdmap/common/logging.hpp"
 
 namespace rgbdmap {
-namespace {
-
-double msSince(std::chrono::steady_clock::time_point t0) {
-  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
-}
-
-}  // namespace
-
 void OptimizerBatch::append(OptimizerBatch&& other) {
   std::move(other.nodes.begin(), other.nodes.end(), std::back_inserter(nodes));
   std::move(other.edges.begin(), other.edges.end(), std::back_inserter(edges));
@@ -100,10 +93,12 @@ void MapOptimizer::onIdle() {
     std::lock_guard<std::mutex> lock(mutex_);
     const double quiet_s =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - last_batch_).count();
-    if (stopping_ || task_queued_ || !config_.ba.enabled || quiet_s < config_.ba.global_when_idle_s) return;
-    revision = pending_revision_;
+    if (stopping_ || task_queued_ || !config_.ba.enabled || quiet_s < config_.ba.global_when_idle_s ||
+        !global_due_)
+      return;
+    // A result of its own: robots take corrections only from a newer revision than they have.
+    revision = pending_revision_ = next_revision_++;
   }
-  if (changed_maps_.empty()) return;
   adjustGlobally(changed_maps_);
   if (!cancel_) publish(revision, false, {});
 }
@@ -229,8 +224,10 @@ void MapOptimizer::adjustNewKeyframes(const std::vector<int64_t>& ids) {
   for (size_t i = first; i < ids.size(); ++i) {
     if (!landmarks_.contains(ids[i]) || cancel_) continue;
     const auto t0 = std::chrono::steady_clock::now();
+    const double cpu0 = threadCpuMs();
     const BundleResult r = landmarks_.localAdjust(ids[i], anchor_of_[map_of_[ids[i]]], &cancel_);
     local_ms_.add(msSince(t0));
+    local_cpu_ms_.add(threadCpuMs() - cpu0);
     ++counters_.local_runs;
     if (!r.ok) {
       ++counters_.local_failures;
@@ -256,18 +253,21 @@ void MapOptimizer::adjustGlobally(const std::set<int>& maps) {
     const auto anchor = anchor_of_.find(map);
     if (anchor == anchor_of_.end() || cancel_) continue;
     const auto t0 = std::chrono::steady_clock::now();
+    const double cpu0 = threadCpuMs();
     const BundleResult r = landmarks_.globalAdjust(map, anchor->second, &cancel_);
-    const double ms = msSince(t0);
+    const double ms = msSince(t0), cpu_ms = threadCpuMs() - cpu0;
     added_since_global_[map] = 0;
     changed_maps_.erase(map);
     if (!r.ok) continue;
     log::info("optimiser: global BA of map ", map, ": ", r.report.frames, " keyframes, ", r.report.points,
               " landmarks, ", r.report.observations, " observations (", r.outliers_removed, " rejected), rms ",
               r.report.initial_rms_px, " -> ", r.report.final_rms_px, " px, ", r.report.iterations,
-              " iterations, ", ms, " ms");
+              " iterations, ", ms, " ms (", cpu_ms, " ms CPU)");
     ++counters_.global_runs;
     counters_.global_ms_last = ms;
     counters_.global_ms_max = std::max(counters_.global_ms_max, ms);
+    counters_.global_cpu_ms_last = cpu_ms;
+    counters_.global_cpu_ms_max = std::max(counters_.global_cpu_ms_max, cpu_ms);
     counters_.global_keyframes_last = r.report.frames;
     applyBundle(r);
     weak = weak || !r.weak.empty();
@@ -306,6 +306,8 @@ void MapOptimizer::publish(uint64_t revision, bool solved, const OptimizedPoses&
   counters_.landmarks = landmarks_.stats();
   counters_.local_ms_median = local_ms_.median();
   counters_.local_ms_p90 = local_ms_.quantile(0.9);
+  counters_.local_cpu_ms_median = local_cpu_ms_.median();
+  counters_.local_cpu_ms_p90 = local_cpu_ms_.quantile(0.9);
   out->ba = counters_;
   {
     std::lock_guard<std::mutex> lock(mutex_);

@@ -116,7 +116,7 @@ class MapOptimizer {
   std::map<int, int> added_since_global_;     ///< map id -> keyframes added since its last global BA
   std::set<int> changed_maps_;                ///< maps changed since their last global BA
   BundleAdjustmentStats counters_;
-  SampleReservoir local_ms_;
+  SampleReservoir local_ms_, local_cpu_ms_;
   SerialWorker worker_;  ///< last: stopped before the state above goes away
 };
 

@@ -17,9 +17,13 @@ Json bundleAdjustmentJson(const BundleAdjustmentStats& s) {
           {"local_ba_failures", s.local_failures},
           {"local_ba_ms_median", jsonNumber(s.local_ms_median)},
           {"local_ba_ms_p90", jsonNumber(s.local_ms_p90)},
+          {"local_ba_cpu_ms_median", jsonNumber(s.local_cpu_ms_median)},
+          {"local_ba_cpu_ms_p90", jsonNumber(s.local_cpu_ms_p90)},
           {"global_ba_runs", s.global_runs},
           {"global_ba_ms_last", jsonNumber(s.global_ms_last)},
           {"global_ba_ms_max", jsonNumber(s.global_ms_max)},
+          {"global_ba_cpu_ms_last", jsonNumber(s.global_cpu_ms_last)},
+          {"global_ba_cpu_ms_max", jsonNumber(s.global_cpu_ms_max)},
           {"global_ba_keyframes_last", s.global_keyframes_last}};
 }
 

@@ -44,6 +44,8 @@ struct LandmarkMapConfig {
   int global_max_iterations = 10;       ///< iterations of a global BA (second solve)
   double global_max_time_s = 2.0;       ///< wall-clock limit of each of its two solves
   int global_min_observations = 2;      ///< landmarks with fewer observations stay out of a global BA
+  /// A global BA takes the longest tracks up to this many observations (0: all): its cost grows with them.
+  int global_max_observations = 100000;
   /// A keyframe with fewer observations in an adjustment is held there (too weakly constrained to move:
   /// e.g. a keyframe restored after a restart that only new tracks reach).
   int min_frame_observations = 30;

@@ -77,7 +77,9 @@ struct ServerRobotStats {
 struct BundleAdjustmentStats {
   int64_t local_runs = 0, local_failures = 0, global_runs = 0;
   double local_ms_median = 0.0, local_ms_p90 = 0.0;  ///< wall time of one local BA (its own worker)
+  double local_cpu_ms_median = 0.0, local_cpu_ms_p90 = 0.0;  ///< the same in worker-thread CPU time
   double global_ms_last = 0.0, global_ms_max = 0.0;
+  double global_cpu_ms_last = 0.0, global_cpu_ms_max = 0.0;
   int global_keyframes_last = 0;  ///< keyframes of the last global BA
   int64_t edges_in_tracks = 0;    ///< loop edges whose inlier matches are in the tracks
   int64_t edges_taken_back = 0;   ///< of those, taken out again when the pose graph disabled the edge
