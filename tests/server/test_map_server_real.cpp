@@ -70,8 +70,10 @@ TEST(MapServerReal, Fr1RpyFullSystemIsNoWorseThanOdometry) {
       "%d keyframes, %d loops (%d disabled), ingest median %.1f ms\n",
       a_odo->rmse, a_slam->rmse, k_odo->rmse, k_slam->rmse, stats.keyframes, stats.loops_accepted,
       stats.loops_disabled, stats.ingest_ms_median);
-  EXPECT_LE(a_slam->rmse, a_odo->rmse * 1.05 + 0.001) << "the full system must not be worse than odometry";
-  EXPECT_LT(a_slam->rmse, 0.035);
+  // With bundle adjustment (issue #14), measured: every frame 0.0146-0.0149 m, keyframes the same.
+  EXPECT_LE(a_slam->rmse, 0.7 * a_odo->rmse) << "bundle adjustment must improve well on odometry";
+  EXPECT_LE(a_slam->rmse, 0.018);
+  EXPECT_LE(k_slam->rmse, 0.018);
   EXPECT_GE(stats.loops_accepted, 10);
 }
 

@@ -1,0 +1,30 @@
+#!/usr/bin/env bash
+# The full system's accuracy as a user gets it (issue #14): `rgbdmap run` on the shared fr1_rpy frames, every
+# frame of the trajectory it writes (map frame, re-anchored on the optimised keyframes) against the ground
+# truth; one robot, then two robots on overlapping halves whose maps merge. Skips (77) without the data.
+# Measured (Release, 2 cores): one robot 0.0156-0.0158 m (keyframes 0.0160 m), odometry 0.0253 m; two robots
+# 0.0139 / 0.0126 m each, 0.0154 m joint.
+set -uo pipefail
+bin=$1
+data=$(cd "$(dirname "$0")/../../.." && pwd)/shared/data/tum_fr1_rpy_first250
+[ -d "$data" ] || { echo "SKIP: $data absent"; exit 77; }
+source "$(dirname "$0")/cli_test_lib.sh"
+
+check "rgbdmap run, one robot" 0 "$bin/rgbdmap" run --dataset "$data" --out "$tmp/one" --log-level warn
+json "every frame in the trajectory" "$tmp/one/report.json" '.robots.robot0.frames == 250'
+json "full system ATE <= 0.018 m" "$tmp/one/report.json" '.robots.robot0.ate_rmse_m <= 0.018'
+json "at most 0.7 x odometry" "$tmp/one/report.json" \
+  '.robots.robot0.ate_rmse_m <= 0.7 * .robots.robot0.ate_rmse_odometry_only_m'
+json "bundle adjustment ran" "$tmp/one/report.json" \
+  '.server.bundle_adjustment.local_ba_runs > 0 and .server.bundle_adjustment.global_ba_runs > 0'
+one=$(jq '.robots.robot0.ate_rmse_m' "$tmp/one/report.json")
+
+check "rgbdmap run, two robots" 0 "$bin/rgbdmap" run --dataset "$data" --robots 2 --out "$tmp/two" \
+  --log-level warn
+json "one merged map" "$tmp/two/report.json" '.server.merged == true'
+json "joint ATE <= 0.018 m" "$tmp/two/report.json" '.server.joint_ate_rmse_m <= 0.018'
+# Two robots sharing the work map the sequence as well as one robot doing all of it (10 % for thread timing).
+json "joint ATE no worse than one robot on the whole sequence" "$tmp/two/report.json" \
+  ".server.joint_ate_rmse_m <= 1.1 * $one"
+echo "measured: one robot $one m, two robots $(jq -c '[.robots.robot0.ate_rmse_m, .robots.robot1.ate_rmse_m, .server.joint_ate_rmse_m]' "$tmp/two/report.json")"
+exit "$fail"
