@@ -11,6 +11,8 @@ const { FoxgloveClient } = require('@foxglove/ws-protocol');
 const fs = require('fs');
 const [host, port, nArg, robotsDir] = process.argv.slice(2);
 const holding = {};  // robot -> [[robot_keyframe, receive ms], ...] of client 0's voxel updates
+const topicBytes = {};  // client 0: bytes per topic kind (voxels, voxel_delta, map_grid, ...)
+const bytesDown = {};   // robot -> the server -> viewer bytes its last status reports
 const n = Number(nArg || 1);
 const stats = [];
 const latencies_ms = [];
@@ -25,6 +27,10 @@ for (let i = 0; i < n; ++i) {
   client.on('message', ({ subscriptionId, data }) => {
     s.bytes += data.byteLength;
     ++s.messages;
+    const topic = String(topics.get(subscriptionId));
+    if (i === 0) topicBytes[topic.split('/').pop()] = (topicBytes[topic.split('/').pop()] || 0) + data.byteLength;
+    if (i === 0 && topic.endsWith('/status'))
+      bytesDown[topic.split('/')[1]] = JSON.parse(new TextDecoder().decode(data)).bytes_down;
     if (i !== 0 || !String(topics.get(subscriptionId)).endsWith('/voxel_delta')) return;
     const m = JSON.parse(new TextDecoder().decode(data));
     const robot = String(topics.get(subscriptionId)).split('/')[1];
@@ -72,6 +78,8 @@ function report() {
     voxel_updates: latencies_ms.length, latency_ms_median: quantile(latencies_ms, 0.5),
     latency_ms_p90: quantile(latencies_ms, 0.9), ack_keyframes: ack.latencies.length,
     ack_keyframes_missing: ack.missing, ack_latency_ms_median: quantile(ack.latencies, 0.5),
-    ack_latency_ms_p90: quantile(ack.latencies, 0.9), ack_latency_ms_max: quantile(ack.latencies, 1) }));
+    ack_latency_ms_p90: quantile(ack.latencies, 0.9), ack_latency_ms_max: quantile(ack.latencies, 1),
+    kb_per_topic_client0: Object.fromEntries(Object.entries(topicBytes).map(([k, v]) => [k, Math.round(v / 1000)])),
+    server_to_viewer_kb: Math.round(Object.values(bytesDown).reduce((a, b) => a + b, 0) / 1000) }));
   process.exit(0);
 }

@@ -1,5 +1,6 @@
 // MapWorker::writeOutputs: the map's files for people and tools (MapServer::writeMapOutputs).
 #include <algorithm>
+#include <chrono>
 #include <filesystem>
 
 #include "map_worker.hpp"
@@ -53,6 +54,9 @@ Status writeMapGrid(const octomap::OcTree& tree, int map_id, const std::vector<S
   const double height = cameraHeight(keyframes, map_id, config.up_in_map.normalized());
   Result<msg::OccupancySlice> grid = extractMapGrid(tree, height, config);
   if (!grid) return Status::failure("map_" + std::to_string(map_id) + ".pgm: " + grid.error());
+  grid->header.utime = std::chrono::duration_cast<std::chrono::microseconds>(
+                           std::chrono::system_clock::now().time_since_epoch())
+                           .count();
   const std::string base = (dir / ("map_" + std::to_string(map_id))).string();
   return writeSlice(*grid, base + ".pgm", base + ".yaml");
 }

@@ -3,6 +3,7 @@
 
 #include <cctype>
 #include <cmath>
+#include <cstdlib>
 #include <filesystem>
 #include <iomanip>
 #include <sstream>
@@ -48,6 +49,19 @@ std::string imageReference(const std::string& pgm_path, const std::string& yaml_
   return fs::absolute(pgm).string();
 }
 
+/// A float field as written: the fewest digits that read back as the same float (0.05, not the double
+/// 0.0500000007).
+std::string floatText(float v) {
+  std::string text;
+  for (int digits = 6; digits <= 9; ++digits) {
+    std::ostringstream o;
+    o << std::setprecision(digits) << v;
+    text = o.str();
+    if (std::strtof(text.c_str(), nullptr) == v) break;
+  }
+  return text;
+}
+
 std::string sliceYaml(const msg::OccupancySlice& s, const std::string& image) {
   const SE3& T = s.T_map_grid;
   const Vec3& t = T.translation();
@@ -55,13 +69,14 @@ std::string sliceYaml(const msg::OccupancySlice& s, const std::string& image) {
   const Eigen::Quaterniond q = se3::quat(T);
   std::ostringstream y;
   y << std::setprecision(9);
-  y << "image: " << image << "\nmode: trinary\nresolution: " << s.resolution_m << "\norigin: [" << t.x()
-    << ", " << t.y() << ", " << yaw << "]\nnegate: 0\noccupied_thresh: " << kOccupiedThresh
+  y << "image: " << image << "\nmode: trinary\nresolution: " << floatText(s.resolution_m) << "\norigin: ["
+    << t.x() << ", " << t.y() << ", " << yaw << "]\nnegate: 0\noccupied_thresh: " << kOccupiedThresh
     << "\nfree_thresh: " << kFreeThresh << "\n# rgbdmap (ignored by map_server): the exact 3-D grid pose\n";
   if (!s.robot_id.empty()) y << "robot_id: \"" << s.robot_id << "\"\n";
-  y << "utime: " << s.header.utime << "\nz_min_m: " << s.z_min_m << "\nz_max_m: " << s.z_max_m
-    << "\nT_map_grid: [" << T.translation().x() << ", " << T.translation().y() << ", " << T.translation().z()
-    << ", " << q.x() << ", " << q.y() << ", " << q.z() << ", " << q.w() << "]\n";
+  y << "utime: " << s.header.utime << "\nz_min_m: " << floatText(s.z_min_m)
+    << "\nz_max_m: " << floatText(s.z_max_m) << "\nT_map_grid: [" << T.translation().x() << ", "
+    << T.translation().y() << ", " << T.translation().z() << ", " << q.x() << ", " << q.y() << ", " << q.z()
+    << ", " << q.w() << "]\n";
   return y.str();
 }
 
