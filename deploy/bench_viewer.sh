@@ -47,5 +47,5 @@ for n in 1 10; do
     "$(echo "$probe" | jq '(.latency_ms_median // -1) | floor')" "$(echo "$probe" | jq '(.latency_ms_p90 // -1) | floor')" \
     "$(echo "$probe" | jq '(.ack_latency_ms_median // -1) | floor')" "$(echo "$probe" | jq '(.ack_latency_ms_p90 // -1) | floor')" \
     "$(echo "$probe" | jq '(.ack_latency_ms_max // -1) | floor')"
-  echo "$probe" | jq -r '"         (\(.ack_keyframes) keyframes timed, \(.ack_keyframes_missing) never seen at the client; server -> viewer \(.server_to_viewer_kb) KB; client 0 KB per topic: \(.kb_per_topic_client0 | tostring))"'
+  echo "$probe" | jq -r '"         (\(.ack_keyframes) keyframes timed, \(.ack_keyframes_missing) never seen at the client \(.ack_missing | tostring); server -> viewer \(.server_to_viewer_kb) KB; client 0 KB per topic: \(.kb_per_topic_client0 | tostring))"'
 done

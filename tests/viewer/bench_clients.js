@@ -49,7 +49,7 @@ function quantile(a, q) {
 }
 /// Per accepted keyframe acknowledged after the clients connected: ack -> first update holding it (ms).
 function ackToClient() {
-  const out = { latencies: [], missing: 0 };
+  const out = { latencies: [], missing: 0, missing_ids: [] };
   if (!robotsDir) return out;
   for (const robot of Object.keys(holding)) {
     let acks = [];
@@ -60,7 +60,12 @@ function ackToClient() {
       const ack = utime / 1000;
       if (ack < started) continue;
       const first = holding[robot].filter(([k]) => k >= id).map(([, t]) => t);
-      if (!first.length) { ++out.missing; continue; }
+      if (!first.length) {
+        ++out.missing;
+        out.missing_ids.push(`${robot}:${id} (newest seen ${Math.max(-1, ...holding[robot].map(([k]) => k))}, ` +
+                             `last acked ${acks[acks.length - 1][0]})`);
+        continue;
+      }
       out.latencies.push(Math.min(...first) - ack);
     }
   }
@@ -77,7 +82,7 @@ function report() {
     bytes_per_s_per_client: bytes / seconds / n, messages: stats.reduce((a, s) => a + s.messages, 0),
     voxel_updates: latencies_ms.length, latency_ms_median: quantile(latencies_ms, 0.5),
     latency_ms_p90: quantile(latencies_ms, 0.9), ack_keyframes: ack.latencies.length,
-    ack_keyframes_missing: ack.missing, ack_latency_ms_median: quantile(ack.latencies, 0.5),
+    ack_keyframes_missing: ack.missing, ack_missing: ack.missing_ids, ack_latency_ms_median: quantile(ack.latencies, 0.5),
     ack_latency_ms_p90: quantile(ack.latencies, 0.9), ack_latency_ms_max: quantile(ack.latencies, 1),
     kb_per_topic_client0: Object.fromEntries(Object.entries(topicBytes).map(([k, v]) => [k, Math.round(v / 1000)])),
     server_to_viewer_kb: Math.round(Object.values(bytesDown).reduce((a, b) => a + b, 0) / 1000) }));
