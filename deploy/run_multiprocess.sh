@@ -6,22 +6,25 @@
 # clients are done, evaluates every trajectory and the server's merged keyframes, and prints a summary.
 #
 # Usage: bash deploy/run_multiprocess.sh [--transport lcm|dds] [--robots N] [--dataset DIR] [--out DIR]
-#          [--frames F] [--check MAX_ATE_M] [--no-netns] [--viewer PORT]
+#          [--frames F] [--check MAX_ATE_M] [--no-netns] [--viewer PORT] [--realtime]
 #   --frames F     frames of the synthetic sequence (default 300), or the first F frames of --dataset
 #   --check M      exit 1 unless every keyframe was acknowledged, all robots end in one map, the merged
 #                  keyframe ATE is below M metres and the monitor printed a status (used by the CI test)
 #   --viewer PORT  also run rgbdmap-viewer (http://127.0.0.1:PORT/, Foxglove ws://127.0.0.1:PORT) beside the
 #                  monitor, stopped after the server (use --no-netns to reach it from a browser on this
 #                  machine); RGBDMAP_VIEWER_PROBE, if set, is a command run in the background once it listens
+#   --realtime     the clients read the sequence at its frame rate (30 Hz) instead of --fast
 #   --no-netns     run on the host network (the default re-runs itself inside tests/transport/run_in_netns.sh,
 #                  a private namespace with only loopback, when that is permitted)
+# RGBDMAP_SERVER_YAML, if set, is appended to the generated server.yaml (other sections, e.g.
+# "map:\n  stream_delay_s: 0"; deploy/bench_viewer.sh --stream-delay uses it).
 # Outputs in --out (default out/multiprocess_<transport>): keys/, server.yaml, client_<R>.yaml, map/
 # (store, keyframes_<R>.txt, server_summary.json), robots/<R>/ (trajectory_<R>.txt, client_<R>.json),
 # logs/, eval_<R>.txt, eval_merged.txt, time_*.txt (peak memory, CPU), summary.txt (key=value).
 set -euo pipefail
 repo="$(cd "$(dirname "$0")/.." && pwd)"
 bin="${RGBDMAP_BIN:-$repo/build/bin}"
-transport=lcm robots=2 dataset="" out="" frames="" check="" netns=1 viewer=
+transport=lcm robots=2 dataset="" out="" frames="" check="" netns=1 viewer= pace=--fast
 while [ $# -gt 0 ]; do
   case "$1" in
     --transport) transport="$2"; shift 2 ;;
@@ -32,7 +35,8 @@ while [ $# -gt 0 ]; do
     --check) check="$2"; shift 2 ;;
     --no-netns) netns=0; shift ;;
     --viewer) viewer="$2"; shift 2 ;;
-    -h|--help) sed -n '2,22p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
+    --realtime) pace=""; shift ;;
+    -h|--help) sed -n '2,25p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
     *) echo "unknown argument: $1 (see --help)" >&2; exit 2 ;;
   esac
 done
@@ -55,6 +59,7 @@ if [ "$netns" = 1 ] && [ -z "${RGBDMAP_TRANSPORT_NETNS:-}" ]; then
     [ -n "$dataset" ] && args+=(--dataset "$(cd "$dataset" && pwd)")
     [ -n "$check" ] && args+=(--check "$check")
     [ -n "$viewer" ] && args+=(--viewer "$viewer")
+    [ -z "$pace" ] && args+=(--realtime)
     exec bash "$repo/tests/transport/run_in_netns.sh" bash "$0" "${args[@]}"
   fi
   echo "note: 'unshare -n' not permitted; running on the host network (loopback-only settings)" >&2
@@ -96,6 +101,7 @@ chmod 600 "$out/keys/"*
 robot_list=$(IFS=,; echo "${ids[*]}")
 printf 'server:\n  map_dir: %s\n  robots: "%s"\n  transport: "%s"\n  keys_file: %s\n' \
   "$out/map" "$robot_list" "$url" "$out/keys/server_keys.txt" >"$out/server.yaml"
+[ -n "${RGBDMAP_SERVER_YAML:-}" ] && printf '%b\n' "$RGBDMAP_SERVER_YAML" >>"$out/server.yaml"
 
 # Overlapping ranges: chunk = total/N, extended by 2/15 of a chunk (at least 10 frames) on each side.
 chunk=$((total / robots)); overlap=$((chunk * 2 / 15)); [ "$overlap" -lt 10 ] && overlap=10
@@ -136,7 +142,7 @@ client_wraps=()
 for i in $(seq 0 $((robots - 1))); do
   r="${ids[$i]}"; rng=$(range "$i")
   echo "   $r: frames $rng"
-  timed "client_$r" "$bin/rgbdmap-client" --config "$out/client_$r.yaml" --dataset "$dataset" --fast \
+  timed "client_$r" "$bin/rgbdmap-client" --config "$out/client_$r.yaml" --dataset "$dataset" $pace \
     --frames "$rng" --out "$out/robots/$r" >"$out/logs/client_$r.log" 2>&1
   client_wraps+=($!); pids+=($!)
 done

@@ -6,6 +6,17 @@
 
 namespace rgbdmap::app {
 
+namespace {
+
+/// [[keyframe id, wall-clock us of its accepting ack], ...]: deploy/bench_viewer.sh times ack -> voxels.
+Json ackTimesJson(const std::map<int, int64_t>& ack_utime) {
+  Json list = Json::array();
+  for (const auto& [id, utime] : ack_utime) list.push_back({id, utime});
+  return list;
+}
+
+}  // namespace
+
 Json clientJson(const ClientRunInfo& info, const RobotRunResult& r) {
   const RobotLinkStats& l = r.link;
   return {{"robot_id", info.robot_id},
@@ -43,7 +54,8 @@ Json clientJson(const ClientRunInfo& info, const RobotRunResult& r) {
           {"commands_received", l.commands_received},
           {"messages_rejected", l.messages_rejected},
           {"bytes_sent", l.bytes_sent},
-          {"bytes_received", l.bytes_received}};
+          {"bytes_received", l.bytes_received},
+          {"keyframe_ack_utime", ackTimesJson(r.keyframe_ack_utime)}};
 }
 
 std::string clientSummary(const RobotRunResult& r) {

@@ -231,6 +231,7 @@ int writeOutputs(const RunOptions& o, const RunInputs& in, const std::vector<Rob
   server->stats = deployment.server().stats();
   server->maps = deployment.server().mergedMaps();
   // The occupancy map and what a person looks at first: map.bt/.ot, map.ply, slice_<robot>.pgm/.yaml,
+  // map_<id>.pgm/.yaml,
   // map.png.
   if (map_files)
     if (const Status s = deployment.server().writeMapOutputs(o.out); !s) log::warn("map files: ", s.error());

@@ -73,6 +73,7 @@ Status LocalDeployment::addRobots(const std::string& url, const std::vector<Loca
     lo.robot_id = r.id;
     lo.key = r.key;
     lo.camera = r.camera;
+    lo.T_base_camera = r.T_base_camera;
     lo.chunk_bytes = resolveChunkBytes(lo.chunk_bytes, url);
     party.link = std::make_unique<RobotLink>(*t, lo);
     robots_.push_back(std::move(party));

@@ -20,6 +20,7 @@ struct LocalRobotSpec {
   std::string id;
   msg::Bytes key;           ///< the server gets every robot's key: messages are signed as in a deployment
   CameraIntrinsics camera;  ///< sent in Hello
+  SE3 T_base_camera = defaultT_base_camera();  ///< sent in Hello: the camera's pose on the robot
 };
 
 class LocalDeployment {

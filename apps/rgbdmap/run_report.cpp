@@ -163,7 +163,7 @@ void printRunSummary(const RunOptions& o, const std::string& url, const std::vec
   std::fprintf(
       stderr,
       "wrote %s/: trajectory_<robot>.txt, keyframes_<robot>.txt, report.json, map.png, map.bt, map.ot, "
-      "map.ply, slice_<robot>.pgm/.yaml, map/\n",
+      "map.ply, slice_<robot>.pgm/.yaml, map_<id>.pgm/.yaml (the 2-D map of each map), map/\n",
       o.out.c_str());
 }
 

@@ -37,7 +37,8 @@ const char* kUsage =
     "server_summary.json (keyframes, loops, maps, ingest times, per-robot counters, merged_maps, "
     "rejects_by_robot, rejects_unknown_robot, store_state) and "
     "(map.enabled)\n"
-    "the map files: map.bt, map.ot, map.ply, map.png, slice_<robot>.pgm/.yaml, each written to a temporary\n"
+    "the map files: map.bt, map.ot, map.ply, map.png, slice_<robot>.pgm/.yaml, map_<id>.pgm/.yaml (the 2-D\n"
+    "map of each map, ROS map_server / nav2), each written to a temporary\n"
     "name, synced and renamed. Exit status: 0 stopped and every file written; 1 start-up failure, or a file\n"
     "could not be written (the previous one stays); 2 usage or configuration error.\n";
 
@@ -250,14 +251,15 @@ int main(int argc, char** argv) {
   bool map_files = false;
   const int failed_writes = writeFinalOutputs(server, config, &map_files);
   const MapServerStats s = server.stats();
-  std::fprintf(stderr,
-               "[server] final: keyframes %d loops %d maps %d; octree %zu leaves (%zu occupied), %.1f MB, "
-               "%llu rebuilds, %llu slices sent; wrote keyframes_<robot>.txt%s to %s\n",
-               s.keyframes, s.loops_accepted, s.maps, s.map_leaves, s.map_occupied_leaves,
-               s.map_tree_memory_bytes / 1e6, static_cast<unsigned long long>(s.map_rebuilds),
-               static_cast<unsigned long long>(s.slices_sent),
-               map_files ? ", map.bt, map.ot, map.ply, map.png, slice_<robot>.pgm/.yaml" : "",
-               config.server.map_dir.c_str());
+  std::fprintf(
+      stderr,
+      "[server] final: keyframes %d loops %d maps %d; octree %zu leaves (%zu occupied), %.1f MB, "
+      "%llu rebuilds, %llu slices sent; wrote keyframes_<robot>.txt%s to %s\n",
+      s.keyframes, s.loops_accepted, s.maps, s.map_leaves, s.map_occupied_leaves,
+      s.map_tree_memory_bytes / 1e6, static_cast<unsigned long long>(s.map_rebuilds),
+      static_cast<unsigned long long>(s.slices_sent),
+      map_files ? ", map.bt, map.ot, map.ply, map.png, slice_<robot>.pgm/.yaml, map_<id>.pgm/.yaml" : "",
+      config.server.map_dir.c_str());
   if (failed_writes == 0) return 0;
   log::error(failed_writes,
              " output file(s) could not be written (the previous ones stay whole); every "

@@ -19,6 +19,18 @@ const ConfigTable<CameraIntrinsics>& cameraConfigTable() {
   return table;
 }
 
+const ConfigTable<CameraMount>& cameraMountConfigTable() {
+  using C = CameraMount;
+  static const ConfigTable<C> table =
+      ConfigTable<C>()
+          .add("xyz_m", &C::xyz_m,
+               "camera position in the robot's base frame (x forward, y left, z up; metres, within 100 m)")
+          .add("rpy_deg", &C::rpy_deg,
+               "roll, pitch, yaw of the camera body (x along the optical axis, y left, z up) in the base "
+               "frame, fixed axes; 0 0 0 = level, looking forward; pitch > 0 tilts it down");
+  return table;
+}
+
 const ConfigTable<DatasetOptions>& datasetConfigTable() {
   using D = DatasetOptions;
   using R = ConfigRange;

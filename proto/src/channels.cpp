@@ -31,6 +31,8 @@ const char* channelSuffix(MessageType type) {
       return "chunk_ack";
     case MessageType::kLoopEdges:
       return "loops";
+    case MessageType::kRobotPose:
+      return "pose";
   }
   return "unknown";
 }
@@ -41,6 +43,7 @@ Direction directionOf(MessageType type) {
     case MessageType::kHeartbeat:
     case MessageType::kKeyframe:
     case MessageType::kKeyframeChunk:
+    case MessageType::kRobotPose:  // robot -> visualisers (the server does not subscribe)
       return Direction::kRobotToServer;
     default:  // everything the server sends goes to one robot's channel, signed with that robot's key
       return Direction::kServerToRobot;

@@ -1,4 +1,4 @@
-// Wire <-> internal for the robot's messages: Hello, Heartbeat, Keyframe.
+// Wire <-> internal for the robot's messages: Hello, Heartbeat, RobotPose, Keyframe.
 #include <cmath>
 
 #include "convert_common.hpp"
@@ -6,6 +6,7 @@
 #include "rgbdmap_lcm/heartbeat_t.hpp"
 #include "rgbdmap_lcm/hello_t.hpp"
 #include "rgbdmap_lcm/keyframe_t.hpp"
+#include "rgbdmap_lcm/robot_pose_t.hpp"
 
 namespace rgbdmap::msg {
 namespace {
@@ -22,6 +23,7 @@ rgbdmap_lcm::hello_t toWireHello(const Hello& m) {
   w.camera.fx = k.fx, w.camera.fy = k.fy, w.camera.cx = k.cx, w.camera.cy = k.cy;
   w.camera.width = k.width, w.camera.height = k.height, w.camera.depth_scale = k.depth_scale;
   for (int i = 0; i < 5; ++i) w.camera.distortion[i] = k.distortion[i];
+  w.T_base_camera = toWire(m.T_base_camera);
   w.software_version = m.software_version;
   w.num_capabilities = static_cast<int16_t>(m.capabilities.size());
   w.capabilities = m.capabilities;
@@ -36,6 +38,9 @@ Result<Hello> fromWireHello(const rgbdmap_lcm::hello_t& w) {
   k.fx = w.camera.fx, k.fy = w.camera.fy, k.cx = w.camera.cx, k.cy = w.camera.cy;
   k.width = w.camera.width, k.height = w.camera.height, k.depth_scale = w.camera.depth_scale;
   for (int i = 0; i < 5; ++i) k.distortion[i] = w.camera.distortion[i];
+  Result<SE3> T_base_camera = fromWire(w.T_base_camera, "T_base_camera");
+  if (!T_base_camera) return Result<Hello>::failure(T_base_camera.error());
+  m.T_base_camera = *T_base_camera;
   m.software_version = w.software_version;
   m.capabilities = w.capabilities;
   return m;
@@ -55,6 +60,34 @@ rgbdmap_lcm::heartbeat_t toWireHeartbeat(const Heartbeat& m) {
 Result<Heartbeat> fromWireHeartbeat(const rgbdmap_lcm::heartbeat_t& w) {
   return Heartbeat{fromWire(w.header), w.robot_id,       w.last_keyframe_id,
                    w.segment_id,       w.tracking_state, w.uptime_s};
+}
+
+rgbdmap_lcm::robot_pose_t toWireRobotPose(const RobotPose& m) {
+  rgbdmap_lcm::robot_pose_t w;
+  w.header = toWire(m.header);
+  w.robot_id = m.robot_id;
+  w.timestamp = m.timestamp;
+  w.segment_id = m.segment_id;
+  w.reference_keyframe_id = m.reference_keyframe_id;
+  w.tracking_state = static_cast<int8_t>(m.tracking_state);
+  w.graph_revision = m.graph_revision;
+  w.T_map_cam = toWire(m.T_map_cam);
+  return w;
+}
+
+Result<RobotPose> fromWireRobotPose(const rgbdmap_lcm::robot_pose_t& w) {
+  RobotPose m;
+  m.header = fromWire(w.header);
+  m.robot_id = w.robot_id;
+  m.timestamp = w.timestamp;
+  m.segment_id = w.segment_id;
+  m.reference_keyframe_id = w.reference_keyframe_id;
+  m.tracking_state = w.tracking_state;
+  m.graph_revision = w.graph_revision;
+  Result<SE3> T_map_cam = fromWire(w.T_map_cam, "T_map_cam");
+  if (!T_map_cam) return Result<RobotPose>::failure(T_map_cam.error());
+  m.T_map_cam = *T_map_cam;
+  return m;
 }
 
 void informationToWire(const Mat6& info, double* out) {
@@ -137,6 +170,7 @@ Result<Keyframe> fromWireKeyframe(const rgbdmap_lcm::keyframe_t& w) {
 
 RGBDMAP_PROTO_CODEC(Hello, toWireHello, fromWireHello)
 RGBDMAP_PROTO_CODEC(Heartbeat, toWireHeartbeat, fromWireHeartbeat)
+RGBDMAP_PROTO_CODEC(RobotPose, toWireRobotPose, fromWireRobotPose)
 RGBDMAP_PROTO_CODEC(Keyframe, toWireKeyframe, fromWireKeyframe)
 
 Result<DecodedImages> decodeKeyframeImages(const Keyframe& keyframe) { return decodeImages(keyframe.images); }

@@ -131,6 +131,7 @@ rgbdmap_lcm::map_update_t toWireMap(const MapUpdate& m) {
   w.full = m.full;
   w.compression = static_cast<int8_t>(m.compression);
   w.raw_size = m.raw_size;
+  w.robot_keyframe_id = m.robot_keyframe_id;
   w.data_size = detail::count(m.data);
   w.data = m.data;
   return w;
@@ -145,7 +146,8 @@ Result<MapUpdate> fromWireMap(const rgbdmap_lcm::map_update_t& w) {
                    w.full != 0,
                    static_cast<MapCompression>(w.compression),
                    w.raw_size,
-                   w.data};
+                   w.data,
+                   w.robot_keyframe_id};
 }
 
 rgbdmap_lcm::velocity_command_t toWireVelocity(const VelocityCommand& m) {

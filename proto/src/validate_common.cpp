@@ -31,6 +31,8 @@ const char* toString(MessageType type) {
       return "ChunkAck";
     case MessageType::kLoopEdges:
       return "LoopEdges";
+    case MessageType::kRobotPose:
+      return "RobotPose";
   }
   return "unknown";
 }

@@ -1,4 +1,4 @@
-// Validation of the robot's messages: Hello, Heartbeat, Keyframe.
+// Validation of the robot's messages: Hello, Heartbeat, RobotPose, Keyframe.
 #include <cmath>
 #include <cstring>
 
@@ -64,6 +64,8 @@ Status validate(const Hello& m) {
   if (!isRobotId(m.robot_id)) return fail("invalid robot id");
   if (m.header.sender != m.robot_id) return fail("sender is not the robot");
   if (std::string e = m.camera.validate(); !e.empty()) return Status::failure("camera: " + e);
+  if (!isValidPose(m.T_base_camera)) return fail("invalid camera mount pose");
+  if (!(m.T_base_camera.translation().norm() <= kMaxCameraOffsetM)) return fail("camera mount too far");
   if (!isValidText(m.software_version)) return fail("invalid software version text");
   if (m.capabilities.size() > static_cast<size_t>(kMaxCapabilities)) return fail("too many capabilities");
   for (const std::string& c : m.capabilities)
@@ -78,6 +80,17 @@ Status validate(const Heartbeat& m) {
   if (m.last_keyframe_id < -1 || m.segment_id < 0) return fail("negative id");
   if (m.tracking_state < 0 || m.tracking_state > 3) return fail("tracking state out of range");
   if (!(std::isfinite(m.uptime_s) && m.uptime_s >= 0.0)) return fail("invalid uptime");
+  return Status::success();
+}
+
+Status validate(const RobotPose& m) {
+  if (Status s = validate(m.header); !s) return s;
+  if (!isRobotId(m.robot_id)) return fail("invalid robot id");
+  if (m.header.sender != m.robot_id) return fail("sender is not the robot");
+  if (m.segment_id < 0 || m.reference_keyframe_id < -1 || m.graph_revision < -1) return fail("negative id");
+  if (m.tracking_state < 0 || m.tracking_state > 3) return fail("tracking state out of range");
+  if (!(std::isfinite(m.timestamp) && m.timestamp >= 0.0)) return fail("invalid timestamp");
+  if (!isValidPose(m.T_map_cam)) return fail("invalid pose");
   return Status::success();
 }
 

@@ -77,6 +77,7 @@ Status validate(const MapUpdate& m) {
   if (!(std::isfinite(m.resolution_m) && m.resolution_m > 0.0 && m.resolution_m <= 10.0))
     return invalid("resolution out of range");
   if (m.raw_size < 0 || m.raw_size > kMaxMapBytes) return invalid("map size out of range");
+  if (m.robot_keyframe_id < -1) return invalid("negative keyframe id");
   if (m.compression == MapCompression::kNone && m.data.size() != static_cast<size_t>(m.raw_size))
     return invalid("map data size != raw size");
   if (m.compression == MapCompression::kZstd && m.data.size() > static_cast<size_t>(kMaxMapBytes))

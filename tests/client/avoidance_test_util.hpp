@@ -1,6 +1,7 @@
 #pragma once
-// Slices for the avoidance tests, in the map convention of the project: the map frame is the first camera's
-// (x right, y down, z forward), up = (0, -1, 0); a slice grid has x = the robot's forward, y = left, z = up.
+// Slices for the avoidance tests, in the map convention of the project: the map frame is z-up (REP-103,
+// the base frame of the first robot's first keyframe), up = (0, 0, 1); these robot-centred grids have x =
+// the robot's forward, y = left, z = up (the server's are axis-aligned; the rule handles either).
 #include <cmath>
 
 #include "rgbdmap/common/se3.hpp"
@@ -9,7 +10,7 @@
 namespace rgbdmap::testing {
 
 /// Rotation whose columns are forward, left, up (map frame) for a camera looking along forward_map.
-inline Mat3 R_map_robot(const Vec3& forward_map, const Vec3& up_map = Vec3(0, -1, 0)) {
+inline Mat3 R_map_robot(const Vec3& forward_map, const Vec3& up_map = Vec3(0, 0, 1)) {
   const Vec3 up = up_map.normalized();
   const Vec3 f = (forward_map - up * up.dot(forward_map)).normalized();
   Mat3 R;

@@ -38,7 +38,9 @@ class FakeMapServer {
     std::map<int, int> receptions;  ///< keyframe messages that reached processing, by id
     int transmissions = 0;          ///< every keyframe message, dropped ones included
     int hellos = 0, heartbeats = 0;
+    msg::Hello last_hello;
     msg::Heartbeat last_heartbeat;
+    std::vector<msg::RobotPose> poses;  ///< the robot's live poses (a visualiser's view)
     int64_t revision = 0;
   };
 
@@ -58,6 +60,8 @@ class FakeMapServer {
     core->transport.subscribe(
         msg::channelFor(msg::MessageType::kHeartbeat, r).value(),
         [core](const std::string&, const uint8_t* d, size_t n) { core->onHeartbeat(d, n); });
+    core->transport.subscribe(msg::channelFor(msg::MessageType::kRobotPose, r).value(),
+                              [core](const std::string&, const uint8_t* d, size_t n) { core->onPose(d, n); });
     core->transport.start();
   }
 
@@ -103,9 +107,18 @@ class FakeMapServer {
       return msg::decodeMessage<T>(*env, &rejects);
     }
     void onHello(const uint8_t* data, size_t size) {
-      if (!open<msg::Hello>(data, size)) return;
+      auto hello = open<msg::Hello>(data, size);
+      if (!hello) return;
       std::lock_guard<std::mutex> lock(state.mutex);
       ++state.hellos;
+      state.last_hello = *hello;
+      state.cv.notify_all();
+    }
+    void onPose(const uint8_t* data, size_t size) {
+      auto pose = open<msg::RobotPose>(data, size);
+      if (!pose) return;
+      std::lock_guard<std::mutex> lock(state.mutex);
+      state.poses.push_back(*pose);
       state.cv.notify_all();
     }
     void onHeartbeat(const uint8_t* data, size_t size) {

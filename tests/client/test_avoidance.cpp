@@ -19,7 +19,7 @@ using testing::setCellAt;
 constexpr double kRes = 0.05;
 constexpr double kNow = 1000.0;
 
-const SE3 kCam = levelCamera(Vec3(0.3, 0.0, -0.2), Vec3(0, 0, 1));  // looking along map z
+const SE3 kCam = levelCamera(Vec3(-0.2, -0.3, 0.0), Vec3(1, 0, 0));  // looking along map x (z is up)
 
 /// A free slice, stamped now, with a wall across the corridor `ahead_m` in front of the camera (0 = none).
 msg::OccupancySlice sliceWithWall(double ahead_m, const SE3& cam = kCam, double now = kNow) {
@@ -45,27 +45,27 @@ AvoidanceConfig paperConfig() {
 
 TEST(Avoidance, CorridorDistanceToTheNearEdgeOfTheClosestObstacle) {
   for (double d : {0.3, 0.8, 1.55}) {
-    const double got = closestObstacleInCorridor(sliceWithWall(d), kCam, 0.5, 2.0, Vec3(0, -1, 0));
+    const double got = closestObstacleInCorridor(sliceWithWall(d), kCam, 0.5, 2.0, Vec3(0, 0, 1));
     EXPECT_NEAR(got, d, kRes + 1e-9) << "wall at " << d;
   }
-  EXPECT_TRUE(std::isinf(closestObstacleInCorridor(sliceWithWall(0.0), kCam, 0.5, 2.0, Vec3(0, -1, 0))));
-  EXPECT_TRUE(std::isinf(closestObstacleInCorridor(sliceWithWall(1.8), kCam, 0.5, 1.5, Vec3(0, -1, 0))))
+  EXPECT_TRUE(std::isinf(closestObstacleInCorridor(sliceWithWall(0.0), kCam, 0.5, 2.0, Vec3(0, 0, 1))));
+  EXPECT_TRUE(std::isinf(closestObstacleInCorridor(sliceWithWall(1.8), kCam, 0.5, 1.5, Vec3(0, 0, 1))))
       << "beyond the lookahead";
   // A grid that is not aligned with the robot: the camera turned 40 degrees in the plane, grid kept.
-  const SE3 turned = levelCamera(kCam.translation(), Vec3(std::sin(0.7), 0, std::cos(0.7)));
+  const SE3 turned = levelCamera(kCam.translation(), Vec3(std::cos(0.7), -std::sin(0.7), 0));
   msg::OccupancySlice s = sliceWithWall(0.0);
   for (double lateral = -0.5; lateral <= 0.5; lateral += kRes / 2)
     setCellAt(&s, turned.translation() + 0.9 * turned.linear().col(2) - lateral * turned.linear().col(0),
               100);
-  EXPECT_NEAR(closestObstacleInCorridor(s, turned, 0.5, 2.0, Vec3(0, -1, 0)), 0.9, 1.5 * kRes);
+  EXPECT_NEAR(closestObstacleInCorridor(s, turned, 0.5, 2.0, Vec3(0, 0, 1)), 0.9, 1.5 * kRes);
   // Malformed input is NaN, not a crash.
   s.cells.pop_back();
-  EXPECT_TRUE(std::isnan(closestObstacleInCorridor(s, kCam, 0.5, 2.0, Vec3(0, -1, 0))));
-  EXPECT_TRUE(std::isnan(closestObstacleInCorridor(sliceWithWall(1.0), kCam, -1.0, 2.0, Vec3(0, -1, 0))));
+  EXPECT_TRUE(std::isnan(closestObstacleInCorridor(s, kCam, 0.5, 2.0, Vec3(0, 0, 1))));
+  EXPECT_TRUE(std::isnan(closestObstacleInCorridor(sliceWithWall(1.0), kCam, -1.0, 2.0, Vec3(0, 0, 1))));
   EXPECT_TRUE(std::isnan(closestObstacleInCorridor(sliceWithWall(1.0), kCam, 0.5, 2.0, Vec3::Zero())));
   const SE3 down =
-      levelCamera(kCam.translation(), Vec3(0, 0, 1)) * SE3(Eigen::AngleAxisd(M_PI / 2, Vec3::UnitX()));
-  EXPECT_TRUE(std::isnan(closestObstacleInCorridor(sliceWithWall(1.0), down, 0.5, 2.0, Vec3(0, -1, 0))))
+      levelCamera(kCam.translation(), Vec3(1, 0, 0)) * SE3(Eigen::AngleAxisd(M_PI / 2, Vec3::UnitX()));
+  EXPECT_TRUE(std::isnan(closestObstacleInCorridor(sliceWithWall(1.0), down, 0.5, 2.0, Vec3(0, 0, 1))))
       << "camera looking straight down has no forward";
 }
 

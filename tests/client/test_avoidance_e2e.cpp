@@ -12,6 +12,7 @@
 #include "avoidance_test_util.hpp"
 #include "rgbdmap/client/avoidance.hpp"
 #include "rgbdmap/common/camera.hpp"
+#include "rgbdmap/common/camera_mount.hpp"
 #include "rgbdmap/common/synth.hpp"
 
 namespace rgbdmap {
@@ -98,14 +99,15 @@ TEST(AvoidanceE2E, CommandsReactToTheObstacleAheadInTheSyntheticRoom) {
   const AvoidanceConfig acfg;  // defaults: safety 0.8 m, emergency 0.35 m, corridor 0.5 m
   AvoidanceController controller(acfg);
 
-  // Start where the corridor is clear for 1.52 m (the obstacle off the voxel boundaries of the map, which is
-  // the first camera's frame).
+  // Start where the corridor is clear for 1.52 m (the obstacle off the voxel boundaries of the map, whose
+  // origin is the first camera's: the default mount has no offset).
   double x = 0.0;
   x += trueCorridorDistance(*scene, x, acfg.corridor_width_m) - 1.52;
   ASSERT_NEAR(trueCorridorDistance(*scene, x, acfg.corridor_width_m), 1.52, 1e-6);
-  const SE3 T_map_world = worldCamera(x).inverse();
+  // The map frame is the base frame of the first keyframe (the default mount: a level, forward camera).
+  const SE3 T_map_world = (worldCamera(x) * defaultT_base_camera().inverse()).inverse();
   const Vec3 up_map = T_map_world.linear() * Vec3::UnitZ();
-  ASSERT_TRUE(up_map.isApprox(acfg.up_in_map, 1e-12)) << "a level first camera: up = -y in the map";
+  ASSERT_TRUE(up_map.isApprox(acfg.up_in_map, 1e-12)) << "a level first camera: the map is z-up";
 
   octomap::OcTree tree(kSliceRes);
   bool turned = false;

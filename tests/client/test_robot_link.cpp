@@ -259,13 +259,14 @@ TEST(RobotLink, CorrectionsMoveEachSegmentIntoTheMap) {
   server.start();
   RobotLink link(*transport, linkOptions("robot0", linkKey(4)));
   ASSERT_TRUE(link.start());
-  EXPECT_TRUE(link.mapFromOdom(0).isApprox(SE3::Identity())) << "identity before any correction";
+  EXPECT_TRUE(link.mapFromOdom(0).isApprox(defaultT_base_camera()))
+      << "before any correction: where the server places a new chain, the camera mount";
   sendKeyframes(link, 3, 0, 0);
   sendKeyframes(link, 2, 1, 3);
   ASSERT_TRUE(link.waitForCorrection(4, 5.0));
   EXPECT_LT(testing::maxPoseDifference(link.mapFromOdom(0), testPose(7)), 1e-9);
   EXPECT_LT(testing::maxPoseDifference(link.mapFromOdom(1), testPose(-3)), 1e-9);
-  EXPECT_TRUE(link.mapFromOdom(2).isApprox(SE3::Identity())) << "an uncorrected segment stays identity";
+  EXPECT_TRUE(link.mapFromOdom(2).isApprox(defaultT_base_camera())) << "an uncorrected segment: the mount";
   ASSERT_TRUE(link.correctedKeyframe(2).has_value());
   EXPECT_LT(testing::maxPoseDifference(*link.correctedKeyframe(2), testPose(7) * testPose(2)), 1e-9);
   const int64_t revision = link.stats().graph_revision;
@@ -360,7 +361,7 @@ TEST(RobotLink, GarbageForgedReplayedAndMisaddressedMessagesAreRejected) {
   EXPECT_EQ(link.stats().messages_rejected, uint64_t(expected));
   EXPECT_EQ(link.stats().keyframes_acked, 0u);
   EXPECT_EQ(link.stats().corrections_received, 0u);
-  EXPECT_TRUE(link.mapFromOdom(0).isApprox(SE3::Identity()));
+  EXPECT_TRUE(link.mapFromOdom(0).isApprox(defaultT_base_camera()));
   // The genuine server is still heard afterwards.
   ASSERT_TRUE(transport->publish(ack_channel, sealOrFail(genuine, testing::makeAck("robot0", 0))));
   EXPECT_TRUE(link.waitAllAcked(5.0));

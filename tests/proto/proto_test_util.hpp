@@ -74,6 +74,19 @@ inline msg::Hello sampleHello() {
   m.robot_id = "robot_1";
   m.software_version = "rgbdmap 0.1.0 (test)";
   m.capabilities = {"keyframes", "cmd_vel"};
+  m.T_base_camera = CameraMount{{0.1, -0.05, 0.45}, {0.0, 12.0, -3.0}}.T_base_camera();
+  return m;
+}
+
+inline msg::RobotPose sampleRobotPose() {
+  msg::RobotPose m;
+  m.robot_id = "robot_1";
+  m.timestamp = 1305031102.211;
+  m.segment_id = 1;
+  m.reference_keyframe_id = 16;
+  m.tracking_state = 1;
+  m.graph_revision = 7;
+  m.T_map_cam = samplePose(0.7);
   return m;
 }
 
@@ -138,6 +151,7 @@ inline msg::MapUpdate sampleMap() {
   msg::MapUpdate m;
   m.map_revision = 5;
   m.full = false;
+  m.robot_keyframe_id = 23;
   Bytes octree(5000);
   for (size_t i = 0; i < octree.size(); ++i) octree[i] = static_cast<uint8_t>(i / 10);
   msg::setMapBytes(octree, msg::MapCompression::kZstd, &m);
@@ -165,7 +179,8 @@ inline std::vector<Bytes> sampleEnvelopes(msg::Signer* robot, msg::Signer* serve
           server->seal(sampleCorrections(), t).value(), server->seal(sampleSlice(), t).value(),
           server->seal(sampleMap(), t).value(),         server->seal(sampleVelocity(), t).value(),
           server->seal(sampleStatus(), t).value(),      robot->seal(sampleChunk(), t).value(),
-          server->seal(sampleChunkAck(), t).value(),    server->seal(sampleLoops(), t).value()};
+          server->seal(sampleChunkAck(), t).value(),    server->seal(sampleLoops(), t).value(),
+          robot->seal(sampleRobotPose(), t).value()};
 }
 
 }  // namespace rgbdmap::testing

@@ -49,6 +49,8 @@ Status decodeAny(const OpenedEnvelope& e, RejectCounters* c) {
       return decodeAs<ChunkAck>(e, c);
     case MessageType::kLoopEdges:
       return decodeAs<LoopEdges>(e, c);
+    case MessageType::kRobotPose:
+      return decodeAs<RobotPose>(e, c);
   }
   return Status::failure("unknown type");
 }

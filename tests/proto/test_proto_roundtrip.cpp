@@ -90,6 +90,7 @@ TEST(ProtoRoundTrip, HelloHeartbeatAck) {
   EXPECT_EQ(h2.camera.distortion, h.camera.distortion);
   EXPECT_EQ(h2.camera.width, h.camera.width);
   EXPECT_EQ(h2.camera.depth_scale, h.camera.depth_scale);
+  expectPose(h2.T_base_camera, h.T_base_camera);
   const Heartbeat b = testing::sampleHeartbeat(), b2 = throughEnvelope(b);
   EXPECT_EQ(b2.last_keyframe_id, b.last_keyframe_id);
   EXPECT_EQ(b2.segment_id, b.segment_id);
@@ -131,6 +132,10 @@ TEST(ProtoRoundTrip, OccupancyMapStatus) {
   EXPECT_EQ(m2.full, m.full);
   EXPECT_EQ(m2.compression, m.compression);
   EXPECT_EQ(m2.data, m.data);
+  EXPECT_EQ(m2.robot_keyframe_id, 23);
+  MapUpdate bad_map = m;
+  bad_map.robot_keyframe_id = -2;
+  EXPECT_FALSE(validate(bad_map));
   Result<Bytes> octree = mapBytes(m2);
   ASSERT_TRUE(octree) << octree.error();
   EXPECT_EQ(octree->size(), 5000u);
@@ -189,6 +194,50 @@ TEST(ProtoRoundTrip, LoopEdges) {
   EXPECT_FALSE(validate(bad));
   EXPECT_EQ(channelFor(MessageType::kLoopEdges, "robot_1").value(), "rgbdmap/robot_1/loops");
   EXPECT_EQ(directionOf(MessageType::kLoopEdges), Direction::kServerToRobot);
+}
+
+TEST(ProtoRoundTrip, HelloCameraMount) {
+  Hello h = testing::sampleHello();
+  EXPECT_TRUE(testing::sampleHello().T_base_camera.isApprox(throughEnvelope(h).T_base_camera, 1e-12));
+  h.T_base_camera = SE3::Identity();
+  EXPECT_TRUE(throughEnvelope(h).T_base_camera.isApprox(SE3::Identity()));
+  const Hello fresh;
+  EXPECT_TRUE(fresh.T_base_camera.isApprox(defaultT_base_camera()));
+  h.T_base_camera.translation() = Vec3(0, 0, kMaxCameraOffsetM + 1.0);
+  EXPECT_FALSE(validate(h));
+  h.T_base_camera = SE3::Identity();
+  h.T_base_camera.linear()(0, 0) = 2.0;  // not a rotation
+  EXPECT_FALSE(validate(h));
+  h.T_base_camera.translation().x() = std::nan("");
+  EXPECT_FALSE(encodePayload(h));
+}
+
+TEST(ProtoRoundTrip, RobotPose) {
+  const RobotPose m = testing::sampleRobotPose(), m2 = throughEnvelope(m);
+  EXPECT_EQ(m2.robot_id, m.robot_id);
+  EXPECT_EQ(m2.timestamp, m.timestamp);
+  EXPECT_EQ(m2.segment_id, m.segment_id);
+  EXPECT_EQ(m2.reference_keyframe_id, m.reference_keyframe_id);
+  EXPECT_EQ(m2.tracking_state, m.tracking_state);
+  EXPECT_EQ(m2.graph_revision, m.graph_revision);
+  expectPose(m2.T_map_cam, m.T_map_cam);
+  RobotPose bad = m;
+  bad.header.sender = "robot_2";  // a robot's pose comes from that robot only
+  EXPECT_FALSE(validate(bad));
+  bad = m;
+  bad.tracking_state = 4;
+  EXPECT_FALSE(validate(bad));
+  bad = m;
+  bad.graph_revision = -2;
+  EXPECT_FALSE(validate(bad));
+  bad = m;
+  bad.timestamp = std::nan("");
+  EXPECT_FALSE(validate(bad));
+  bad = m;
+  bad.T_map_cam.translation().y() = INFINITY;
+  EXPECT_FALSE(validate(bad));
+  EXPECT_EQ(channelFor(MessageType::kRobotPose, "robot_1").value(), "rgbdmap/robot_1/pose");
+  EXPECT_EQ(directionOf(MessageType::kRobotPose), Direction::kRobotToServer);
 }
 
 TEST(ProtoChannels, NamesAndDirections) {

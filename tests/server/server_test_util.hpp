@@ -93,10 +93,11 @@ class ScriptedRobot {
       EXPECT_TRUE(transport_.subscribe(*msg::channelFor(type, id_), handler));
   }
 
-  void hello(const CameraIntrinsics& camera) {
+  void hello(const CameraIntrinsics& camera, const SE3& T_base_camera = defaultT_base_camera()) {
     msg::Hello h;
     h.robot_id = id_;
     h.camera = camera;
+    h.T_base_camera = T_base_camera;
     h.software_version = "test";
     publish(h);
   }
@@ -169,6 +170,25 @@ class ScriptedRobot {
     std::lock_guard<std::mutex> lock(state_->mutex);
     return state_->stream;
   }
+  /// When the ack of keyframe `id` came (the first one), if it came.
+  std::optional<std::chrono::steady_clock::time_point> ackTime(int id) const {
+    std::lock_guard<std::mutex> lock(state_->mutex);
+    const auto it = state_->ack_times.find(id);
+    if (it == state_->ack_times.end()) return std::nullopt;
+    return it->second;
+  }
+  /// Waits for the first MapUpdate whose tree holds keyframe `id` of this robot (robot_keyframe_id >= id)
+  /// and returns when it came; nullopt on timeout.
+  std::optional<std::chrono::steady_clock::time_point> waitMapWithKeyframe(int id, double timeout_s) const {
+    std::unique_lock<std::mutex> lock(state_->mutex);
+    const auto find = [&]() -> std::optional<std::chrono::steady_clock::time_point> {
+      for (const auto& [kf, t] : state_->map_keyframes)
+        if (kf >= id) return t;
+      return std::nullopt;
+    };
+    state_->cv.wait_for(lock, std::chrono::duration<double>(timeout_s), [&] { return find().has_value(); });
+    return find();
+  }
   /// Waits until pred(tree) holds for the robot's copy of the streamed map (checked on every update).
   bool waitMap(const std::function<bool(const octomap::OcTree&)>& pred, double timeout_s) const {
     std::unique_lock<std::mutex> lock(state_->mutex);
@@ -183,6 +203,8 @@ class ScriptedRobot {
     std::mutex mutex;
     std::condition_variable cv;
     std::map<int, bool> acks;
+    std::map<int, std::chrono::steady_clock::time_point> ack_times;
+    std::vector<std::pair<int, std::chrono::steady_clock::time_point>> map_keyframes;  ///< per MapUpdate
     int ack_messages = 0;
     std::optional<msg::PoseCorrections> corrections;
     int correction_messages = 0;
@@ -197,6 +219,7 @@ class ScriptedRobot {
       if (opened->type == msg::MessageType::kKeyframeAck) {
         if (auto ack = msg::decodeMessage<msg::KeyframeAck>(*opened)) {
           acks[ack->keyframe_id] = ack->accepted;
+          ack_times.emplace(ack->keyframe_id, std::chrono::steady_clock::now());
           ++ack_messages;
         }
       } else if (opened->type == msg::MessageType::kPoseCorrections) {
@@ -212,6 +235,7 @@ class ScriptedRobot {
       } else if (opened->type == msg::MessageType::kMapUpdate) {
         if (auto u = msg::decodeMessage<msg::MapUpdate>(*opened)) {
           ++stream.updates;
+          map_keyframes.emplace_back(u->robot_keyframe_id, std::chrono::steady_clock::now());
           ++(u->full ? stream.full : stream.partial);
           stream.bytes += u->data.size();
           if (!applyMapUpdate(*u, &map)) ++stream.failed;

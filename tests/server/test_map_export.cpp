@@ -173,7 +173,8 @@ TEST(ExportVoxelCloud, BadInputIsAnError) {
     EXPECT_FALSE(VoxelCloud(v).add({{1, 2, 3}}, {{1, 2, 3}}, SE3::Identity())) << v;
 }
 
-/// A 7 x 5 slice with every kind of value, its grid turned by `yaw` in the plane and lifted by `height_m`.
+/// A 7 x 5 slice with every kind of value, its grid turned by `yaw` about the z-up map's z and lifted by
+/// `height_m`.
 msg::OccupancySlice craftedSlice(double x, double y, double yaw, double height_m) {
   msg::OccupancySlice s;
   s.robot_id = "robot_7";
@@ -183,8 +184,8 @@ msg::OccupancySlice craftedSlice(double x, double y, double yaw, double height_m
   s.resolution_m = 0.1f;
   s.z_min_m = 0.2f;
   s.z_max_m = 1.5f;
-  s.T_map_grid.linear() = R_map_plane() * Eigen::AngleAxisd(yaw, Vec3::UnitZ()).toRotationMatrix();
-  s.T_map_grid.translation() = R_map_plane() * Vec3(x, y, height_m);
+  s.T_map_grid.linear() = Eigen::AngleAxisd(yaw, Vec3::UnitZ()).toRotationMatrix();
+  s.T_map_grid.translation() = Vec3(x, y, height_m);
   s.cells.assign(35, msg::OccupancySlice::kFree);
   s.cells[0] = msg::OccupancySlice::kOccupied;  // (col 0, row 0): the origin corner
   s.cells[6] = msg::OccupancySlice::kUnknown;   // (6, 0)
@@ -213,7 +214,7 @@ TEST(ExportSlice, PgmFollowsMapSaverAndRoundTrips) {
   EXPECT_EQ(pixel(1, 1), 254);
   EXPECT_EQ(static_cast<uint8_t>(pgm[pixels]), 0) << "top-left pixel = grid cell (0, 4)";
 
-  // YAML: map_server's keys, origin in the plane frame.
+  // YAML: map_server's keys, origin in the (z-up) map frame.
   const YAML::Node y = YAML::LoadFile(tmp.path("slice_robot_7.yaml"));
   EXPECT_EQ(y["image"].as<std::string>(), "slice_robot_7.pgm");
   EXPECT_NEAR(y["resolution"].as<double>(), 0.1, 1e-7);
@@ -252,19 +253,58 @@ TEST(ExportSlice, PlainMapServerYamlReadsThroughOrigin) {
   ASSERT_TRUE(back) << back.error();
   EXPECT_TRUE(back->T_map_grid.isApprox(s.T_map_grid, 1e-9));
   EXPECT_EQ(back->cells[0], 100);
-  // Cell (col, row) centre = T_map_grid * ((col + 0.5) res, (row + 0.5) res, 0): the plane's x axis turned by
-  // yaw.
+  // Cell (col, row) centre = T_map_grid * ((col + 0.5) res, (row + 0.5) res, 0): the map's x axis turned by
+  // yaw about z.
   const Vec3 c10 = back->T_map_grid * Vec3(0.15, 0.05, 0.0);
   const Vec3 c00 = back->T_map_grid * Vec3(0.05, 0.05, 0.0);
-  const Vec3 step_plane = R_map_plane().transpose() * (c10 - c00);
-  EXPECT_NEAR(step_plane.x(), 0.1 * std::cos(-2.0), 1e-9);
-  EXPECT_NEAR(step_plane.y(), 0.1 * std::sin(-2.0), 1e-9);
-  EXPECT_NEAR(R_map_plane().determinant(), 1.0, 1e-12);
+  EXPECT_NEAR((c10 - c00).x(), 0.1 * std::cos(-2.0), 1e-9);
+  EXPECT_NEAR((c10 - c00).y(), 0.1 * std::sin(-2.0), 1e-9);
+  EXPECT_NEAR((c10 - c00).z(), 0.0, 1e-12);
   tmp.write("negated.yaml", "image: m.pgm\nresolution: 0.1\norigin: [0, 0, 0]\nnegate: 1\n");
   auto negated = readSlice(tmp.path("negated.yaml"));
   ASSERT_TRUE(negated) << negated.error();
   EXPECT_EQ(negated->cells[0], 0);
   EXPECT_EQ(negated->cells[1], 100);
+}
+
+TEST(ExportSlice, GlobalMapIsANav2MapWithoutYaw) {
+  // A map's global 2-D map (map_<id>.pgm/.yaml): no robot, axis-aligned, at the robots' camera height.
+  TempDir tmp;
+  auto g = craftedSlice(-3.25, 1.75, 0.0, 0.45);
+  g.robot_id.clear();
+  ASSERT_TRUE(writeSlice(g, tmp.path("map_4.pgm"), tmp.path("map_4.yaml")));
+  const std::string pgm = readBytes(tmp.path("map_4.pgm"));
+  EXPECT_NE(pgm.find("# rgbdmap global occupancy map\n"), std::string::npos);
+  const YAML::Node y = YAML::LoadFile(tmp.path("map_4.yaml"));
+  for (const char* key : {"image", "resolution", "origin", "negate", "occupied_thresh", "free_thresh"})
+    EXPECT_TRUE(y[key]) << key << " (map_server needs it)";
+  EXPECT_FALSE(y["robot_id"]);
+  EXPECT_EQ(y["image"].as<std::string>(), "map_4.pgm");
+  const auto origin = y["origin"].as<std::vector<double>>();
+  ASSERT_EQ(origin.size(), 3u);
+  EXPECT_EQ(origin[2], 0.0) << "nav2's static layer ignores yaw: there is none";
+  EXPECT_EQ(readBytes(tmp.path("map_4.yaml")).find("-0]"), std::string::npos);
+  EXPECT_NEAR(origin[0], -3.25, 1e-6);
+  EXPECT_NEAR(origin[1], 1.75, 1e-6);
+  EXPECT_EQ(y["negate"].as<int>(), 0);
+  auto back = readSlice(tmp.path("map_4.yaml"));
+  ASSERT_TRUE(back) << back.error();
+  EXPECT_TRUE(back->robot_id.empty());
+  EXPECT_TRUE(back->T_map_grid.isApprox(g.T_map_grid, 1e-6));
+  EXPECT_NEAR(back->T_map_grid.translation().z(), 0.45, 1e-6);
+  ASSERT_EQ(back->cells.size(), g.cells.size());
+  for (size_t i = 0; i < g.cells.size(); ++i) {
+    const int8_t want = g.cells[i] >= 65 ? 100 : (g.cells[i] >= 0 && g.cells[i] < 20 ? 0 : -1);
+    EXPECT_EQ(back->cells[i], want) << "cell " << i;
+  }
+  // What map_server reads (origin only, the rgbdmap keys dropped): the same grid on the floor plane.
+  tmp.write("plain.yaml",
+            "image: map_4.pgm\nresolution: 0.1\norigin: [-3.25, 1.75, 0.0]\nnegate: 0\n"
+            "occupied_thresh: 0.65\nfree_thresh: 0.196\n");
+  auto plain = readSlice(tmp.path("plain.yaml"));
+  ASSERT_TRUE(plain) << plain.error();
+  EXPECT_TRUE(plain->T_map_grid.linear().isApprox(Mat3::Identity(), 1e-12));
+  EXPECT_EQ(plain->cells, back->cells);
 }
 
 TEST(ExportSlice, BadSlicesAndFilesAreErrors) {

@@ -16,18 +16,18 @@ namespace {
 
 using testing::TempDir;
 
-/// Map frame y down: a floor (y = 1.0), a 1 m wall block, a ceiling (y = -1.5) and free space between.
+/// Map frame z up: a floor (z = -1.0), a 1 m wall block, a ceiling (z = 1.5) and free space between.
 octomap::OcTree smallRoom(bool with_ceiling) {
   octomap::OcTree tree(0.1);
   auto at = [](int i) { return static_cast<float>(0.1 * i + 0.05); };  // voxel centres
   for (int ix = -20; ix < 20; ++ix)
-    for (int iz = -10; iz < 30; ++iz) {
-      tree.updateNode(octomap::point3d(at(ix), at(10), at(iz)), true);
-      if (with_ceiling) tree.updateNode(octomap::point3d(at(ix), at(-15), at(iz)), true);
-      tree.updateNode(octomap::point3d(at(ix), at(0), at(iz)), false);
+    for (int iy = -10; iy < 30; ++iy) {
+      tree.updateNode(octomap::point3d(at(ix), at(iy), at(-11)), true);
+      if (with_ceiling) tree.updateNode(octomap::point3d(at(ix), at(iy), at(14)), true);
+      tree.updateNode(octomap::point3d(at(ix), at(iy), at(-1)), false);
     }
   for (int ix = 5; ix < 15; ++ix)
-    for (int iy = -10; iy < 10; ++iy) tree.updateNode(octomap::point3d(at(ix), at(iy), at(25)), true);
+    for (int iz = -10; iz < 10; ++iz) tree.updateNode(octomap::point3d(at(ix), at(25), at(iz)), true);
   return tree;
 }
 
@@ -55,8 +55,8 @@ TEST(ExportPicture, WrittenWithTrajectoriesInTheirColoursAndTreeUntouched) {
   MapPictureOptions options;
   options.max_side_px = 400;
   const std::vector<NamedTrajectory> trajectories{
-      {"alpha", straightPath(Vec3(-1.5, 0, -0.5), Vec3(-1.5, 0, 2.0), 30)},
-      {"beta", straightPath(Vec3(-1.0, 0, 0.0), Vec3(1.5, 0, 0.0), 30)}};
+      {"alpha", straightPath(Vec3(-1.5, -0.5, 0), Vec3(-1.5, 2.0, 0), 30)},
+      {"beta", straightPath(Vec3(-1.0, 0.0, 0), Vec3(1.5, 0.0, 0), 30)}};
   ASSERT_TRUE(writeMapPicture(tree, trajectories, tmp.path("map.png"), options));
   const cv::Mat png = cv::imread(tmp.path("map.png"), cv::IMREAD_COLOR);
   ASSERT_FALSE(png.empty());
@@ -77,15 +77,15 @@ TEST(ExportPicture, WrittenWithTrajectoriesInTheirColoursAndTreeUntouched) {
                                    << got;
     }
   }
-  // Forward (map z) is up in the picture, x to the right: the wall block (z = 2.55) is near the top.
-  const cv::Point2d wall = layout.toPixel(Vec3(1.0, 0.0, 2.55));
+  // Map y is up in the picture, x to the right (seen from above): the wall block (y = 2.55) is near the top.
+  const cv::Point2d wall = layout.toPixel(Vec3(1.0, 2.55, 0.0));
   const cv::Point2d start = layout.toPixel(Vec3(1.0, 0.0, 0.0));
   EXPECT_LT(wall.y, start.y);
   EXPECT_GT(layout.toPixel(Vec3(1.5, 0, 0)).x, layout.toPixel(Vec3(-1.5, 0, 0)).x);
   // The ceiling is cut away: the wall's top is drawn in another colour than the floor around it, and the
   // picture has more than a handful of colours (a height colour map, grey, white, trajectories).
   const cv::Vec3b wall_px = png.at<cv::Vec3b>(static_cast<int>(wall.y), static_cast<int>(wall.x));
-  const cv::Point2d floor_pt = layout.toPixel(Vec3(0.0, 0.0, 1.5));
+  const cv::Point2d floor_pt = layout.toPixel(Vec3(0.0, 1.5, 0.0));
   const cv::Vec3b floor_px = png.at<cv::Vec3b>(static_cast<int>(floor_pt.y), static_cast<int>(floor_pt.x));
   EXPECT_FALSE(near(wall_px, floor_px)) << wall_px << " vs " << floor_px;
   std::set<int> colours;
@@ -122,10 +122,10 @@ TEST(ExportPicture, FreeSpaceGreyUnknownWhiteAndBadInputRejected) {
   MapPictureLayout layout;
   auto image = renderMapPicture(tree, {}, options, &layout);
   ASSERT_TRUE(image) << image.error();
-  const cv::Point2d free_pt = layout.toPixel(Vec3(0.45, 0.0, 0.05));
+  const cv::Point2d free_pt = layout.toPixel(Vec3(0.45, 0.05, 0.05));
   EXPECT_EQ(image->at<cv::Vec3b>(static_cast<int>(free_pt.y), static_cast<int>(free_pt.x)),
             cv::Vec3b(225, 225, 225));
-  const cv::Point2d unknown_pt = layout.toPixel(Vec3(1.5, 0.0, 0.05));
+  const cv::Point2d unknown_pt = layout.toPixel(Vec3(1.5, 0.05, 0.05));
   EXPECT_EQ(image->at<cv::Vec3b>(static_cast<int>(unknown_pt.y), static_cast<int>(unknown_pt.x)),
             cv::Vec3b(255, 255, 255));
 

@@ -82,7 +82,7 @@ TEST(MapServer, TwoRobotsWithOverlappingSegmentsEndInOneMergedMap) {
   // Robot1 received poses in the merged map frame.
   const auto c = r1.corrections();
   ASSERT_TRUE(c);
-  EXPECT_FALSE(c->T_map_odom.isApprox(SE3::Identity(), 1e-3));
+  EXPECT_FALSE(c->T_map_odom.isApprox(defaultT_base_camera(), 1e-3)) << "not where its own chain started";
   // The occupancy map followed the merge: robot1's keyframes moved into robot0's map (a rebuild), and the
   // files hold one map.
   const MapServerStats s = h.server->stats();
@@ -93,9 +93,10 @@ TEST(MapServer, TwoRobotsWithOverlappingSegmentsEndInOneMergedMap) {
   std::vector<std::string> files;
   for (const auto& entry : std::filesystem::directory_iterator(out)) files.push_back(entry.path().filename());
   std::sort(files.begin(), files.end());
-  const std::vector<std::string> expected = {"map.bt",           "map.ot",           "map.ply",
-                                             "map.png",          "slice_robot0.pgm", "slice_robot0.yaml",
-                                             "slice_robot1.pgm", "slice_robot1.yaml"};
+  // One merged map (id 0: its first keyframe's node): its global 2-D map is map_0.pgm/.yaml.
+  const std::vector<std::string> expected = {
+      "map.bt",     "map.ot",           "map.ply",           "map.png",          "map_0.pgm",
+      "map_0.yaml", "slice_robot0.pgm", "slice_robot0.yaml", "slice_robot1.pgm", "slice_robot1.yaml"};
   EXPECT_EQ(files, expected);
 }
 
@@ -193,7 +194,7 @@ TEST(MapServer, ARestartedRobotContinuesAsANewChainAndIsReAnchoredByLoopClosure)
   const auto c = after.corrections();
   ASSERT_TRUE(c);
   EXPECT_EQ(c->keyframes.size(), second.keyframes.size());
-  EXPECT_FALSE(c->T_map_odom.isApprox(SE3::Identity(), 1e-3));
+  EXPECT_FALSE(c->T_map_odom.isApprox(defaultT_base_camera(), 1e-3)) << "not where its own chain started";
 }
 
 TEST(MapServer, InjectedFalseLoopsDoNotMoveTheOptimisedTrajectory) {

@@ -24,6 +24,8 @@ TEST(TransportChannel, LateJoinerChannels) {
   EXPECT_TRUE(isLatestForLateJoiners("rgbdmap/server/map", options));
   EXPECT_TRUE(isLatestForLateJoiners("rgbdmap/server/slice", options));
   EXPECT_TRUE(isLatestForLateJoiners("rgbdmap/robot1/status", options));
+  EXPECT_TRUE(isLatestForLateJoiners("rgbdmap/robot1/loops", options));  // loop edges reach a late viewer
+  EXPECT_FALSE(isLatestForLateJoiners("rgbdmap/robot1/pose", options));  // the live pose: volatile
   EXPECT_FALSE(isLatestForLateJoiners("rgbdmap/robot1/keyframe", options));
   EXPECT_FALSE(isLatestForLateJoiners("rgbdmap/robot1/mapx", options));
   options.latest_for_late_joiners_channels = {"rgbdmap/server/graph"};

@@ -1,7 +1,8 @@
 // The viewer through the Foxglove WebSocket protocol's reference client (npm @foxglove/ws-protocol): connects,
 // checks the advertised channels and their JSON schemas, subscribes to every channel, decodes the messages
 // and compares them with what the run wrote (EXPECTED, a JSON file made by test_viewer_foxglove.sh):
-// per robot the occupied voxel count of map.bt and the optimised keyframe positions of keyframes_<robot>.txt.
+// per robot the occupied voxel count of map.bt and the optimised keyframe positions of keyframes_<robot>.txt,
+// the extent of the server's global 2-D map (map_<id>.pgm), and that the robots' live poses arrived.
 // Then unsubscribes from everything and checks that nothing more arrives. Exit 0 on success, 1 on failure.
 // Usage: node foxglove_check.js ws://127.0.0.1:PORT EXPECTED.json [TIMEOUT_S]
 'use strict';
@@ -49,6 +50,10 @@ function complete() {
     const cloud = latest.get(`/${r}/voxels`), traj = latest.get(`/${r}/trajectory`);
     if (pointCount(cloud) !== expected.robots[r].voxels) return false;
     if (traj.poses.length !== expected.robots[r].keyframes.length) return false;
+    // After the run the robots' live poses stop: /R/pose falls back to the newest optimised keyframe.
+    const pose = latest.get(`/${r}/pose`).pose.position, kfs = expected.robots[r].keyframes;
+    const last = kfs[kfs.length - 1];
+    if (Math.hypot(pose.x - last[0], pose.y - last[1], pose.z - last[2]) > 1e-6) return false;
   }
   return true;
 }
@@ -75,9 +80,18 @@ function check() {
     const grid = latest.get(`/${r}/slice`);
     const cells = Buffer.from(grid.data, 'base64').length;
     if (!(grid.column_count > 0 && cells % grid.column_count === 0 && cells > 0)) fail(`${r}: slice grid of ${cells} cells`);
+    const map = latest.get(`/${r}/map_grid`), q = map.pose.orientation;
+    const mapCells = Buffer.from(map.data, 'base64');
+    const occupied = mapCells.filter((v) => v === 100).length, free = mapCells.filter((v) => v === 0).length;
+    if (map.column_count !== expected.grid.width || mapCells.length !== expected.grid.width * expected.grid.height)
+      fail(`${r}: 2-D map ${map.column_count} x ${mapCells.length / map.column_count}, server's ` +
+           `${expected.grid.width} x ${expected.grid.height}`);
+    if (Math.abs(q.w) < 1 - 1e-9) fail(`${r}: 2-D map has a yaw (${JSON.stringify(q)})`);
+    if (!(occupied > 100 && free > 1000)) fail(`${r}: 2-D map with ${occupied} occupied and ${free} free cells`);
     const status = latest.get(`/${r}/status`);
     if (status.robot !== r || status.keyframes !== e.keyframes.length || status.voxels !== e.voxels)
       fail(`${r}: status ${JSON.stringify(status)}`);
+    if (!(status.live_poses > 0)) fail(`${r}: no live pose (RobotPose) reached the viewer`);
     const loops = latest.get(`/${r}/loops`).entities[0].lines[0];
     const inter = loops.colors.filter((c) => c.r > 0.8 && c.b > 0.8).length / 2;
     if (!(loops.type === 2 && loops.points.length >= 2 && loops.points.length % 2 === 0 && inter >= 1))
@@ -86,7 +100,9 @@ function check() {
     if (!tf.includes(`map>${r}`)) fail(`${r}: no map -> ${r} transform in /tf (${tf})`);
     console.log(`${r}: ${pointCount(cloud)} voxels (map.bt: ${e.voxels}), ${poses.length} keyframes ` +
                 `(worst position difference ${worst.toExponential(1)} m), slice ${grid.column_count} x ` +
-                `${cells / grid.column_count}, status keyframes ${status.keyframes} loops ${status.loops}, ` +
+                `${cells / grid.column_count}, 2-D map ${map.column_count} x ${mapCells.length / map.column_count} ` +
+                `(${occupied} occupied, ${free} free), ${status.live_poses} live poses, ` +
+                `status keyframes ${status.keyframes} loops ${status.loops}, ` +
                 `${loops.points.length / 2} loop edges drawn (${inter} inter-robot)`);
   }
   for (const id of channels.keys()) client.unsubscribe(id);

@@ -32,8 +32,17 @@ maps=$(jq -c '.server.maps' "$tmp/out/report.json")
 # Occupied voxels of map.bt at the finest resolution (pruned leaves counted by volume).
 voxels=$("$bin/rgbdmap" view-map "$tmp/out/map.bt" | awk '/^resolution_m/ {r = $2} /^occupied_volume_m3/ {v = $2}
   END {printf "%d", v / (r * r * r) + 0.5}')
+# The server's global 2-D map of the merged map (map_<id>.pgm, the largest if there are more): the viewer
+# cuts its own from the streamed tree, so it has the same extent.
+grid_w=0 grid_h=0
+for pgm in "$tmp"/out/map_*.pgm; do
+  [ -f "$pgm" ] || continue
+  read -r w h < <(sed -n 3p "$pgm")
+  [ $((w * h)) -gt $((grid_w * grid_h)) ] && grid_w=$w grid_h=$h
+done
+[ "$grid_w" -gt 0 ] || { echo "FAIL: no map_<id>.pgm in $tmp/out"; ls "$tmp/out"; exit 1; }
 {
-  echo '{"robots": {'
+  printf '{"grid": {"width": %s, "height": %s}, "robots": {' "$grid_w" "$grid_h"
   sep=""
   for r in robot0 robot1; do
     printf '%s"%s": {"voxels": %s, "keyframes": [' "$sep" "$r" "$voxels"
@@ -43,7 +52,7 @@ voxels=$("$bin/rgbdmap" view-map "$tmp/out/map.bt" | awk '/^resolution_m/ {r = $
   done
   echo '}}'
 } >"$tmp/expected.json"
-echo "map.bt: $voxels occupied voxels; keyframes: $(grep -vc '^#' "$tmp/out/keyframes_robot0.txt") + $(grep -vc '^#' "$tmp/out/keyframes_robot1.txt")"
+echo "map.bt: $voxels occupied voxels; 2-D map ${grid_w} x ${grid_h}; keyframes: $(grep -vc '^#' "$tmp/out/keyframes_robot0.txt") + $(grep -vc '^#' "$tmp/out/keyframes_robot1.txt")"
 NODE_PATH="$node_dir/node_modules" timeout 60 node "$here/foxglove_check.js" "ws://127.0.0.1:$port" "$tmp/expected.json" 30
 status=$?
 kill -INT "$pid"

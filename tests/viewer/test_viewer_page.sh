@@ -44,6 +44,8 @@ echo "page: $title; $(grep -o 'data-state="[^"]*"' "$tmp/dom.html")"
 # Both robots are in one merged map: each robot's copy holds all of its voxels.
 [ "$title" = "$expected" ] && echo "ok: the page drew 2 x $voxels voxels" \
   || { echo "FAIL: page title '$title', expected 2 x $voxels voxels (map.bt)"; fail=1; }
+grep -q 'data-state="[^"]* grids [1-9][0-9]* poses [1-9]' "$tmp/dom.html" \
+  && echo "ok: the 2-D maps and the robots' poses are drawn" || { echo "FAIL: no 2-D map or pose drawn"; fail=1; }
 grep -q '<b>robot0</b>' "$tmp/dom.html" && grep -q '<b>robot1</b>' "$tmp/dom.html" \
   && echo "ok: legend lists both robots" || { echo "FAIL: legend without both robots"; fail=1; }
 for attempt in 1 2 3 4; do

@@ -9,8 +9,13 @@
 #include <nlohmann/json.hpp>
 #include <thread>
 
+#include <octomap/OcTree.h>
+
 #include "client_session.hpp"
 #include "foxglove_json.hpp"
+#include "map_view.hpp"
+#include "rgbdmap/map/map_io.hpp"
+#include "rgbdmap/proto/map_payload.hpp"
 
 namespace rgbdmap::viewer {
 namespace {
@@ -37,7 +42,8 @@ TEST(ViewerJson, EverySchemaIsJsonWithItsTitle) {
 }
 
 TEST(ViewerJson, PointCloudPacksPointsAndColoursByHeight) {
-  const std::vector<Voxel> voxels = {{1.0f, 0.0f, 2.0f}, {1.0f, -1.0f, 2.0f}};  // the second is 1 m higher
+  const std::vector<Voxel> voxels = {{1.0f, 0.0f, 2.0f}, {1.0f, 0.0f, 3.0f}};  // the second is 1 m higher
+  EXPECT_EQ(heightOf(voxels[1]) - heightOf(voxels[0]), 1.0f) << "the map frame is z-up";
   const nlohmann::json cloud = pointCloudJson(voxels, 1500000, "map");
   EXPECT_EQ(cloud["point_stride"], 16);
   EXPECT_EQ(cloud["frame_id"], "map");
@@ -163,6 +169,83 @@ TEST(ViewerSession, SlowReaderDropsAndCountsThenCatchesUpWithSnapshotAndLatest) 
   ASSERT_TRUE(
       eventually([&] { return session.counters().messages_sent == static_cast<uint64_t>(accepted); }));
   session.close();
+}
+
+/// A pose translated along x.
+SE3 at(double x) {
+  SE3 T = SE3::Identity();
+  T.translation().x() = x;
+  return T;
+}
+
+TEST(ViewerPose, LivePoseWhenFreshAndCurrentElseNewestKeyframe) {
+  RobotSnapshot s;
+  bool live = true;
+  EXPECT_FALSE(currentPose(s, 1000000, &live));
+  s.keyframes = {{0, at(1.0)}, {4, at(2.0)}};
+  s.graph_revision = 3;
+  EXPECT_TRUE(currentPose(s, 1000000, &live)->isApprox(at(2.0)));
+  EXPECT_FALSE(live);
+  msg::RobotPose p;
+  p.graph_revision = 3;
+  p.T_map_cam = at(2.5);
+  s.live_pose = p;
+  s.live_pose_received_utime = 1000000;
+  EXPECT_TRUE(currentPose(s, 1500000, &live)->isApprox(at(2.5)));
+  EXPECT_TRUE(live);
+  EXPECT_TRUE(currentPose(s, 1000000 + int64_t(kLivePoseMaxAgeS * 1e6) + 1, &live)->isApprox(at(2.0)))
+      << "a robot no longer heard: its newest keyframe";
+  EXPECT_FALSE(live);
+  s.graph_revision = 4;  // newer corrections than the robot applied: its pose is in the old map
+  EXPECT_TRUE(currentPose(s, 1500000, &live)->isApprox(at(2.0)));
+  EXPECT_FALSE(live);
+}
+
+TEST(ViewerPose, RobotPosesApplyInOrderPerSession) {
+  MapView view({"robot0"});
+  msg::RobotPose p;
+  p.robot_id = "robot0";
+  p.header.session = 7;
+  p.header.utime = 2000;
+  p.T_map_cam = at(1.0);
+  view.applyRobotPose("robot0", p);
+  msg::RobotPose older = p;
+  older.header.utime = 1000;
+  older.T_map_cam = at(9.0);
+  view.applyRobotPose("robot0", older);  // reordered: dropped
+  EXPECT_TRUE(view.snapshot("robot0").live_pose->T_map_cam.isApprox(at(1.0)));
+  EXPECT_EQ(view.snapshot("robot0").live_changes, 1u);
+  msg::RobotPose restarted = older;
+  restarted.header.session = 8;  // a restarted robot's clock may be anywhere
+  view.applyRobotPose("robot0", restarted);
+  EXPECT_TRUE(view.snapshot("robot0").live_pose->T_map_cam.isApprox(at(9.0)));
+  view.applyRobotPose("nobody", p);
+  EXPECT_FALSE(view.snapshot("nobody").live_pose);
+}
+
+TEST(ViewerMapGrid, CutFromTheStreamedTreeAndKeyframeIdKept) {
+  MapView view({"robot0"});
+  EXPECT_FALSE(view.mapGrid("robot0", 0.0, SliceConfig{})) << "no map yet";
+  octomap::OcTree tree(0.05);
+  for (int i = 0; i < 20; ++i) tree.updateNode(octomap::point3d(0.025f + 0.05f * i, 0.025f, 0.025f), false);
+  tree.updateNode(octomap::point3d(1.025f, 0.025f, 0.025f), true);
+  auto bytes = serializeTree(tree);
+  ASSERT_TRUE(bytes) << bytes.error();
+  msg::MapUpdate update;
+  update.header.utime = 5;
+  update.map_revision = 1;
+  update.robot_keyframe_id = 12;
+  msg::setMapBytes(*bytes, msg::MapCompression::kNone, &update);
+  ASSERT_TRUE(view.applyMap("robot0", update));
+  EXPECT_EQ(view.snapshot("robot0").map_keyframe_id, 12);
+  auto grid = view.mapGrid("robot0", 0.0, SliceConfig{});
+  ASSERT_TRUE(grid) << grid.error();
+  EXPECT_TRUE(grid->T_map_grid.linear().isApprox(Mat3::Identity())) << "no yaw";
+  EXPECT_EQ(std::count(grid->cells.begin(), grid->cells.end(), 100), 1);
+  EXPECT_GE(std::count(grid->cells.begin(), grid->cells.end(), 0), 19);
+  const nlohmann::json j = gridJson(*grid, "map");
+  EXPECT_EQ(j["column_count"], grid->width);
+  EXPECT_EQ(j["pose"]["orientation"]["w"], 1.0);
 }
 
 }  // namespace

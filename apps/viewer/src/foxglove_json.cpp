@@ -114,7 +114,8 @@ std::map<std::string, json> buildSchemas() {
                                                           {"add", array(number())},
                                                           {"remove", array(number())},
                                                           {"voxels", integer()},
-                                                          {"map_utime", integer()}});
+                                                          {"map_utime", integer()},
+                                                          {"robot_keyframe", integer()}});
   s["rgbdmap.RobotStatus"] = object("rgbdmap.RobotStatus", {{"robot", string()},
                                                             {"keyframes", integer()},
                                                             {"loops", integer()},
@@ -123,6 +124,7 @@ std::map<std::string, json> buildSchemas() {
                                                             {"bytes_down", integer()},
                                                             {"down_kbps", number()},
                                                             {"last_seen_s", number()},
+                                                            {"live_poses", integer()},
                                                             {"state", string()}});
   return s;
 }

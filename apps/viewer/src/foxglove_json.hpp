@@ -30,12 +30,13 @@ nlohmann::json timeJson(int64_t utime);
 nlohmann::json poseJson(const SE3& T);
 
 /// foxglove.PointCloud of voxel centres in `frame`: x, y, z (float32) and red, green, blue, alpha (uint8)
-/// coloured by height (-y in the camera-optical map frame, see heightOf()).
+/// coloured by height (z in the z-up map frame, see heightOf()).
 nlohmann::json pointCloudJson(const std::vector<Voxel>& voxels, int64_t utime, const std::string& frame);
 /// The colour of a voxel at a height (turbo-like ramp over [low, high]): r, g, b in 0..255.
 void heightColour(float height, float low, float high, uint8_t rgb[3]);
-/// Height above the floor in the map frame: the map frame is the first camera's optical frame (y down).
-inline float heightOf(const Voxel& v) { return -v.y; }
+/// Height in the map frame: the map frame is z-up (REP-103, the base frame of the first robot's first
+/// keyframe).
+inline float heightOf(const Voxel& v) { return v.z; }
 
 /// foxglove.PosesInFrame / foxglove.PoseInFrame in `frame`.
 nlohmann::json posesInFrameJson(const std::vector<SE3>& poses, int64_t utime, const std::string& frame);

@@ -11,6 +11,7 @@ Status MapSubscriber::setKeys(const msg::KeyStore& server_keys, bool open) {
     r.keys = open ? msg::KeyStore::openMode() : msg::KeyStore();
     if (const msg::Bytes* key = server_keys.find(robot)) {
       if (Status s = r.keys.add(msg::kServerId, *key); !s) return s;
+      if (Status s = r.keys.add(robot, *key); !s) return s;  // the robot signs its own RobotPose
     } else if (!open) {
       return Status::failure("no key for robot '" + robot + "'");
     }
@@ -21,8 +22,8 @@ Status MapSubscriber::setKeys(const msg::KeyStore& server_keys, bool open) {
 Status MapSubscriber::subscribe(transport::Transport& transport) {
   using T = msg::MessageType;
   for (const std::string& robot : view_.robots()) {
-    for (const T type :
-         {T::kMapUpdate, T::kPoseCorrections, T::kOccupancySlice, T::kServerStatus, T::kLoopEdges}) {
+    for (const T type : {T::kMapUpdate, T::kPoseCorrections, T::kOccupancySlice, T::kServerStatus,
+                         T::kLoopEdges, T::kRobotPose}) {
       const auto channel = msg::channelFor(type, robot);
       if (!channel) return Status::failure(channel.error());
       auto handler = [this, robot, type](const std::string&, const uint8_t* data, size_t size) {
@@ -46,7 +47,9 @@ void MapSubscriber::onMessage(const std::string& robot, msg::MessageType type, c
     if (!result) return;  // counted and logged (rate-limited) by openEnvelope
     opened = std::move(*result);
   }
-  if (opened->header.sender != msg::kServerId || opened->type != type) {
+  // Everything comes from the server, but a robot's live pose, which comes from that robot.
+  const std::string sender = type == msg::MessageType::kRobotPose ? robot : std::string(msg::kServerId);
+  if (opened->header.sender != sender || opened->type != type) {
     rejects_.add(msg::RejectReason::kUnknownSender, "viewer: " + opened->header.sender + " on " + robot);
     return;
   }
@@ -75,6 +78,9 @@ void MapSubscriber::onMessage(const std::string& robot, msg::MessageType type, c
       break;
     case msg::MessageType::kServerStatus:
       if (auto m = msg::decodeMessage<msg::ServerStatus>(*opened, &rejects_)) view_.applyStatus(robot, *m);
+      break;
+    case msg::MessageType::kRobotPose:
+      if (auto m = msg::decodeMessage<msg::RobotPose>(*opened, &rejects_)) view_.applyRobotPose(robot, *m);
       break;
     default:
       break;

@@ -1,7 +1,8 @@
 #pragma once
-// The viewer's side of the map streams: per robot, the server's MapUpdate, PoseCorrections, OccupancySlice
-// and ServerStatus on that robot's channels, authenticated with that robot's key (or open mode), checked
-// to come from the server, decoded and applied to a MapView. Runs on the transport's receive thread and
+// The viewer's side of the map streams: per robot, the server's MapUpdate, PoseCorrections, OccupancySlice,
+// LoopEdges and ServerStatus on that robot's channels and the robot's own RobotPose, authenticated with that
+// robot's key (or open mode), checked to come from the server (the pose: from that robot), decoded and
+// applied to a MapView. Runs on the transport's receive thread and
 // never waits on a WebSocket client.
 #include <atomic>
 #include <map>

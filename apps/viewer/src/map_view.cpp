@@ -42,6 +42,7 @@ Status MapView::applyMap(const std::string& robot, const msg::MapUpdate& update)
   }
   r->s.map_revision = update.map_revision;
   r->s.map_utime = update.header.utime;
+  if (update.robot_keyframe_id >= 0) r->s.map_keyframe_id = update.robot_keyframe_id;
   r->s.resolution_m = update.resolution_m;
   ++r->s.map_changes;
   changed();
@@ -58,6 +59,7 @@ void MapView::applyCorrections(const std::string& robot, const msg::PoseCorrecti
       r->s.keyframes.begin(), r->s.keyframes.end(),
       [](const msg::CorrectedPose& a, const msg::CorrectedPose& b) { return a.keyframe_id < b.keyframe_id; });
   r->s.T_map_odom = corrections.T_map_odom;
+  r->s.graph_revision = corrections.graph_revision;
   ++r->s.pose_changes;
   changed();
 }
@@ -94,6 +96,21 @@ void MapView::applyStatus(const std::string& robot, const msg::ServerStatus& sta
   changed();
 }
 
+void MapView::applyRobotPose(const std::string& robot, const msg::RobotPose& pose) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  Robot* r = find(robot);
+  if (!r) return;
+  r->s.last_seen_utime = std::max(r->s.last_seen_utime, pose.header.utime);
+  const auto& old = r->s.live_pose;
+  if (old && old->header.session == pose.header.session && old->header.utime > pose.header.utime) return;
+  r->s.live_pose = pose;
+  r->s.live_pose_received_utime = std::chrono::duration_cast<std::chrono::microseconds>(
+                                      std::chrono::system_clock::now().time_since_epoch())
+                                      .count();
+  ++r->s.live_changes;
+  changed();
+}
+
 void MapView::countBytes(const std::string& robot, size_t bytes) {
   std::lock_guard<std::mutex> lock(mutex_);
   if (Robot* r = find(robot)) r->s.bytes_down += bytes;
@@ -126,6 +143,23 @@ std::vector<Voxel> MapView::occupiedVoxels(const std::string& robot, int64_t* re
                             static_cast<float>(c.z() + first + k * res)});
   }
   return voxels;
+}
+
+Result<msg::OccupancySlice> MapView::mapGrid(const std::string& robot, double camera_height_m,
+                                             const SliceConfig& config) const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  const auto it = state_.find(robot);
+  if (it == state_.end() || !it->second->tree) return Result<msg::OccupancySlice>::failure("no map yet");
+  return extractMapGrid(*it->second->tree, camera_height_m, config);
+}
+
+std::optional<SE3> currentPose(const RobotSnapshot& s, int64_t now_utime, bool* live) {
+  *live = s.live_pose &&
+          1e-6 * static_cast<double>(now_utime - s.live_pose_received_utime) <= kLivePoseMaxAgeS &&
+          s.live_pose->graph_revision >= s.graph_revision;
+  if (*live) return s.live_pose->T_map_cam;
+  if (!s.keyframes.empty()) return s.keyframes.back().T_map_cam;
+  return std::nullopt;
 }
 
 uint64_t MapView::waitForChange(uint64_t seen, double timeout_s) const {

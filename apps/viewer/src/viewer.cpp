@@ -42,6 +42,7 @@ std::vector<ChannelInfo> Viewer::Impl::makeChannels() {
     c.slice = add("/" + robot + "/slice", "foxglove.Grid");
     c.status = add("/" + robot + "/status", "rgbdmap.RobotStatus");
     c.loops = add("/" + robot + "/loops", "foxglove.SceneUpdate");
+    c.map_grid = add("/" + robot + "/map_grid", "foxglove.Grid");
     channels.push_back(c);
     published.push_back(std::make_unique<RobotPublished>());
   }

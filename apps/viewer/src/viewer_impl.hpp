@@ -6,6 +6,7 @@
 #include <cstdint>
 #include <map>
 #include <memory>
+#include <optional>
 #include <thread>
 #include <unordered_set>
 #include <vector>
@@ -20,6 +21,7 @@ namespace rgbdmap::viewer {
 /// The channel ids of one robot's topics.
 struct RobotChannels {
   uint32_t voxels = 0, voxel_delta = 0, trajectory = 0, pose = 0, slice = 0, status = 0, loops = 0;
+  uint32_t map_grid = 0;
 };
 
 /// What the publisher last sent for one robot.
@@ -28,8 +30,9 @@ struct RobotPublished {
   std::unordered_set<uint64_t> voxel_keys;
   std::vector<Voxel> voxels;
   int64_t revision = 0;  ///< of /R/voxel_delta, bumped per delta
-  bool cloud_pending = false;
-  std::chrono::steady_clock::time_point last_cloud{}, last_snapshot{};
+  bool cloud_pending = false, grid_pending = false;
+  bool live_used = false;  ///< /R/pose was the robot's live pose (else its newest keyframe)
+  std::chrono::steady_clock::time_point last_cloud{}, last_snapshot{}, last_grid{};
   uint64_t bytes_down_at_last_status = 0;
   std::chrono::steady_clock::time_point last_status{};
   std::atomic<bool> snapshot_wanted{false};
@@ -44,7 +47,8 @@ struct Viewer::Impl {
   void run();
   void publishRobot(size_t index, bool periodic_snapshot);
   void publishVoxels(size_t index, const RobotSnapshot& s, bool periodic_snapshot);
-  void publishPoses(size_t index, const RobotSnapshot& s);
+  void publishPoses(size_t index, const RobotSnapshot& s, bool trajectory);
+  void publishMapGrid(size_t index, const RobotSnapshot& s);
   void publishStatus(size_t index, const RobotSnapshot& s);
   void publishTransforms();
   void send(uint32_t channel, const nlohmann::json& message, int64_t utime);

@@ -54,10 +54,15 @@ void Viewer::Impl::publishRobot(size_t index, bool periodic_snapshot) {
   RobotPublished& p = *published[index];
   const RobotSnapshot s = view.snapshot(view.robots()[index]);
   publishVoxels(index, s, periodic_snapshot);
-  if (s.pose_changes != p.seen.pose_changes) {
-    publishPoses(index, s);
+  bool live = false;
+  (void)currentPose(s, nowUtime(), &live);
+  const bool trajectory = s.pose_changes != p.seen.pose_changes;
+  if (trajectory || s.live_changes != p.seen.live_changes || live != p.live_used) {
+    p.live_used = live;
+    publishPoses(index, s, trajectory);
     publishTransforms();
   }
+  publishMapGrid(index, s);
   if (s.loop_changes != p.seen.loop_changes)
     send(channels[index].loops, loopEdgesJson(s.loops, nowUtime(), "map", view.robots()[index] + "/loops"),
          nowUtime());
@@ -96,19 +101,30 @@ void Viewer::Impl::publishVoxels(size_t index, const RobotSnapshot& s, bool peri
     if (added.size() + removed.size() > p.voxels.size() / 2) {
       periodic_snapshot = true;  // mostly new (a rebuild after a loop closure): everyone gets a snapshot
     } else {
-      const json delta = {{"revision", p.revision},       {"full", false},
-                          {"resolution", s.resolution_m}, {"frame_id", "map"},
-                          {"add", flat(added)},           {"remove", flat(removed)},
-                          {"voxels", p.voxels.size()},    {"map_utime", s.map_utime}};
+      const json delta = {{"revision", p.revision},
+                          {"full", false},
+                          {"resolution", s.resolution_m},
+                          {"frame_id", "map"},
+                          {"add", flat(added)},
+                          {"remove", flat(removed)},
+                          {"voxels", p.voxels.size()},
+                          {"map_utime", s.map_utime},
+                          {"robot_keyframe", s.map_keyframe_id}};
       server->publishDelta(delta_channel, std::make_shared<const std::string>(delta.dump()), utime);
     }
     p.cloud_pending = true;
+    p.grid_pending = true;
   }
   if (periodic_snapshot || wanted) {
-    const json snapshot = {{"revision", p.revision},       {"full", true},
-                           {"resolution", s.resolution_m}, {"frame_id", "map"},
-                           {"add", flat(p.voxels)},        {"remove", json::array()},
-                           {"voxels", p.voxels.size()},    {"map_utime", s.map_utime}};
+    const json snapshot = {{"revision", p.revision},
+                           {"full", true},
+                           {"resolution", s.resolution_m},
+                           {"frame_id", "map"},
+                           {"add", flat(p.voxels)},
+                           {"remove", json::array()},
+                           {"voxels", p.voxels.size()},
+                           {"map_utime", s.map_utime},
+                           {"robot_keyframe", s.map_keyframe_id}};
     server->publishSnapshot(delta_channel, std::make_shared<const std::string>(snapshot.dump()), utime,
                             periodic_snapshot);
     if (periodic_snapshot) p.last_snapshot = Clock::now();
@@ -118,26 +134,6 @@ void Viewer::Impl::publishVoxels(size_t index, const RobotSnapshot& s, bool peri
     p.last_cloud = Clock::now();
     p.cloud_pending = false;
   }
-}
-
-void Viewer::Impl::publishPoses(size_t index, const RobotSnapshot& s) {
-  std::vector<SE3> poses;
-  for (const msg::CorrectedPose& k : s.keyframes) poses.push_back(k.T_map_cam);
-  const int64_t utime = nowUtime();
-  send(channels[index].trajectory, posesInFrameJson(poses, utime, "map"), utime);
-  if (!poses.empty()) send(channels[index].pose, poseInFrameJson(poses.back(), utime, "map"), utime);
-}
-
-void Viewer::Impl::publishTransforms() {
-  std::vector<FrameTransform> transforms;
-  for (const std::string& robot : view.robots()) {
-    const RobotSnapshot s = view.snapshot(robot);
-    if (s.keyframes.empty()) continue;
-    transforms.push_back({"map", robot, s.keyframes.back().T_map_cam});
-    transforms.push_back({"map", robot + "_odom", s.T_map_odom});
-  }
-  const int64_t utime = nowUtime();
-  send(tf_channel, frameTransformsJson(transforms, utime), utime);
 }
 
 void Viewer::Impl::publishStatus(size_t index, const RobotSnapshot& s) {
@@ -157,6 +153,7 @@ void Viewer::Impl::publishStatus(size_t index, const RobotSnapshot& s) {
                        {"bytes_down", s.bytes_down},
                        {"down_kbps", kbps},
                        {"last_seen_s", last_seen},
+                       {"live_poses", s.live_changes},
                        {"state", s.server_state.empty() ? "no status" : s.server_state}};
   send(channels[index].status, status, utime);
 }

@@ -1,12 +1,12 @@
 // rgbdmap live map viewer page: a Foxglove WebSocket client (subprotocol foxglove.websocket.v1, JSON
-// encoding) of the viewer that served it. Subscribes to every robot's voxel_delta, trajectory, pose and
-// status topics and draws them with three.js. The map frame is the first camera's optical frame (y down),
-// so the scene is turned upside down (x, y, z) -> (x, -y, -z) to show height upwards.
+// encoding) of the viewer that served it. Subscribes to every robot's voxel_delta, trajectory, pose, status,
+// loops and map_grid topics and draws them with three.js. The map frame is z-up (REP-103); three.js is
+// y-up, so the scene is turned (x, y, z) -> (x, z, -y).
 /* global THREE */
 'use strict';
 
 const ROBOT_COLOURS = [0xe6194b, 0x3cb44b, 0x4363d8, 0xf58231, 0x911eb4, 0x46f0f0, 0xf032e6, 0x808000];
-const state = { robots: {}, voxels: 0, drawn: false, messages: 0 };
+const state = { robots: {}, voxels: 0, drawn: false, messages: 0, poses: 0, grids: 0 };
 window.rgbdmapViewer = state;  // read by the tests (headless Chromium)
 
 const container = document.getElementById('view');
@@ -17,7 +17,7 @@ renderer.setClearColor(0xf4f4f4);
 container.appendChild(renderer.domElement);
 const scene = new THREE.Scene();
 const world = new THREE.Group();
-world.rotation.x = Math.PI;
+world.rotation.x = -Math.PI / 2;  // map z (up) -> three.js y
 scene.add(world);
 scene.add(new THREE.AmbientLight(0xffffff, 0.9));
 const camera = new THREE.PerspectiveCamera(60, window.innerWidth / window.innerHeight, 0.05, 500);
@@ -34,11 +34,21 @@ function robot(name) {
   r.points = new THREE.Points(new THREE.BufferGeometry(),
                               new THREE.PointsMaterial({ size: 0.05, vertexColors: THREE.VertexColors }));
   r.line = new THREE.Line(new THREE.BufferGeometry(), new THREE.LineBasicMaterial({ color: colour }));
-  r.marker = new THREE.Mesh(new THREE.SphereBufferGeometry(0.08, 12, 8), new THREE.MeshBasicMaterial({ color: colour }));
+  r.marker = new THREE.Group();  // the robot: a sphere and a cone along the camera's viewing direction (z)
+  const body = new THREE.Mesh(new THREE.SphereBufferGeometry(0.08, 12, 8), new THREE.MeshBasicMaterial({ color: colour }));
+  const nose = new THREE.Mesh(new THREE.ConeBufferGeometry(0.05, 0.25, 12), new THREE.MeshBasicMaterial({ color: colour }));
+  nose.rotation.x = Math.PI / 2;  // the cone's axis (y) along the camera's z
+  nose.position.z = 0.16;
+  r.marker.add(body, nose);
   r.marker.visible = false;
+  r.grid = new THREE.Mesh(new THREE.PlaneBufferGeometry(1, 1),
+    new THREE.MeshBasicMaterial({ transparent: true, opacity: 0.8, side: THREE.DoubleSide, depthWrite: false }));
+  r.grid.visible = false;
+  r.gridCells = 0;
+  r.floor = Infinity;
   r.loops = new THREE.LineSegments(new THREE.BufferGeometry(),
     new THREE.LineBasicMaterial({ vertexColors: THREE.VertexColors, transparent: true, opacity: 0.6 }));
-  world.add(r.points, r.line, r.marker, r.loops);
+  world.add(r.points, r.line, r.marker, r.loops, r.grid);
   state.robots[name] = r;
   return r;
 }
@@ -53,11 +63,11 @@ function rebuildVoxels(r) {
   const n = r.voxels.size;
   const pos = new Float32Array(3 * n), col = new Float32Array(3 * n);
   let low = Infinity, high = -Infinity;
-  for (const v of r.voxels.values()) { low = Math.min(low, -v[1]); high = Math.max(high, -v[1]); }
+  for (const v of r.voxels.values()) { low = Math.min(low, v[2]); high = Math.max(high, v[2]); }
   let i = 0;
   for (const v of r.voxels.values()) {
     pos.set(v, 3 * i);
-    col.set(heightColour(high > low ? (-v[1] - low) / (high - low) : 0.5), 3 * i);
+    col.set(heightColour(high > low ? (v[2] - low) / (high - low) : 0.5), 3 * i);
     ++i;
   }
   const g = new THREE.BufferGeometry();
@@ -66,6 +76,8 @@ function rebuildVoxels(r) {
   r.points.geometry.dispose();
   r.points.geometry = g;
   r.points.material.size = r.resolution;
+  r.floor = low;  // the 2-D map is drawn just under the lowest voxels, not through them
+  if (n > 0) r.grid.position.z = low - r.resolution;
   r.dirty = false;
 }
 
@@ -107,8 +119,43 @@ function applyLoops(r, m) {  // foxglove.SceneUpdate: one entity with one line l
 }
 
 function applyPose(r, m) {
+  const q = m.pose.orientation;
   r.marker.position.set(m.pose.position.x, m.pose.position.y, m.pose.position.z);
+  r.marker.quaternion.set(q.x, q.y, q.z, q.w);
   r.marker.visible = true;
+  ++state.poses;
+}
+
+// foxglove.Grid of the robot's map's global 2-D map (int8 cells: -1 unknown, 0 free .. 100 occupied) as a
+// translucent texture at the grid's pose: occupied dark, free light, unknown transparent.
+function applyGrid(r, m) {
+  const cells = Uint8Array.from(atob(m.data), (c) => c.charCodeAt(0));
+  const w = m.column_count, h = Math.floor(cells.length / w);
+  if (!w || !h) return;
+  const canvas = document.createElement('canvas');
+  canvas.width = w;
+  canvas.height = h;
+  const ctx = canvas.getContext('2d'), image = ctx.createImageData(w, h);
+  for (let row = 0; row < h; ++row)
+    for (let col = 0; col < w; ++col) {
+      const v = (cells[row * w + col] << 24) >> 24, o = 4 * ((h - 1 - row) * w + col);  // grid row 0 at the bottom
+      const grey = v < 0 ? 0 : 235 - Math.round(1.9 * v);
+      image.data.set([grey, grey, grey, v < 0 ? 0 : 255], o);
+    }
+  ctx.putImageData(image, 0, 0);
+  const texture = new THREE.CanvasTexture(canvas);
+  texture.magFilter = THREE.NearestFilter;
+  if (r.grid.material.map) r.grid.material.map.dispose();
+  r.grid.material.map = texture;
+  r.grid.material.needsUpdate = true;
+  const sx = w * m.cell_size.x, sy = h * m.cell_size.y, p = m.pose.position, q = m.pose.orientation;
+  r.grid.geometry.dispose();
+  r.grid.geometry = new THREE.PlaneBufferGeometry(sx, sy).translate(sx / 2, sy / 2, 0);
+  r.grid.position.set(p.x, p.y, Number.isFinite(r.floor) ? r.floor - r.resolution : p.z);
+  r.grid.quaternion.set(q.x, q.y, q.z, q.w);
+  r.grid.visible = showGrids;
+  r.gridCells = w * h;
+  ++state.grids;
 }
 
 function legend() {
@@ -124,11 +171,19 @@ function legend() {
     div.className = 'robot';
     div.innerHTML = `<span class="swatch" style="background:${hex}"></span><b>${r.name}</b> ${s.state || ''}` +
       `<div class="detail">${s.keyframes || r.keyframes} keyframes, ${s.loops || 0} loops (${r.loopEdges || 0} drawn), ${r.voxels.size} voxels</div>` +
-      `<div class="detail">${(s.down_kbps || 0).toFixed(1)} kbit/s, last seen ${seen}</div>`;
+      `<div class="detail">${(s.down_kbps || 0).toFixed(1)} kbit/s, last seen ${seen}</div>` +
+      (r.gridCells ? `<div class="detail">2-D map ${r.gridCells} cells</div>` : '');
     el.appendChild(div);
   }
   state.voxels = total;
 }
+
+let showGrids = true;
+document.getElementById('grids').onclick = () => {
+  showGrids = !showGrids;
+  for (const r of Object.values(state.robots)) r.grid.visible = showGrids && r.gridCells > 0;
+  document.getElementById('grids').textContent = showGrids ? 'hide 2-D map' : 'show 2-D map';
+};
 
 let topDown = false;
 document.getElementById('topdown').onclick = () => {
@@ -167,7 +222,7 @@ function connect() {
       const subscriptions = [];
       for (const c of m.channels) {
         const parts = c.topic.split('/');  // "", robot, kind
-        if (parts.length !== 3 || !['voxel_delta', 'trajectory', 'pose', 'status', 'loops'].includes(parts[2])) continue;
+        if (parts.length !== 3 || !['voxel_delta', 'trajectory', 'pose', 'status', 'loops', 'map_grid'].includes(parts[2])) continue;
         robot(parts[1]);
         subs[c.id] = { robot: parts[1], kind: parts[2] };
         subscriptions.push({ id: c.id, channelId: c.id });
@@ -187,6 +242,7 @@ function connect() {
     else if (sub.kind === 'pose') applyPose(r, m);
     else if (sub.kind === 'status') r.status = m;
     else if (sub.kind === 'loops') applyLoops(r, m);
+    else if (sub.kind === 'map_grid') applyGrid(r, m);
   };
 }
 
@@ -199,7 +255,7 @@ function animate() {
   controls.update();
   renderer.render(scene, camera);
   if (changed) legend();
-  document.body.dataset.state = `${renderer.domElement.width}x${renderer.domElement.height} cam ${camera.position.toArray().map((v) => v.toFixed(2))} target ${controls.target.toArray().map((v) => v.toFixed(2))} framed ${framed} voxels ${state.voxels} msgs ${state.messages}`;
+  document.body.dataset.state = `${renderer.domElement.width}x${renderer.domElement.height} cam ${camera.position.toArray().map((v) => v.toFixed(2))} target ${controls.target.toArray().map((v) => v.toFixed(2))} framed ${framed} voxels ${state.voxels} msgs ${state.messages} grids ${state.grids} poses ${state.poses}`;
   if (state.voxels > 0 && framed) {
     state.drawn = true;
     document.title = `rgbdmap viewer: ${state.voxels} voxels`;

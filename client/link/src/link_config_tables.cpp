@@ -58,6 +58,8 @@ const ConfigTable<RobotLinkOptions>& robotLinkConfigTable() {
           .add("chunk_bytes", &C::chunk_bytes, R::closed(-1, msg::kMaxChunkBytes),
                "keyframes in acknowledged chunks of this size (256..60000); 0 = whole; -1 = by transport: "
                "1100 on udpm://, else 0")
+          .add("pose_period_s", &C::pose_period_s, R::closed(0.0, 3600.0),
+               "the live pose (RobotPose, for visualisers) at most every this many seconds; 0 = never")
           .section("reliable", "keyframe delivery (resent until acknowledged)")
           .nest("reliable.", &C::reliable, reliableSenderConfigTable())
           .section("codec", "keyframe images (common/image_codec.hpp)")

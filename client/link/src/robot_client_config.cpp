@@ -6,6 +6,7 @@
 #include <fstream>
 #include <sstream>
 
+#include "rgbdmap/common/common_config_tables.hpp"
 #include "rgbdmap/link/link_config_tables.hpp"
 #include "rgbdmap/proto/envelope.hpp"
 
@@ -20,6 +21,11 @@ const ConfigTable<RobotClientConfig>& robotClientConfigTable() {
                "file with the robot's HMAC key in hex (64 digits = 32 bytes; '#' comment lines and "
                "whitespace ignored), relative to this file's folder. The server holds the same key. "
                "Empty: unsigned messages, accepted only by a server in open mode (local demos).")
+          .section("robot.camera_mount",
+                   "the camera's pose on the robot (T_base_camera, sent in Hello). The map frame is the base "
+                   "frame (REP-103: x forward, y left, z up) of the first robot's first keyframe, so maps, "
+                   "slices and exports are z-up")
+          .nest("robot.camera_mount.", &C::camera_mount, cameraMountConfigTable())
           .add("transport.url", &C::transport_url,
                "memq:// (in-process) | udpm://239.255.76.67:7667?ttl=0 (LCM, see deploy/lcm.md) | "
                "dds://?domain=0 (Cyclone DDS; needs CYCLONEDDS_URI, e.g. "
@@ -35,6 +41,9 @@ void readRobotClientConfig(ConfigReader& reader, RobotClientConfig* config) {
   const transport::ReliableSenderOptions& r = config->link.reliable;
   if (r.max_backoff < r.initial_backoff)
     reader.addError(reader.source() + ": link.reliable.max_backoff_ms must be >= initial_backoff_ms");
+  if (const std::string e = config->camera_mount.validate(); !e.empty())
+    reader.addError(reader.source() + ": robot.camera_mount: " + e);
+  config->link.T_base_camera = config->camera_mount.T_base_camera();
 }
 
 std::vector<ConfigValue> robotClientConfigValues(const RobotClientConfig& config) {

@@ -38,6 +38,8 @@ std::string RobotLinkOptions::validate() const {
   if (!key.empty() && key.size() < msg::kMinKeyBytes)
     fail("key must be empty (unsigned) or at least " + std::to_string(msg::kMinKeyBytes) + " bytes");
   if (const std::string e = camera.validate(); !e.empty()) fail("camera: " + e);
+  if (!se3::isValid(T_base_camera, 1e-6) || !(T_base_camera.translation().norm() <= kMaxCameraOffsetM))
+    fail("T_base_camera must be a rigid transform within " + std::to_string(kMaxCameraOffsetM) + " m");
   if (chunk_bytes > 0 && chunk_bytes < msg::kMinChunkBytes)
     fail("chunk_bytes must be -1, 0 or " + std::to_string(msg::kMinChunkBytes) + ".." +
          std::to_string(msg::kMaxChunkBytes));
@@ -68,6 +70,7 @@ Status RobotLink::Impl::start() {
   heartbeat_channel_ = *msg::channelFor(msg::MessageType::kHeartbeat, options_.robot_id);
   keyframe_channel_ = *msg::channelFor(msg::MessageType::kKeyframe, options_.robot_id);
   chunk_channel_ = *msg::channelFor(msg::MessageType::kKeyframeChunk, options_.robot_id);
+  pose_channel_ = *msg::channelFor(msg::MessageType::kRobotPose, options_.robot_id);
   if (Status s = subscribeAll(); !s) return s;
   if (Status s = transport_.start(); !s) return Status::failure("RobotLink: transport: " + s.error());
   reliable_.start();
@@ -105,6 +108,8 @@ Status RobotLink::Impl::sealAndPublish(const T& message, const std::string& chan
 
 // robot_link_chunks.cpp seals chunks with it.
 template Status RobotLink::Impl::sealAndPublish(const msg::KeyframeChunk&, const std::string&);
+// robot_link_pose.cpp publishes the live pose with it.
+template Status RobotLink::Impl::sealAndPublish(const msg::RobotPose&, const std::string&);
 
 Status RobotLink::Impl::publishCommand(msg::VelocityCommand command) {
   command.robot_id = options_.robot_id;
@@ -133,6 +138,7 @@ Status RobotLink::Impl::sendHello() {
   msg::Hello hello;
   hello.robot_id = options_.robot_id;
   hello.camera = options_.camera;
+  hello.T_base_camera = options_.T_base_camera;
   hello.software_version = options_.software_version;
   hello.capabilities = {"keyframes", "pose_corrections", "occupancy_slice", "velocity_command"};
   Status s = sealAndPublish(hello, hello_channel_);
@@ -271,7 +277,7 @@ void RobotLink::Impl::setTrackingState(int last_keyframe_id, int segment, Tracki
 SE3 RobotLink::Impl::mapFromOdom(int segment) const {
   std::lock_guard<std::mutex> lock(mutex_);
   auto it = T_map_odom_.find(segment);
-  return it == T_map_odom_.end() ? SE3::Identity() : it->second;
+  return it == T_map_odom_.end() ? options_.T_base_camera : it->second;
 }
 
 std::optional<SE3> RobotLink::Impl::correctedKeyframe(int keyframe_id) const {
@@ -279,6 +285,14 @@ std::optional<SE3> RobotLink::Impl::correctedKeyframe(int keyframe_id) const {
   auto it = T_map_cam_.find(keyframe_id);
   if (it == T_map_cam_.end()) return std::nullopt;
   return it->second;
+}
+
+std::map<int, int64_t> RobotLink::Impl::keyframeAckTimes() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  std::map<int, int64_t> out;
+  for (const auto& [id, entry] : sent_)
+    if (entry.accepted_utime > 0) out[id] = entry.accepted_utime;
+  return out;
 }
 
 RobotLinkStats RobotLink::Impl::stats() const {
@@ -319,6 +333,10 @@ SE3 RobotLink::mapFromOdom(int segment) const { return impl_->mapFromOdom(segmen
 std::optional<SE3> RobotLink::correctedKeyframe(int keyframe_id) const {
   return impl_->correctedKeyframe(keyframe_id);
 }
+Status RobotLink::publishPose(double timestamp, int segment, int reference_keyframe, TrackingState state,
+                              const SE3& T_odom_cam) {
+  return impl_->publishPose(timestamp, segment, reference_keyframe, state, T_odom_cam);
+}
 std::optional<msg::OccupancySlice> RobotLink::latestSlice() const { return impl_->latest(&Impl::slice_); }
 Status RobotLink::publishCommand(const msg::VelocityCommand& command) {
   return impl_->publishCommand(command);
@@ -337,5 +355,6 @@ bool RobotLink::waitForGraphRevision(int64_t revision, double timeout_s) {
   return impl_->waitForGraphRevision(revision, timeout_s);
 }
 RobotLinkStats RobotLink::stats() const { return impl_->stats(); }
+std::map<int, int64_t> RobotLink::keyframeAckTimes() const { return impl_->keyframeAckTimes(); }
 
 }  // namespace rgbdmap

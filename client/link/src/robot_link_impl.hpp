@@ -38,6 +38,8 @@ class RobotLink::Impl : public std::enable_shared_from_this<RobotLink::Impl> {
   Status sendKeyframe(const Keyframe& keyframe, const RgbdFrame& frame);
   void setTrackingState(int last_keyframe_id, int segment, TrackingState state);
   Status publishCommand(msg::VelocityCommand command);
+  Status publishPose(double timestamp, int segment, int reference_keyframe, TrackingState state,
+                     const SE3& T_odom_cam);
   SE3 mapFromOdom(int segment) const;
   std::optional<SE3> correctedKeyframe(int keyframe_id) const;
   template <typename T>
@@ -49,6 +51,7 @@ class RobotLink::Impl : public std::enable_shared_from_this<RobotLink::Impl> {
   bool waitForCorrection(int keyframe_id, double timeout_s);
   bool waitForGraphRevision(int64_t revision, double timeout_s);
   RobotLinkStats stats() const;
+  std::map<int, int64_t> keyframeAckTimes() const;
 
   std::optional<msg::OccupancySlice> slice_;
   std::optional<msg::VelocityCommand> command_;
@@ -70,6 +73,7 @@ class RobotLink::Impl : public std::enable_shared_from_this<RobotLink::Impl> {
     int transmissions = 0;
     Answer answer = Answer::kPending;
     Clock::time_point first_sent{};  ///< submitted (its first transmission follows at once)
+    int64_t accepted_utime = 0;      ///< wall clock (us) of its accepting ack; 0 before
     ChunkTransfer transfer;          ///< chunk_bytes > 0 only
   };
 
@@ -146,6 +150,9 @@ class RobotLink::Impl : public std::enable_shared_from_this<RobotLink::Impl> {
   std::deque<size_t> own_commands_;
   std::mutex lifecycle_;  ///< serialises start() and stop()
   std::thread periodic_;
+  std::mutex pose_mutex_;  ///< publishPose's throttle
+  std::optional<Clock::time_point> last_pose_;
+  std::string pose_channel_;
 };
 
 }  // namespace rgbdmap

@@ -102,6 +102,7 @@ void RobotLink::Impl::handle(const msg::KeyframeAck& ack) {
       entry.message.reset();
       entry.transfer = ChunkTransfer{};
       ++(ack.accepted ? counts_.keyframes_acked : counts_.keyframes_refused);
+      if (ack.accepted) entry.accepted_utime = nowUtime();
       if (ack.accepted)
         ack_latency_ms_.add(
             std::chrono::duration<double, std::milli>(Clock::now() - entry.first_sent).count());

@@ -117,6 +117,11 @@ void trackFrame(const RgbdFrame& frame, VisualOdometry& vo, RobotLink& link, Run
   link.setTrackingState(*last_keyframe, r.segment, r.state);
   state->frames.push_back({r.timestamp, r.T_odom_cam, r.segment, r.reference_keyframe});
   out->live.push_back({r.timestamp, link.mapFromOdom(r.segment) * r.T_odom_cam});
+  if (r.state != TrackingState::kLost)
+    if (const Status s =
+            link.publishPose(r.timestamp, r.segment, r.reference_keyframe, r.state, r.T_odom_cam);
+        !s)
+      log::debug("live pose: ", s.error());
   if (controller) avoid(*controller, link, out->live.back(), &*out->avoidance);
   out->odometry.push_back({r.timestamp, r.T_odom_cam});
   out->times.push_back(r.times);
@@ -256,6 +261,7 @@ RobotRunResult runRobot(FrameSource& source, const CameraIntrinsics& camera, con
     log::error("robot run: final trajectories: ", e.what());
   }
   out.link = link.stats();
+  out.keyframe_ack_utime = link.keyframeAckTimes();
   out.wall_s = std::chrono::duration<double>(Clock::now() - start).count();
   return out;
 }

@@ -15,7 +15,7 @@ bool endsWith(const std::string& s, const std::string& suffix) {
 
 bool isLatestForLateJoiners(const std::string& channel, const TransportOptions& options) {
   // The channels proto/README.md marks "latest for late joiners" (one list, matched by suffix).
-  for (const char* suffix : {"/map", "/slice", "/status", "/pose_corrections", "/hello"})
+  for (const char* suffix : {"/map", "/slice", "/status", "/pose_corrections", "/hello", "/loops"})
     if (endsWith(channel, suffix)) return true;
   const auto& extra = options.latest_for_late_joiners_channels;
   return std::find(extra.begin(), extra.end(), channel) != extra.end();

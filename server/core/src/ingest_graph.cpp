@@ -69,9 +69,10 @@ IndexedNode IngestPipeline::makeNodeLocked(const StoredKeyframe& stored, int rob
     node.kf.T_map_kf = se3::normalized(p.kf.T_map_kf * kf.T_prev_cur);
     node.kf.map_id = p.kf.map_id;
   } else {
-    // A new chain starts a map of its own until a loop joins it. A split one starts where the odometry of
-    // its segment puts it (its latest keyframe in the graph), so the robot's T_map_odom does not jump.
-    node.kf.T_map_kf = kf.T_odom_cam;
+    // A new chain starts a map of its own until a loop joins it, z-up: T_map_odom = the robot's camera mount
+    // (map = the base frame of its first keyframe). A split one starts where the odometry of its segment
+    // puts it (its latest keyframe in the graph), so the robot's T_map_odom does not jump.
+    node.kf.T_map_kf = se3::normalized(registry_.mount(kf.robot_id) * kf.T_odom_cam);
     const auto latest =
         split ? index_.latestBefore({robot, stored.session, kf.segment_id, kf.keyframe_id}) : std::nullopt;
     if (latest) {

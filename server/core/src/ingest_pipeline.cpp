@@ -32,7 +32,8 @@ void IngestPipeline::onHello(const msg::Hello& hello) {
   std::vector<msg::Keyframe> held;
   {
     std::lock_guard<std::mutex> lock(mutex_);
-    const auto registered = registry_.hello(hello.robot_id, hello.header.session, hello.camera);
+    const auto registered =
+        registry_.hello(hello.robot_id, hello.header.session, hello.camera, hello.T_base_camera);
     if (!registered) {
       log::warn("server: hello from ", hello.robot_id, ": ", registered.error());
       return;
@@ -163,7 +164,8 @@ void IngestPipeline::addLiveLocked(const StoredKeyframe& stored, const FrameFeat
   const std::optional<CameraIntrinsics> camera = registry_.camera(n.kf.robot_id);
   if (map_worker_ && camera)
     map_worker_->addKeyframe({n.kf.node_id, n.kf.robot_id, n.kf.map_id, n.kf.T_map_kf, *camera,
-                              images ? images->depth : cv::Mat(), images ? images->color : cv::Mat(), true});
+                              images ? images->depth : cv::Mat(), images ? images->color : cv::Mat(), true,
+                              n.kf.keyframe_id});
   counters_.loop_candidates += loop_stats.candidates;
   timings_.addVerify(loop_stats.verify_ms);
   for (int r = 0; r < kLoopRejectionCount; ++r)

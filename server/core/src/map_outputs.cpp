@@ -1,5 +1,6 @@
 // MapWorker::writeOutputs: the map's files for people and tools (MapServer::writeMapOutputs).
 #include <algorithm>
+#include <chrono>
 #include <filesystem>
 
 #include "map_worker.hpp"
@@ -7,6 +8,7 @@
 #include "rgbdmap/export/point_cloud_export.hpp"
 #include "rgbdmap/export/slice_export.hpp"
 #include "rgbdmap/map/map_io.hpp"
+#include "rgbdmap/map/occupancy_slice.hpp"
 
 namespace rgbdmap {
 namespace {
@@ -35,6 +37,30 @@ Status writeCloud(const std::vector<OccupancyMap::KeptCloud>& clouds, const std:
   return writePly(path, voxels.points());
 }
 
+/// The median height along `up` of the cameras of map `map_id`'s keyframes (0 without any): the global 2-D
+/// map is cut at the robots' camera height, as their slices are.
+double cameraHeight(const std::vector<ServerKeyframe>& keyframes, int map_id, const Vec3& up) {
+  std::vector<double> heights;
+  for (const ServerKeyframe& k : keyframes)
+    if (k.map_id == map_id) heights.push_back(k.T_map_kf.translation().dot(up));
+  if (heights.empty()) return 0.0;
+  std::nth_element(heights.begin(), heights.begin() + heights.size() / 2, heights.end());
+  return heights[heights.size() / 2];
+}
+
+/// map_<id>.pgm + map_<id>.yaml: the map's global 2-D occupancy map (ROS map_server / nav2, no yaw).
+Status writeMapGrid(const octomap::OcTree& tree, int map_id, const std::vector<ServerKeyframe>& keyframes,
+                    const SliceConfig& config, const std::filesystem::path& dir) {
+  const double height = cameraHeight(keyframes, map_id, config.up_in_map.normalized());
+  Result<msg::OccupancySlice> grid = extractMapGrid(tree, height, config);
+  if (!grid) return Status::failure("map_" + std::to_string(map_id) + ".pgm: " + grid.error());
+  grid->header.utime = std::chrono::duration_cast<std::chrono::microseconds>(
+                           std::chrono::system_clock::now().time_since_epoch())
+                           .count();
+  const std::string base = (dir / ("map_" + std::to_string(map_id))).string();
+  return writeSlice(*grid, base + ".pgm", base + ".yaml");
+}
+
 }  // namespace
 
 Status MapWorker::writeOutputs(const std::string& out_dir,
@@ -60,6 +86,8 @@ Status MapWorker::writeOutputs(const std::string& out_dir,
   Status status = Status::success();
   for (int id : map_ids) {
     occupancy_.read(id, [&](const octomap::OcTree& tree) {
+      if (!status) return;
+      status = writeMapGrid(tree, id, keyframes, config_.slice, dir);
       if (!status) return;
       if (id == main_id) {
         status = writeMapFiles(tree, (dir / "map.bt").string(), (dir / "map.ot").string());

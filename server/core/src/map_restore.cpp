@@ -83,7 +83,7 @@ void IngestPipeline::startFeeding(MapWorker* map_worker) {
     const auto camera = n.valid ? registry_.camera(n.kf.robot_id) : std::nullopt;
     if (!camera) continue;
     map_worker_->addKeyframe(
-        {n.kf.node_id, n.kf.robot_id, n.kf.map_id, n.kf.T_map_kf, *camera, {}, {}, false});
+        {n.kf.node_id, n.kf.robot_id, n.kf.map_id, n.kf.T_map_kf, *camera, {}, {}, false, n.kf.keyframe_id});
   }
 }
 

@@ -62,7 +62,11 @@ const ConfigTable<C>& ownTable() {
           .add("map.enabled", &C::occupancy_enabled,
                "false: no octree, no slices, no map stream, no map files")
           .add("map.stream_period_s", &C::map_stream_period_s, R::closed(0.0, 3600.0),
-               "MapUpdate to every robot (its own map; full first and after rebuilds); 0: off")
+               "MapUpdate to every robot (its own map; full first and after rebuilds) at least this "
+               "often; 0: off")
+          .add("map.stream_delay_s", &C::map_stream_delay_s, R::closed(0.0, 60.0),
+               "a keyframe's voxels go out within this delay after its insertion into the octree (the "
+               "keyframes inserted meanwhile share one partial update); 0: only every stream_period_s")
           .add("slice.period_s", &C::slice_period_s, R::closed(0.0, 3600.0),
                "at most one slice per robot per this period")
           .add("server.store_retry_s", &C::store_retry_s, R::closed(0.05, 3600.0),

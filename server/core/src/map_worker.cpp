@@ -18,10 +18,13 @@ using Clock = std::chrono::steady_clock;
 
 double nowS() { return std::chrono::duration<double>(Clock::now().time_since_epoch()).count(); }
 
+/// The stream is checked every map_stream_delay_s (or every map_stream_period_s without a delay); 0: off.
 SerialWorkerOptions workerOptions(const MapServerConfig& config, std::function<void()> stream) {
   SerialWorkerOptions options;
   options.name = "rgbdmap-map";
   options.period_s = config.map_stream_period_s;  // 0: no map stream
+  if (config.map_stream_delay_s > 0.0 && options.period_s > 0.0)
+    options.period_s = std::min(options.period_s, config.map_stream_delay_s);
   options.on_period = std::move(stream);
   return options;
 }
@@ -33,7 +36,7 @@ MapWorker::MapWorker(const MapServerConfig& config, const MapStore& store, MapWo
       store_(store),
       publishers_(std::move(publishers)),
       occupancy_(config.occupancy),
-      worker_(workerOptions(config, [this] { publishStreams(); })) {}
+      worker_(workerOptions(config, [this] { onStreamTick(); })) {}
 
 MapWorker::~MapWorker() { stop(); }
 
@@ -114,10 +117,12 @@ void MapWorker::insertKeyframe(MapKeyframeJob& job) {
     std::lock_guard<std::mutex> lock(state_mutex_);
     nodes_[job.node_id] = {job.robot_id, job.map_id, job.T_map_kf};
     auto& newest = newest_[job.robot_id];
+    if (job.node_id >= newest) newest_keyframe_[job.robot_id] = job.keyframe_id;
     newest = std::max(newest, job.node_id);
     if (job.live) insert_ms_.add(ms);
     ++inserted_;
   }
+  stream_dirty_ = true;
   if (!job.live) return;
   const double now = nowS();
   const auto last = last_slice_s_.find(job.robot_id);
@@ -168,13 +173,22 @@ void MapWorker::publishSlice(const std::string& robot_id) {
   ++slices_sent_;
 }
 
+void MapWorker::onStreamTick() {
+  const bool inserted = stream_dirty_ && config_.map_stream_delay_s > 0.0;
+  if (inserted || nowS() - last_stream_s_ >= config_.map_stream_period_s - 1e-3) publishStreams();
+}
+
 void MapWorker::publishStreams() {
-  std::map<std::string, int> map_of;
+  stream_dirty_ = false;
+  last_stream_s_ = nowS();
+  std::map<std::string, std::pair<int, int>> map_of;  ///< robot -> (map id, its newest keyframe id)
   {
     std::lock_guard<std::mutex> lock(state_mutex_);
-    for (const auto& [robot, node] : newest_) map_of[robot] = nodes_.at(node).map_id;
+    for (const auto& [robot, node] : newest_)
+      map_of[robot] = {nodes_.at(node).map_id, newest_keyframe_[robot]};
   }
-  for (const auto& [robot, map_id] : map_of) {
+  for (const auto& [robot, ids] : map_of) {
+    const int map_id = ids.first;
     StreamState& state = streams_[robot];
     const uint64_t since = state.map_id == map_id ? state.revision : 0;
     if (since != 0 && occupancy_.revision(map_id) == since) continue;  // nothing new
@@ -188,6 +202,7 @@ void MapWorker::publishStreams() {
       log::warn("map: stream for ", robot, ": ", s.error());
       continue;
     }
+    update.robot_keyframe_id = ids.second;
     if (publishers_.map) publishers_.map(robot, update);
     state.map_id = map_id;
     state.revision = chunk->revision;

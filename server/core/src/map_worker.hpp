@@ -7,8 +7,10 @@
 //     rebuild itself runs on OccupancyMap's own background worker);
 //   - after a live keyframe of robot R (at most every slice_period_s): R's slice at R's newest keyframe,
 //     published to R;
-//   - every map_stream_period_s: a MapUpdate of each robot's map to that robot (full on first send and
-//     after a rebuild or a change of map, the changed leaves otherwise).
+//   - a MapUpdate of each robot's map to that robot (full on first send and after a rebuild or a change of
+//     map, the changed leaves otherwise) within map_stream_delay_s of a keyframe's insertion (the stream
+//     is checked every map_stream_delay_s; keyframes inserted meanwhile share one update), and at least
+//     every map_stream_period_s (rebuilds swap in off this thread).
 #include <atomic>
 #include <functional>
 #include <map>
@@ -34,9 +36,10 @@ struct MapKeyframeJob {
   int map_id = 0;
   SE3 T_map_kf = SE3::Identity();
   CameraIntrinsics camera;
-  cv::Mat depth;     ///< CV_16UC1 raw units
-  cv::Mat color;     ///< CV_8UC3 BGR or empty
-  bool live = true;  ///< a just-received keyframe (a slice follows); false when restored
+  cv::Mat depth;         ///< CV_16UC1 raw units
+  cv::Mat color;         ///< CV_8UC3 BGR or empty
+  bool live = true;      ///< a just-received keyframe (a slice follows); false when restored
+  int keyframe_id = -1;  ///< the robot's id of it (MapUpdate::robot_keyframe_id)
 };
 
 struct MapNodePose {
@@ -92,6 +95,7 @@ class MapWorker {
   void applyPoses(const std::vector<MapNodePose>& poses);
   void publishSlice(const std::string& robot_id);
   void publishStreams();
+  void onStreamTick();  ///< the worker's period: publishStreams() when a keyframe came in or it is time
   const KeyframeCloudMaker& makerFor(const std::string& robot_id, const CameraIntrinsics& camera);
 
   const MapServerConfig config_;
@@ -103,11 +107,14 @@ class MapWorker {
   std::map<std::string, std::pair<CameraIntrinsics, std::unique_ptr<KeyframeCloudMaker>>> makers_;
   std::map<std::string, StreamState> streams_;
   std::map<std::string, double> last_slice_s_;  ///< steady-clock seconds of each robot's last slice
+  bool stream_dirty_ = false;                   ///< a keyframe was inserted since the last publishStreams
+  double last_stream_s_ = 0.0;                  ///< steady-clock seconds of the last publishStreams
 
   // shared with readers (stats, outputs)
   mutable std::mutex state_mutex_;
   std::map<int64_t, NodeState> nodes_;
-  std::map<std::string, int64_t> newest_;  ///< robot -> its newest inserted node
+  std::map<std::string, int64_t> newest_;       ///< robot -> its newest inserted node
+  std::map<std::string, int> newest_keyframe_;  ///< robot -> the keyframe id of its newest inserted one
   std::map<std::string, msg::OccupancySlice> last_slices_;
   SampleReservoir insert_ms_;
   SampleReservoir slice_ms_;

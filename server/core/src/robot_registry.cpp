@@ -1,5 +1,6 @@
 #include "robot_registry.hpp"
 
+#include <cmath>
 #include <cstdio>
 #include <fstream>
 #include <iomanip>
@@ -12,8 +13,25 @@ namespace rgbdmap {
 namespace {
 
 constexpr const char* kFileName = "robots.txt";
+/// v2 added the camera mount (T_base_camera); a v1 line (without it) reads as the default mount.
 constexpr const char* kHeader =
-    "# rgbdmap robots v1: id index fx fy cx cy width height k1 k2 p1 p2 k3 depth_scale";
+    "# rgbdmap robots v2: id index fx fy cx cy width height k1 k2 p1 p2 k3 depth_scale tx ty tz qx qy qz qw";
+
+bool sameMount(const SE3& a, const SE3& b) { return a.matrix() == b.matrix(); }
+
+/// The optional mount at the end of a robots.txt line: absent (v1) -> default; partial or invalid -> false.
+bool readMount(std::istringstream& f, SE3* T_base_camera) {
+  double v[7];
+  int n = 0;
+  while (n < 7 && f >> v[n]) ++n;
+  if (n == 0) {
+    *T_base_camera = defaultT_base_camera();
+    return f.eof();
+  }
+  if (n != 7 || !(std::abs(Eigen::Vector4d(v[3], v[4], v[5], v[6]).norm() - 1.0) <= 1e-6)) return false;
+  *T_base_camera = se3::fromTum(v[0], v[1], v[2], v[3], v[4], v[5], v[6]);
+  return se3::isValid(*T_base_camera, 1e-6);
+}
 
 }  // namespace
 
@@ -24,7 +42,7 @@ RobotRegistry::Entry& RobotRegistry::entry(const std::string& robot_id) {
 }
 
 Result<bool> RobotRegistry::hello(const std::string& robot_id, int64_t session,
-                                  const CameraIntrinsics& camera) {
+                                  const CameraIntrinsics& camera, const SE3& T_base_camera) {
   std::lock_guard<std::mutex> lock(mutex_);
   Entry& e = entry(robot_id);
   bool changed = false;
@@ -35,6 +53,11 @@ Result<bool> RobotRegistry::hello(const std::string& robot_id, int64_t session,
   if (!e.stats.camera || !sameIntrinsics(*e.stats.camera, camera)) {
     if (e.stats.camera) log::warn("server: robot ", robot_id, " reports a different camera from now on");
     e.stats.camera = camera;
+    changed = true;
+  }
+  if (!sameMount(e.T_base_camera, T_base_camera)) {
+    // New chains of the robot start with it; keyframes already in the graph keep their poses.
+    e.T_base_camera = T_base_camera;
     changed = true;
   }
   if (session > e.session) {
@@ -67,7 +90,10 @@ Status RobotRegistry::save(const std::string& map_dir) const {
       out << e->stats.robot_id << " " << e->index << " " << c.fx << " " << c.fy << " " << c.cx << " " << c.cy
           << " " << c.width << " " << c.height;
       for (const double d : c.distortion) out << " " << d;
-      out << " " << c.depth_scale << "\n";
+      const Vec3 t = e->T_base_camera.translation();
+      const Eigen::Quaterniond q = se3::quat(e->T_base_camera);
+      out << " " << c.depth_scale << " " << t.x() << " " << t.y() << " " << t.z() << " " << q.x() << " "
+          << q.y() << " " << q.z() << " " << q.w() << "\n";
     }
   }
   return writeFileAtomic(map_dir + "/" + kFileName, out.str());
@@ -90,11 +116,13 @@ Status RobotRegistry::load(const std::string& map_dir) {
     f >> id >> index >> c.fx >> c.fy >> c.cx >> c.cy >> c.width >> c.height;
     for (double& d : c.distortion) f >> d;
     f >> c.depth_scale;
-    if (!f || index < 0 || robots_.count(id))
+    SE3 T_base_camera;
+    if (!f || index < 0 || robots_.count(id) || !readMount(f, &T_base_camera))
       return Status::failure(path + ":" + std::to_string(number) + ": unreadable robot line");
     Entry& e = entry(id);
     e.index = index;
     e.stats.camera = c;
+    e.T_base_camera = T_base_camera;
     next_index_ = std::max(next_index_, index + 1);
   }
   return Status::success();
@@ -110,6 +138,12 @@ std::optional<CameraIntrinsics> RobotRegistry::camera(const std::string& robot_i
   std::lock_guard<std::mutex> lock(mutex_);
   const auto it = robots_.find(robot_id);
   return it == robots_.end() ? std::nullopt : it->second.stats.camera;
+}
+
+SE3 RobotRegistry::mount(const std::string& robot_id) const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  const auto it = robots_.find(robot_id);
+  return it == robots_.end() ? defaultT_base_camera() : it->second.T_base_camera;
 }
 
 int64_t RobotRegistry::currentSession(const std::string& robot_id) const {

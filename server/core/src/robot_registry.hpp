@@ -1,8 +1,9 @@
 #pragma once
 // The robots a server knows: index (order of first Hello, persisted), camera, current session and counters.
 // Thread-safe (one internal mutex): the receive thread counts bytes, the worker registers and counts.
-// Cameras are persisted in <map_dir>/robots.txt (written to a temporary file, synced, then renamed), so a
-// restarted server can rebuild the features of stored keyframes before any robot says Hello again.
+// Cameras and camera mounts are persisted in <map_dir>/robots.txt (written to a temporary file, synced, then
+// renamed), so a restarted server can rebuild the features of stored keyframes before any robot says Hello
+// again.
 #include <chrono>
 #include <cstdint>
 #include <map>
@@ -12,6 +13,7 @@
 #include <vector>
 
 #include "rgbdmap/common/camera.hpp"
+#include "rgbdmap/common/camera_mount.hpp"
 #include "rgbdmap/common/result.hpp"
 #include "rgbdmap/proto/messages.hpp"
 #include "rgbdmap/server/map_server.hpp"
@@ -20,8 +22,9 @@ namespace rgbdmap {
 
 class RobotRegistry {
  public:
-  /// Registers a Hello. Returns true when something to persist changed (new robot or new camera).
-  Result<bool> hello(const std::string& robot_id, int64_t session, const CameraIntrinsics& camera);
+  /// Registers a Hello. Returns true when something to persist changed (new robot, camera or camera mount).
+  Result<bool> hello(const std::string& robot_id, int64_t session, const CameraIntrinsics& camera,
+                     const SE3& T_base_camera = defaultT_base_camera());
   /// A keyframe of `session` from a known robot: a newer session than the registry's becomes the current
   /// one (counted like a Hello's). After a restart the registry comes back without sessions and a robot
   /// that heard the old server does not say Hello again (LCM has no durable Hello): without this its
@@ -33,6 +36,9 @@ class RobotRegistry {
 
   int index(const std::string& robot_id) const;  ///< -1 before its first Hello
   std::optional<CameraIntrinsics> camera(const std::string& robot_id) const;
+  /// The robot's camera mount (its Hello's T_base_camera; the default mount for a robot not heard of): a new
+  /// chain of the robot starts at T_map_kf = T_base_camera * T_odom_kf, so maps are z-up.
+  SE3 mount(const std::string& robot_id) const;
   int64_t currentSession(const std::string& robot_id) const;
 
   void addBytesReceived(const std::string& robot_id, size_t bytes, int64_t utime);
@@ -68,6 +74,7 @@ class RobotRegistry {
     ServerRobotStats stats;
     int index = -1;
     int64_t session = 0;
+    SE3 T_base_camera = defaultT_base_camera();
     std::optional<HeartbeatSeen> heartbeat;
   };
   Entry& entry(const std::string& robot_id);  // caller holds mutex_

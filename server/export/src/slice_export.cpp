@@ -3,6 +3,7 @@
 
 #include <cctype>
 #include <cmath>
+#include <cstdlib>
 #include <filesystem>
 #include <iomanip>
 #include <sstream>
@@ -48,21 +49,34 @@ std::string imageReference(const std::string& pgm_path, const std::string& yaml_
   return fs::absolute(pgm).string();
 }
 
+/// A float field as written: the fewest digits that read back as the same float (0.05, not the double
+/// 0.0500000007).
+std::string floatText(float v) {
+  std::string text;
+  for (int digits = 6; digits <= 9; ++digits) {
+    std::ostringstream o;
+    o << std::setprecision(digits) << v;
+    text = o.str();
+    if (std::strtof(text.c_str(), nullptr) == v) break;
+  }
+  return text;
+}
+
 std::string sliceYaml(const msg::OccupancySlice& s, const std::string& image) {
   const SE3& T = s.T_map_grid;
-  const Mat3 R_plane_grid = R_map_plane().transpose() * T.linear();
-  const Vec3 t_plane = R_map_plane().transpose() * T.translation();
-  const double yaw = std::atan2(R_plane_grid(1, 0), R_plane_grid(0, 0));
+  const Vec3& t = T.translation();
+  const double yaw = std::atan2(T.linear()(1, 0), T.linear()(0, 0)) + 0.0;  // + 0.0: never "-0"
   const Eigen::Quaterniond q = se3::quat(T);
   std::ostringstream y;
   y << std::setprecision(9);
-  y << "image: " << image << "\nmode: trinary\nresolution: " << s.resolution_m << "\norigin: [" << t_plane.x()
-    << ", " << t_plane.y() << ", " << yaw << "]\nnegate: 0\noccupied_thresh: " << kOccupiedThresh
-    << "\nfree_thresh: " << kFreeThresh << "\n# rgbdmap (ignored by map_server): the exact 3-D grid pose\n"
-    << "robot_id: \"" << s.robot_id << "\"\nutime: " << s.header.utime << "\nz_min_m: " << s.z_min_m
-    << "\nz_max_m: " << s.z_max_m << "\nT_map_grid: [" << T.translation().x() << ", " << T.translation().y()
-    << ", " << T.translation().z() << ", " << q.x() << ", " << q.y() << ", " << q.z() << ", " << q.w()
-    << "]\n";
+  y << "image: " << image << "\nmode: trinary\nresolution: " << floatText(s.resolution_m) << "\norigin: ["
+    << t.x() << ", " << t.y() << ", " << yaw << "]\nnegate: 0\noccupied_thresh: " << kOccupiedThresh
+    << "\nfree_thresh: " << kFreeThresh << "\n# rgbdmap (ignored by map_server): the exact 3-D grid pose\n";
+  if (!s.robot_id.empty()) y << "robot_id: \"" << s.robot_id << "\"\n";
+  y << "utime: " << s.header.utime << "\nz_min_m: " << floatText(s.z_min_m)
+    << "\nz_max_m: " << floatText(s.z_max_m) << "\nT_map_grid: [" << T.translation().x() << ", "
+    << T.translation().y() << ", " << T.translation().z() << ", " << q.x() << ", " << q.y() << ", " << q.z()
+    << ", " << q.w() << "]\n";
   return y.str();
 }
 
@@ -133,8 +147,8 @@ Result<SE3> gridPose(const YAML::Node& y) {
   } else {
     const auto o = y["origin"].as<std::vector<double>>();
     if (o.size() != 3) return Result<SE3>::failure("origin needs 3 numbers");
-    T.linear() = R_map_plane() * Eigen::AngleAxisd(o[2], Vec3::UnitZ()).toRotationMatrix();
-    T.translation() = R_map_plane() * Vec3(o[0], o[1], 0.0);
+    T.linear() = Eigen::AngleAxisd(o[2], Vec3::UnitZ()).toRotationMatrix();
+    T.translation() = Vec3(o[0], o[1], 0.0);
   }
   if (!se3::isValid(T)) return Result<SE3>::failure("grid pose is not finite");
   return T;
@@ -167,19 +181,13 @@ SliceResult parseSliceYaml(const std::string& yaml_path, const YAML::Node& y) {
 
 }  // namespace
 
-Mat3 R_map_plane() {
-  Mat3 R;         // columns: plane x (forward = map z), plane y (left = -map x), plane z (up = -map y)
-  R << 0, -1, 0,  //
-      0, 0, -1,   //
-      1, 0, 0;
-  return R;
-}
-
 Status writeSlice(const msg::OccupancySlice& slice, const std::string& pgm_path,
                   const std::string& yaml_path) {
   if (Status s = checkSlice(slice); !s) return Status::failure("slice: " + s.error());
-  std::string pgm = "P5\n# rgbdmap occupancy slice of " + slice.robot_id + "\n" +
-                    std::to_string(slice.width) + " " + std::to_string(slice.height) + "\n255\n";
+  const std::string title =
+      slice.robot_id.empty() ? "global occupancy map" : "occupancy slice of " + slice.robot_id;
+  std::string pgm = "P5\n# rgbdmap " + title + "\n" + std::to_string(slice.width) + " " +
+                    std::to_string(slice.height) + "\n255\n";
   const size_t header = pgm.size();
   pgm.resize(header + slice.cells.size());
   for (int row = 0; row < slice.height; ++row) {

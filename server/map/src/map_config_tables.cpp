@@ -37,7 +37,8 @@ const ConfigTable<SliceConfig>& sliceConfigTable() {
                "side of the square grid, centred on the robot (at most kMaxGridSide cells)")
           .add("resolution_m", &C::resolution_m, R::closed(0.005, 1.0), "cell side")
           .add("z_min_m", &C::z_min_m, R::closed(-10.0, 10.0),
-               "height band relative to the camera (up = -y of the map frame)")
+               "height band relative to the camera (up = z of the z-up map frame; the global 2-D map uses "
+               "the same band around the median camera height of its keyframes)")
           .add("z_max_m", &C::z_max_m, R::closed(-10.0, 10.0), "")
           .add("occupied_threshold", &C::occupied_threshold, R::open(0.0, 1.0),
                "leaf occupancy probability above which a cell is occupied");

@@ -57,7 +57,7 @@ struct AvoidanceConfig {
   /// Closer than this: back-right from any state (0 = off, the paper's rules only).
   double emergency_distance_m = 0.35;
   bool unknown_is_obstacle = false;
-  Vec3 up_in_map = Vec3(0, -1, 0);  ///< map frame = first camera (y down)
+  Vec3 up_in_map = Vec3(0, 0, 1);  ///< the map frame is z-up (REP-103)
   /// A slice older than this (header.utime against now_s), or from more than this in the future -> stop.
   double max_slice_age_s = 1.0;
   /// Command scaling (see the header comment) and validity of each command.

@@ -1,6 +1,7 @@
 #pragma once
 // Config tables (config_table.hpp) of the camera and the dataset reader: keys, ranges, meanings.
 #include "rgbdmap/common/camera.hpp"
+#include "rgbdmap/common/camera_mount.hpp"
 #include "rgbdmap/common/config_table.hpp"
 #include "rgbdmap/common/tum_dataset.hpp"
 
@@ -8,6 +9,9 @@ namespace rgbdmap {
 
 /// fx, fy, cx, cy, width, height, distortion, depth_scale (the `camera:` section).
 const ConfigTable<CameraIntrinsics>& cameraConfigTable();
+
+/// xyz_m, rpy_deg: the camera's pose on the robot (camera_mount.hpp).
+const ConfigTable<CameraMount>& cameraMountConfigTable();
 
 /// max_time_diff (the `dataset:` section); depth_scale and the expected image size are set by code.
 const ConfigTable<DatasetOptions>& datasetConfigTable();

@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "rgbdmap/common/camera.hpp"
+#include "rgbdmap/common/camera_mount.hpp"
 #include "rgbdmap/common/image_codec.hpp"
 #include "rgbdmap/common/se3.hpp"
 
@@ -16,7 +17,7 @@ namespace rgbdmap::msg {
 using Bytes = std::vector<uint8_t>;
 
 /// Bumped whenever any .lcm file changes; a receiver rejects every other version.
-constexpr int kSchemaVersion = 2;  ///< 2: ServerStatus::rejects
+constexpr int kSchemaVersion = 3;  ///< 2: ServerStatus::rejects; 3: Hello::T_base_camera
 
 enum class MessageType : int16_t {
   kHello = 1,
@@ -31,8 +32,9 @@ enum class MessageType : int16_t {
   kKeyframeChunk = 10,  ///< chunked keyframe transfer (udpm://): see KeyframeChunk, ChunkAck
   kChunkAck = 11,
   kLoopEdges = 12,  ///< the accepted loop edges of a robot's map (visualisers)
+  kRobotPose = 13,  ///< a robot's live pose (visualisers)
 };
-constexpr int kNumMessageTypes = 12;
+constexpr int kNumMessageTypes = 13;
 const char* toString(MessageType type);
 bool isKnownType(int type);
 
@@ -69,6 +71,8 @@ struct Hello {
   Header header;
   std::string robot_id;
   CameraIntrinsics camera;
+  /// The camera's optical frame in the robot's base frame (REP-103); within kMaxCameraOffsetM of the base.
+  SE3 T_base_camera = defaultT_base_camera();
   std::string software_version;
   std::vector<std::string> capabilities;  ///< each like an id: [A-Za-z0-9_-]{1,32}
 };
@@ -81,6 +85,19 @@ struct Heartbeat {
   int segment_id = 0;
   int tracking_state = 0;  ///< rgbdmap::TrackingState as int, 0..3
   double uptime_s = 0.0;
+};
+
+/// Robot -> visualisers, best effort, a few Hz: the robot's current pose as it knows it.
+struct RobotPose {
+  static constexpr MessageType kType = MessageType::kRobotPose;
+  Header header;
+  std::string robot_id;
+  double timestamp = 0.0;  ///< the frame's (s)
+  int segment_id = 0;
+  int reference_keyframe_id = -1;
+  int tracking_state = 0;           ///< rgbdmap::TrackingState as int, 0..3
+  int64_t graph_revision = -1;      ///< of the PoseCorrections applied; -1 before any
+  SE3 T_map_cam = SE3::Identity();  ///< T_map_odom(segment) * T_odom_cam
 };
 
 struct KeyPoint {
@@ -206,6 +223,9 @@ struct MapUpdate {
   MapCompression compression = MapCompression::kNone;
   int raw_size = 0;  ///< octree bytes after decompression
   Bytes data;        ///< see map_payload.hpp to fill and read it
+  /// The newest keyframe of the channel's robot that this tree holds (-1: none): how fresh the map is
+  /// (rgbdmap-viewer passes it on; deploy/bench_viewer.sh measures acknowledgement -> voxels with it).
+  int robot_keyframe_id = -1;
 };
 
 struct VelocityCommand {

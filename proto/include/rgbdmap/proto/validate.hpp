@@ -19,6 +19,7 @@ bool isValidPose(const SE3& T);
 Status validate(const Header& header);
 Status validate(const Hello& m);
 Status validate(const Heartbeat& m);
+Status validate(const RobotPose& m);
 Status validate(const Keyframe& m);
 Status validate(const KeyframeAck& m);
 Status validate(const PoseCorrections& m);

@@ -8,11 +8,13 @@
 //   /R/voxels        foxglove.PointCloud      occupied voxels of R's map, coloured by height (throttled)
 //   /R/voxel_delta   rgbdmap.VoxelDelta       the same voxels incrementally: a snapshot, then changes
 //   /R/trajectory    foxglove.PosesInFrame    R's optimised keyframes (PoseCorrections)
-//   /R/pose          foxglove.PoseInFrame     R's newest keyframe pose in the map
+//   /R/pose          foxglove.PoseInFrame     R's live pose (its RobotPose), else its newest keyframe
 //   /R/slice         foxglove.Grid            R's latest occupancy slice
+//   /R/map_grid      foxglove.Grid            the global 2-D occupancy map of R's map (as map_<id>.pgm)
 //   /R/status        rgbdmap.RobotStatus      keyframes, loops, bandwidth, last seen
 //   /R/loops         foxglove.SceneUpdate     accepted loop edges of R's map (LoopEdges), one line list
-//   /tf              foxglove.FrameTransforms map -> R (newest keyframe), map -> R_odom (T_map_odom)
+//   /tf              foxglove.FrameTransforms map -> R (as /R/pose), map -> R_odom (T_map_odom)
+// The map frame is z-up (REP-103).
 #include <cstdint>
 #include <memory>
 #include <string>

@@ -6,6 +6,7 @@
 #include <string>
 #include <vector>
 
+#include "rgbdmap/common/camera_mount.hpp"
 #include "rgbdmap/common/config_reader.hpp"
 #include "rgbdmap/common/config_table.hpp"
 #include "rgbdmap/common/result.hpp"
@@ -15,7 +16,8 @@ namespace rgbdmap {
 
 struct RobotClientConfig {
   std::string robot_id = "robot0";
-  std::string key_file;  ///< hex key (64 digits for 32 bytes); empty = unsigned (open-mode server)
+  std::string key_file;      ///< hex key (64 digits for 32 bytes); empty = unsigned (open-mode server)
+  CameraMount camera_mount;  ///< where the camera sits on the robot: link.T_base_camera (the map is z-up)
   std::string transport_url = "memq://";  ///< memq:// | udpm://... | dds://?domain=N
   double final_wait_s = 20.0;             ///< at the end, wait this long for acks and the last correction
   /// heartbeat/hello periods, send timeout, reliable and codec settings; robot_id, key and camera are filled
@@ -23,7 +25,7 @@ struct RobotClientConfig {
   RobotLinkOptions link;
 };
 
-/// robot.*, transport.*, link.* (incl. link.reliable.*, link.codec.*).
+/// robot.* (incl. robot.camera_mount.*), transport.*, link.* (incl. link.reliable.*, link.codec.*).
 const ConfigTable<RobotClientConfig>& robotClientConfigTable();
 
 /// Reads robot.*, transport.*, link.* (incl. link.reliable.*, link.codec.*) into *config.

@@ -25,6 +25,7 @@
 
 #include "rgbdmap/client/odometry.hpp"
 #include "rgbdmap/common/camera.hpp"
+#include "rgbdmap/common/camera_mount.hpp"
 #include "rgbdmap/common/image_codec.hpp"
 #include "rgbdmap/common/result.hpp"
 #include "rgbdmap/common/rgbd_frame.hpp"
@@ -39,6 +40,9 @@ struct RobotLinkOptions {
   std::string robot_id;
   msg::Bytes key;           ///< empty: unsigned messages (server in open mode); else >= 16 bytes
   CameraIntrinsics camera;  ///< sent in Hello
+  /// The camera's optical frame in the robot's base frame (REP-103), sent in Hello: the server anchors the
+  /// robot's first keyframe at T_map_cam = T_base_camera * T_odom_cam, so the map frame is z-up.
+  SE3 T_base_camera = defaultT_base_camera();
   ImageCodecOptions codec;  ///< keyframe images (common/image_codec.hpp)
   transport::ReliableSenderOptions reliable;
   double heartbeat_period_s = 1.0, hello_period_s = 1.0;
@@ -48,6 +52,8 @@ struct RobotLinkOptions {
   /// the transport URL (resolveChunkBytes: 1100 for udpm://, else 0).
   int chunk_bytes = -1;
   std::string software_version = "rgbdmap-client 0.1.0";  ///< sent in Hello
+  /// RobotPose (the live pose, for visualisers) at most every this many seconds; 0 = never.
+  double pose_period_s = 0.2;
 
   /// Empty when valid, else every reason ("; "-separated).
   std::string validate() const;
@@ -70,6 +76,7 @@ struct RobotLinkStats {
   uint64_t corrections_received = 0;  ///< PoseCorrections applied
   uint64_t corrections_stale = 0;     ///< ignored: graph_revision not newer
   uint64_t slices_received = 0, commands_received = 0, status_received = 0;
+  uint64_t poses_sent = 0;     ///< RobotPose messages (publishPose, throttled to pose_period_s)
   uint64_t commands_sent = 0;  ///< publishCommand (the robot's own avoidance commands on its cmd_vel channel)
   uint64_t hellos_sent = 0, heartbeats_sent = 0;
   uint64_t messages_rejected = 0;  ///< every rejection (envelope, payload, wrong sender or robot)
@@ -112,10 +119,16 @@ class RobotLink {  // thread-safe; handlers never block the transport's receive 
   /// every message of this robot, for the robot's motor controller. The link does not take its own commands
   /// back as server commands (latestCommand stays the server's): their echo is recognised and dropped.
   Status publishCommand(const msg::VelocityCommand& command);
+  /// The live pose of a tracked frame, T_map_cam = mapFromOdom(segment) * T_odom_cam, as a best-effort
+  /// RobotPose on the robot's pose channel (for visualisers); at most one every pose_period_s, the others
+  /// are skipped (success). Off when pose_period_s is 0.
+  Status publishPose(double timestamp, int segment, int reference_keyframe, TrackingState state,
+                     const SE3& T_odom_cam);
   /// What the next heartbeats report.
   void setTrackingState(int last_keyframe_id, int segment, TrackingState state);
 
-  SE3 mapFromOdom(int segment) const;  ///< T_map_odom; identity until a correction covers the segment
+  /// T_map_odom; until a correction covers the segment, T_base_camera (where the server places a new chain).
+  SE3 mapFromOdom(int segment) const;
   std::optional<SE3> correctedKeyframe(int keyframe_id) const;  ///< latest T_map_cam from the server
   std::optional<msg::OccupancySlice> latestSlice() const;
   std::optional<msg::VelocityCommand> latestCommand() const;
@@ -129,6 +142,8 @@ class RobotLink {  // thread-safe; handlers never block the transport's receive 
   /// applied; false on timeout or stop().
   bool waitForGraphRevision(int64_t revision, double timeout_s);
   RobotLinkStats stats() const;
+  /// Keyframe id -> wall-clock time (us since the epoch) its accepting ack arrived, for the accepted ones.
+  std::map<int, int64_t> keyframeAckTimes() const;
 
  private:
   class Impl;

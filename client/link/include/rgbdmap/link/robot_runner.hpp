@@ -92,6 +92,7 @@ struct RobotRunResult {
   bool all_acked = false, final_correction_received = false;
   bool interrupted = false;  ///< options.stop ended the run
   RobotLinkStats link;
+  std::map<int, int64_t> keyframe_ack_utime;  ///< RobotLink::keyframeAckTimes() at the end
   double wall_s = 0.0;
   std::optional<AvoidanceSummary> avoidance;  ///< when RobotRunOptions::avoidance was set
 

@@ -54,8 +54,8 @@ struct TransportOptions {
   /// received ones, each with probability P, seeded by drop_seed=N (default 1); logged as a warning.
   std::string url = "memq://";
   /// Channels whose last message reaches late joiners (DDS: TRANSIENT_LOCAL, keep-last 1), in addition
-  /// to names ending in /map, /slice, /status, /pose_corrections or /hello. LCM has no durability: wrap an
-  /// LCM transport in a LatestRepublisher (republisher.hpp) to give late joiners the latest message.
+  /// to names ending in /map, /slice, /status, /pose_corrections, /hello or /loops. LCM has no durability:
+  /// wrap an LCM transport in a LatestRepublisher (republisher.hpp) to give late joiners the latest message.
   std::vector<std::string> latest_for_late_joiners_channels;
   /// DDS keep-last depth for ordinary (volatile) channels.
   int dds_history_depth = 256;

@@ -77,6 +77,9 @@ struct MapServerConfig {
   SliceConfig slice;
   double slice_period_s = 0.5;  ///< at most one OccupancySlice per robot per this period (after keyframes)
   double map_stream_period_s = 2.0;  ///< MapUpdate to every robot (its own map); 0 turns the stream off
+  /// After a keyframe is inserted into the octree, its map's MapUpdate goes out within this delay (the
+  /// keyframes inserted meanwhile share it), not only every map_stream_period_s; 0: only periodically.
+  double map_stream_delay_s = 0.25;
   /// A map store that stopped on an I/O error (a full disk) is tried again (MapStore::recover) this often;
   /// meanwhile keyframes are left unacknowledged (their robots resend them).
   double store_retry_s = 2.0;

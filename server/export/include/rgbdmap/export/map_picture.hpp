@@ -21,10 +21,10 @@
 namespace rgbdmap {
 
 struct MapPictureOptions {
-  int max_side_px = 1200;           ///< the longer side of the picture (100..10000)
-  Vec3 up_in_map = Vec3(0, -1, 0);  ///< map frame = first camera (y down)
-  double pixel_m = 0.0;             ///< metres per pixel; 0 = auto (fit the map into max_side_px)
-  int margin_px = 40;               ///< free border around the map and trajectories
+  int max_side_px = 1200;          ///< the longer side of the picture (100..10000)
+  Vec3 up_in_map = Vec3(0, 0, 1);  ///< the map frame is z-up (north = map y at the top)
+  double pixel_m = 0.0;            ///< metres per pixel; 0 = auto (fit the map into max_side_px)
+  int margin_px = 40;              ///< free border around the map and trajectories
   /// Occupied leaves outside [min_height_m, max_height_m] (height = p . up, map frame) are not drawn.
   double min_height_m = -std::numeric_limits<double>::infinity();
   double max_height_m = std::numeric_limits<double>::infinity();

@@ -1,6 +1,6 @@
 #pragma once
 // Coloured point cloud of the map: voxel-downsampled accumulation of keyframe points, written as binary PLY.
-// Points are in the map frame (the first camera's frame: x right, y down, z forward).
+// Points are in the map frame (z-up, REP-103: the base frame of the first robot's first keyframe).
 #include <array>
 #include <cstddef>
 #include <cstdint>

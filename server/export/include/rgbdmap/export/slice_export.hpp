@@ -1,5 +1,6 @@
 #pragma once
-// An occupancy slice (msg::OccupancySlice) as a ROS map_server map: a P5 PGM plus its YAML.
+// An occupancy grid (msg::OccupancySlice: a robot's slice or a map's global 2-D map) as a ROS map_server
+// map: a P5 PGM plus its YAML, loadable by map_server / nav2's map_server as it is.
 //
 // PGM as map_saver writes it: free 254, occupied 0, unknown 205; rows flipped so that the image's top row is
 // the grid's last row (row height - 1). Cells are classified with the YAML's thresholds on p = value / 100:
@@ -7,13 +8,12 @@
 //
 // YAML: image (file name relative to the YAML when in the same folder), resolution, origin [x, y, yaw],
 // negate 0, occupied_thresh 0.65, free_thresh 0.196, mode trinary; then rgbdmap's own keys that map_server
-// ignores: robot_id, utime, z_min_m, z_max_m and T_map_grid [tx, ty, tz, qx, qy, qz, qw] (the full 3-D pose,
-// so that readSlice gives back exactly what was written).
+// ignores: robot_id (a slice's robot; absent for a global map), utime, z_min_m, z_max_m and T_map_grid
+// [tx, ty, tz, qx, qy, qz, qw] (the full 3-D pose, so that readSlice gives back exactly what was written).
 //
-// The 2-D "plane" frame of `origin`: x = the map's forward axis (map z), y = left (-map x), z = up (-map y),
-// i.e. the first camera's frame turned into the ROS body convention (x forward, y left, z up), for the
-// default map convention up_in_map = (0, -1, 0). origin = (x, y, yaw) of the grid's cell (0, 0) corner in
-// that frame: map_server places pixel (0, height - 1) there.
+// The map frame is z-up (REP-103), so `origin` is (x, y, yaw) of the grid's cell (0, 0) corner in the map
+// frame itself (map_server places pixel (0, height - 1) there); the grids rgbdmap cuts are axis-aligned, so
+// yaw is 0, which nav2's static layer requires.
 #include <string>
 
 #include "rgbdmap/common/result.hpp"
@@ -21,9 +21,6 @@
 #include "rgbdmap/proto/messages.hpp"
 
 namespace rgbdmap {
-
-/// Rotation from the 2-D plane frame of the YAML origin (x forward, y left, z up) into the map frame.
-Mat3 R_map_plane();
 
 /// Writes the PGM and the YAML (each atomically: written beside, then renamed). Fails on an invalid slice
 /// (size, cell values, resolution, pose) or an I/O error.

@@ -1,0 +1,48 @@
+// robots.txt: cameras and camera mounts survive a restart; a file written before mounts existed (v1) reads
+// with the default mount; malformed lines are refused.
+#include <fstream>
+
+#include <gtest/gtest.h>
+
+#include "../../server/core/src/robot_registry.hpp"
+#include "server/server_test_util.hpp"
+
+namespace rgbdmap {
+namespace {
+
+void writeText(const std::string& path, const std::string& text) { std::ofstream(path) << text; }
+
+TEST(RobotRegistryFile, MountsSurviveARestartAndOldFilesReadWithTheDefault) {
+  const std::string dir = testing::freshDir("registry");
+  std::filesystem::create_directories(dir);
+  RobotRegistry a;
+  const SE3 mount = CameraMount{{0.1, 0.0, 0.4}, {0.0, 15.0, 0.0}}.T_base_camera();
+  ASSERT_TRUE(a.hello("robot0", 1, CameraIntrinsics{}, mount));
+  ASSERT_TRUE(a.hello("robot1", 1, CameraIntrinsics{}));
+  EXPECT_FALSE(*a.hello("robot0", 2, CameraIntrinsics{}, mount)) << "nothing new to persist";
+  ASSERT_TRUE(a.save(dir));
+  RobotRegistry b;
+  ASSERT_TRUE(b.load(dir));
+  EXPECT_TRUE(b.mount("robot0").isApprox(mount, 1e-12));
+  EXPECT_TRUE(b.mount("robot1").isApprox(defaultT_base_camera(), 1e-12));
+  EXPECT_TRUE(b.mount("never_seen").isApprox(defaultT_base_camera(), 1e-12));
+  EXPECT_EQ(b.index("robot1"), 1);
+  EXPECT_TRUE(*b.hello("robot1", 3, CameraIntrinsics{}, mount)) << "a new mount is persisted";
+
+  writeText(dir + "/robots.txt",
+            "# rgbdmap robots v1: id index fx fy cx cy width height k1 k2 p1 p2 k3 depth_scale\n"
+            "robot0 0 517.3 516.5 318.6 255.3 640 480 0.2624 -0.9531 -0.0054 0.0026 1.1633 5000\n");
+  RobotRegistry old;
+  ASSERT_TRUE(old.load(dir));
+  EXPECT_TRUE(old.mount("robot0").isApprox(defaultT_base_camera(), 1e-12));
+  ASSERT_TRUE(old.camera("robot0"));
+  EXPECT_EQ(old.camera("robot0")->depth_scale, 5000.0);
+
+  writeText(dir + "/robots.txt", "robot0 0 517.3 516.5 318.6 255.3 640 480 0 0 0 0 0 5000 0.1 0 0.4\n");
+  EXPECT_FALSE(RobotRegistry().load(dir)) << "a partial mount";
+  writeText(dir + "/robots.txt", "robot0 0 517.3 516.5 318.6 255.3 640 480 0 0 0 0 0 5000 0 0 0 0 0 0 2\n");
+  EXPECT_FALSE(RobotRegistry().load(dir)) << "not a unit quaternion";
+}
+
+}  // namespace
+}  // namespace rgbdmap
