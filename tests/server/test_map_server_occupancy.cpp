@@ -273,9 +273,10 @@ TEST(MapServerOccupancy, RobotRunAvoidsOnTheServersSlices) {
   EXPECT_GT(a.forward + a.turn_left + a.back_right, r.frames / 2) << "most frames decided on a fresh slice";
   // Every obstacle it reported is a real surface: some point of the corridor's cross-section at that
   // distance (within the slice's height band, plus a cell for quantisation) lies within 10 cm of the room's
-  // geometry, seen from the ground-truth pose. "Up" is the map's up (the first camera's -y), as in the slice.
+  // geometry, seen from the ground-truth pose. "Up" is the map's up (z: the map is z-up, issue #13), as in
+  // the slice.
   const SE3 T_world_map = scene->trajectory().front().T_world_cam * r.live.front().T_world_cam.inverse();
-  const Vec3 up = T_world_map.linear() * Vec3(0, -1, 0);
+  const Vec3 up = T_world_map.linear() * Vec3(0, 0, 1);
   int finite = 0, real = 0;
   for (const AvoidanceRecord& d : a.decisions) {
     if (d.stopped || !std::isfinite(d.closest_obstacle_m)) continue;
