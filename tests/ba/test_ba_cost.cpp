@@ -55,7 +55,8 @@ void checkJacobians(const ceres::CostFunction& cost, const Case& c) {
     ASSERT_TRUE(cost.Evaluate(pm, rm, nullptr));
     for (int row = 0; row < Rows; ++row) {
       const double numeric = (rp[row] - rm[row]) / (2 * h);
-      EXPECT_NEAR(analytic_pose(row, i), numeric, 1e-6 * std::max(1.0, std::abs(numeric))) << "pose " << row << "," << i;
+      EXPECT_NEAR(analytic_pose(row, i), numeric, 1e-6 * std::max(1.0, std::abs(numeric)))
+          << "pose " << row << "," << i;
     }
   }
   // The point (block 1) and the rolling-shutter rotation (block 2): plain central differences.

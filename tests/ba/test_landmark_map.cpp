@@ -26,7 +26,8 @@ LandmarkKeyframe sceneKeyframe(const BaScene& s, int k, const SE3& T, int map_id
 /// RMS position error of keyframes (the first keyframe is the fixed anchor: errors are in a common frame).
 double positionRms(const std::vector<SE3>& truth, const std::vector<SE3>& est) {
   double sum = 0.0;
-  for (size_t i = 0; i < truth.size(); ++i) sum += (truth[i].translation() - est[i].translation()).squaredNorm();
+  for (size_t i = 0; i < truth.size(); ++i)
+    sum += (truth[i].translation() - est[i].translation()).squaredNorm();
   return std::sqrt(sum / static_cast<double>(truth.size()));
 }
 
@@ -53,7 +54,8 @@ std::vector<SE3> perturbed(const BaScene& s, double sigma_t, double sigma_r, uns
   std::vector<SE3> out = s.T_map_kf;
   for (size_t k = 1; k < out.size(); ++k) {
     const Vec6 xi = (Vec6() << sigma_t * n(rng), sigma_t * n(rng), sigma_t * n(rng), sigma_r * n(rng),
-                     sigma_r * n(rng), sigma_r * n(rng)).finished();
+                     sigma_r * n(rng), sigma_r * n(rng))
+                        .finished();
     out[k] = se3::exp(xi) * out[k];
   }
   return out;
@@ -71,7 +73,8 @@ TEST(LandmarkMap, TracksFromMatchesFollowScenePoints) {
   for (size_t k = 0; k < s.features.size(); ++k)
     ASSERT_TRUE(map.addKeyframe(sceneKeyframe(s, static_cast<int>(k), s.T_map_kf[k])));
   EXPECT_FALSE(map.addKeyframe(sceneKeyframe(s, 0, s.T_map_kf[0])));  // duplicate
-  for (int k = 1; k < static_cast<int>(s.features.size()); ++k) EXPECT_GT(map.addMatches(trueMatches(s, k - 1, k)), 0);
+  for (int k = 1; k < static_cast<int>(s.features.size()); ++k)
+    EXPECT_GT(map.addMatches(trueMatches(s, k - 1, k)), 0);
   const LandmarkStats st = map.stats();
   EXPECT_GT(st.landmarks, 500);
   EXPECT_DOUBLE_EQ(trackPurity(map, s, 100000), 1.0);
@@ -188,8 +191,8 @@ TEST(LandmarkMap, WrongMatchesAreRemovedAndDoNotSpoilTheResult) {
   };
   const auto [clean, clean_stats] = run(0.0);
   const auto [dirty, dirty_stats] = run(0.15);
-  std::printf("[ measured ] 15%% wrong matches: rms %.5f m (clean %.5f m), %lld observations rejected\n", dirty,
-              clean, static_cast<long long>(dirty_stats.observations_rejected));
+  std::printf("[ measured ] 15%% wrong matches: rms %.5f m (clean %.5f m), %lld observations rejected\n",
+              dirty, clean, static_cast<long long>(dirty_stats.observations_rejected));
   EXPECT_GT(dirty_stats.observations_rejected, 200);
   EXPECT_LT(dirty, clean + 0.002);
   EXPECT_LT(dirty, 0.004);
@@ -225,14 +228,16 @@ TEST(LandmarkMap, RollingShutterRotationIsEstimated) {
     }
     double w_err = 0.0;
     for (int k = 0; k < o.keyframes; ++k)
-      w_err += ((*map.rollingShutter(k) - mean_est) - (s.rolling_shutter[k] - mean_true)).norm() / o.keyframes;
+      w_err +=
+          ((*map.rollingShutter(k) - mean_est) - (s.rolling_shutter[k] - mean_true)).norm() / o.keyframes;
     return std::make_pair(positionRms(s.T_map_kf, posesOf(map, s.T_map_kf.size())), w_err);
   };
   const auto [rms_gs, w_gs] = run(false);
   const auto [rms_rs, w_rs] = run(true);
-  std::printf("[ measured ] rolling shutter 0.03 rad: rms %.5f m without the model, %.5f m with; w error %.4f rad "
-              "(%.4f without)\n",
-              rms_gs, rms_rs, w_rs, w_gs);
+  std::printf(
+      "[ measured ] rolling shutter 0.03 rad: rms %.5f m without the model, %.5f m with; w error %.4f rad "
+      "(%.4f without)\n",
+      rms_gs, rms_rs, w_rs, w_gs);
   EXPECT_LT(rms_rs, 0.25 * rms_gs);
   EXPECT_LT(w_rs, 0.25 * w_gs);
 }

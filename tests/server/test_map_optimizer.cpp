@@ -1,8 +1,8 @@
 // The map optimiser (issue #14): pose graph + landmark tracks + local and global bundle adjustment on one
-// worker, fed with batches as the ingest worker does. On a synthetic scene with exact ground truth (ba_synth):
-// BA brings the keyframes much closer to the truth than the pose graph alone; a false loop (a wrong relative
-// pose with wrong matches) is disabled by the pose graph, its matches never enter the tracks, and the result
-// stays within a stated bound of the clean one.
+// worker, fed with batches as the ingest worker does. On a synthetic scene with exact ground truth
+// (ba_synth): BA brings the keyframes much closer to the truth than the pose graph alone; a false loop (a
+// wrong relative pose with wrong matches) is disabled by the pose graph, its matches never enter the tracks,
+// and the result stays within a stated bound of the clean one.
 #include <gtest/gtest.h>
 
 #include <chrono>
@@ -47,14 +47,17 @@ PoseGraphEdge edge(int64_t id, int64_t from, int64_t to, const SE3& T_from_to, E
   e.T_from_to = T_from_to;
   e.kind = kind;
   e.information.setZero();
-  e.information.diagonal() << Vec3::Constant(1.0 / (sigma_t * sigma_t)), Vec3::Constant(1.0 / (sigma_r * sigma_r));
+  e.information.diagonal() << Vec3::Constant(1.0 / (sigma_t * sigma_t)),
+      Vec3::Constant(1.0 / (sigma_r * sigma_r));
   return e;
 }
 
 SE3 noisy(const SE3& T, std::mt19937& rng, double sigma_t, double sigma_r) {
   std::normal_distribution<double> n(0.0, 1.0);
   return se3::exp((Vec6() << sigma_t * n(rng), sigma_t * n(rng), sigma_t * n(rng), sigma_r * n(rng),
-                   sigma_r * n(rng), sigma_r * n(rng)).finished()) * T;
+                   sigma_r * n(rng), sigma_r * n(rng))
+                      .finished()) *
+         T;
 }
 
 struct Outcome {
@@ -127,10 +130,11 @@ TEST(MapOptimizer, BundleAdjustmentBeatsThePoseGraphAlone) {
   const Outcome with_ba = runScene(s, true, false);
   ASSERT_TRUE(with_ba.result);
   const BundleAdjustmentStats& ba = with_ba.result->ba;
-  std::printf("[ measured ] keyframe rms: pose graph %.4f m, with BA %.5f m; %lld landmarks, %lld local + %lld "
-              "global BA\n",
-              graph_only.rms_m, with_ba.rms_m, static_cast<long long>(ba.landmarks.landmarks),
-              static_cast<long long>(ba.local_runs), static_cast<long long>(ba.global_runs));
+  std::printf(
+      "[ measured ] keyframe rms: pose graph %.4f m, with BA %.5f m; %lld landmarks, %lld local + %lld "
+      "global BA\n",
+      graph_only.rms_m, with_ba.rms_m, static_cast<long long>(ba.landmarks.landmarks),
+      static_cast<long long>(ba.local_runs), static_cast<long long>(ba.global_runs));
   EXPECT_LT(with_ba.rms_m, 0.5 * graph_only.rms_m);
   EXPECT_LT(with_ba.rms_m, 0.004);
   EXPECT_GT(ba.local_runs, 0);
@@ -144,10 +148,11 @@ TEST(MapOptimizer, AFalseLoopNeverEntersTheTracks) {
   const Outcome dirty = runScene(s, true, true);
   ASSERT_TRUE(clean.result && dirty.result);
   const auto& disabled = dirty.result->graph.disabled_edges;
-  std::printf("[ measured ] false loop: rms %.5f m (clean %.5f m), %zu edge(s) disabled, %lld edges in tracks "
-              "(clean %lld)\n",
-              dirty.rms_m, clean.rms_m, disabled.size(), static_cast<long long>(dirty.result->ba.edges_in_tracks),
-              static_cast<long long>(clean.result->ba.edges_in_tracks));
+  std::printf(
+      "[ measured ] false loop: rms %.5f m (clean %.5f m), %zu edge(s) disabled, %lld edges in tracks "
+      "(clean %lld)\n",
+      dirty.rms_m, clean.rms_m, disabled.size(), static_cast<long long>(dirty.result->ba.edges_in_tracks),
+      static_cast<long long>(clean.result->ba.edges_in_tracks));
   ASSERT_EQ(disabled.size(), 1u) << "the false loop was not disabled";
   EXPECT_EQ(dirty.result->ba.edges_in_tracks, clean.result->ba.edges_in_tracks)
       << "the false loop's matches entered the tracks";

@@ -4,10 +4,10 @@
 // 0.6 deg). Prints one line per configuration: time (median of repeats), observations, keyframe error.
 #include <algorithm>
 #include <chrono>
-#include <ctime>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <ctime>
 #include <random>
 #include <string>
 #include <vector>
@@ -36,7 +36,8 @@ Built build(int keyframes, const LandmarkMapConfig& config, unsigned seed) {
     SE3 T = b.scene.T_map_kf[k];
     if (k > 0)
       T = T * se3::exp((Vec6() << 0.02 * n(rng), 0.02 * n(rng), 0.02 * n(rng), 0.01 * n(rng), 0.01 * n(rng),
-                        0.01 * n(rng)).finished());  // in the keyframe's own frame
+                        0.01 * n(rng))
+                           .finished());  // in the keyframe's own frame
     b.map.addKeyframe(synthKeyframe(b.scene, k, T));
     for (int j = std::max(0, k - 4); j < k; ++j) b.map.addMatches(synthTrueMatches(b.scene, k, j));
   }
@@ -52,7 +53,8 @@ double threadCpuMs() {
 double rmsError(const Built& b) {
   double sum = 0;
   for (size_t k = 0; k < b.scene.T_map_kf.size(); ++k)
-    sum += (b.map.pose(static_cast<int64_t>(k))->translation() - b.scene.T_map_kf[k].translation()).squaredNorm();
+    sum += (b.map.pose(static_cast<int64_t>(k))->translation() - b.scene.T_map_kf[k].translation())
+               .squaredNorm();
   return std::sqrt(sum / static_cast<double>(b.scene.T_map_kf.size()));
 }
 
@@ -72,8 +74,9 @@ void localBa(int window) {
   }
   std::sort(ms.begin(), ms.end());
   std::sort(cpu.begin(), cpu.end());
-  std::printf("local BA   window %3d: %7.1f ms CPU median (%.1f ms wall; %d frames incl. fixed, %d observations)\n",
-              window, cpu[cpu.size() / 2], ms[ms.size() / 2], frames, obs);
+  std::printf(
+      "local BA   window %3d: %7.1f ms CPU median (%.1f ms wall; %d frames incl. fixed, %d observations)\n",
+      window, cpu[cpu.size() / 2], ms[ms.size() / 2], frames, obs);
 }
 
 void globalBa(int keyframes, bool rolling_shutter) {
@@ -84,10 +87,11 @@ void globalBa(int keyframes, bool rolling_shutter) {
   const double cpu0 = threadCpuMs();
   const BundleResult r = b.map.globalAdjust(0, 0);
   const double cpu = threadCpuMs() - cpu0;
-  std::printf("global BA %4d keyframes%s: %8.1f ms CPU (%.1f ms wall; %d points, %d observations, %d iterations; "
-              "keyframe rms %.4f -> %.5f m)\n",
-              keyframes, rolling_shutter ? "" : " (no rolling shutter)", cpu, r.report.time_ms, r.report.points, r.report.observations, r.report.iterations, before,
-              rmsError(b));
+  std::printf(
+      "global BA %4d keyframes%s: %8.1f ms CPU (%.1f ms wall; %d points, %d observations, %d iterations; "
+      "keyframe rms %.4f -> %.5f m)\n",
+      keyframes, rolling_shutter ? "" : " (no rolling shutter)", cpu, r.report.time_ms, r.report.points,
+      r.report.observations, r.report.iterations, before, rmsError(b));
 }
 
 }  // namespace

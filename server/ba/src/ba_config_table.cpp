@@ -10,9 +10,10 @@ const ConfigTable<BaSolveConfig>& baSolveConfigTable() {
           .add("pixel_sigma", &C::pixel_sigma, R::closed(0.05, 100.0), "keypoint sigma at octave 0 (px)")
           .add("scale_factor", &C::scale_factor, R::closed(1.0, 4.0),
                "ORB pyramid scale: the keypoint sigma grows by this per octave")
-          .add("inverse_depth_sigma", &C::inverse_depth_sigma, R::closed(1e-5, 10.0),
-               "sigma of 1/depth (1/m): 0.01 is 1 cm at 1 m, 4 cm at 2 m (a Kinect-class sensor's noise grows "
-               "with depth squared)")
+          .add(
+              "inverse_depth_sigma", &C::inverse_depth_sigma, R::closed(1e-5, 10.0),
+              "sigma of 1/depth (1/m): 0.01 is 1 cm at 1 m, 4 cm at 2 m (a Kinect-class sensor's noise grows "
+              "with depth squared)")
           .add("use_depth", &C::use_depth, "the inverse-depth residual where a keypoint has depth")
           .add("rolling_shutter", &C::rolling_shutter,
                "estimate each keyframe's rotation during the image readout (rolling-shutter cameras; a "
@@ -67,6 +68,8 @@ const ConfigTable<LandmarkMapConfig>& landmarkMapConfigTable() {
   return table;
 }
 
-std::string LandmarkMapConfig::validate() const { return joinProblems(landmarkMapConfigTable().problems(*this)); }
+std::string LandmarkMapConfig::validate() const {
+  return joinProblems(landmarkMapConfigTable().problems(*this));
+}
 
 }  // namespace rgbdmap

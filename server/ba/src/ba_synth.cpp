@@ -79,7 +79,8 @@ EdgeMatches synthTrueMatches(const BaSynthScene& s, int a, int b) {
   m.from = a;
   m.to = b;
   std::vector<int> in_b(s.points.size(), -1);
-  for (size_t j = 0; j < s.point_of_feature[b].size(); ++j) in_b[s.point_of_feature[b][j]] = static_cast<int>(j);
+  for (size_t j = 0; j < s.point_of_feature[b].size(); ++j)
+    in_b[s.point_of_feature[b][j]] = static_cast<int>(j);
   for (size_t i = 0; i < s.point_of_feature[a].size(); ++i)
     if (const int j = in_b[s.point_of_feature[a][i]]; j >= 0) m.pairs.emplace_back(static_cast<int>(i), j);
   return m;

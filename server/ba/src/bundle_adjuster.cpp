@@ -62,7 +62,8 @@ BaMeasurement measurementOf(const BaObservation& o, double sigma, const BaSolveC
   return {o.px, sigma, o.row_fraction, c.use_depth ? o.depth_m : 0.0, c.inverse_depth_sigma};
 }
 
-ceres::CostFunction* costOf(const BaProblem& p, const BaObservation& o, double sigma, const BaSolveConfig& c) {
+ceres::CostFunction* costOf(const BaProblem& p, const BaObservation& o, double sigma,
+                            const BaSolveConfig& c) {
   const BaIntrinsics& k = p.frames[o.frame].camera;
   const BaMeasurement m = measurementOf(o, sigma, c);
   if (m.depth_m > 0.0) return new ReprojectionDepthCost(k, m);
@@ -75,8 +76,13 @@ ceres::CostFunction* costOf(const BaProblem& p, const BaObservation& o, double s
 class CeresBundle {
  public:
   CeresBundle(const BaProblem& p, const BaSolveConfig& c, SolveState* s)
-      : p_(p), c_(c), s_(s), problem_(problemOptions()), huber2_(std::sqrt(c.chi2_2dof)),
-        huber3_(std::sqrt(c.chi2_3dof)), blocks_(p.observations.size(), nullptr),
+      : p_(p),
+        c_(c),
+        s_(s),
+        problem_(problemOptions()),
+        huber2_(std::sqrt(c.chi2_2dof)),
+        huber3_(std::sqrt(c.chi2_3dof)),
+        blocks_(p.observations.size(), nullptr),
         point_residuals_(p.points.size(), 0) {
     std::vector<char> pose_added(p.frames.size(), 0);
     for (size_t i = 0; i < p.observations.size(); ++i) {
@@ -162,7 +168,7 @@ class CeresBundle {
   BaPoseManifold manifold_;
   ceres::Problem problem_;
   ceres::HuberLoss huber2_, huber3_;
-  std::vector<double*> frame_blocks_;  ///< pose and w of every frame in the problem
+  std::vector<double*> frame_blocks_;           ///< pose and w of every frame in the problem
   std::vector<ceres::ResidualBlockId> blocks_;  ///< per observation, null when not in the problem
   std::vector<int> point_residuals_;            ///< per point
   std::vector<double*> rolling_shutter_;        ///< w of the free frames (held in the first solve)
@@ -231,7 +237,8 @@ Result<BaSolution> solveBundle(const BaProblem& problem, const BaSolveConfig& co
   for (size_t i = 0; i < problem.observations.size(); ++i)
     if (!s.active[i]) out.outliers.push_back(static_cast<int>(i));
   for (size_t i = 0; i < problem.frames.size(); ++i) {
-    out.T_kf_map.push_back(problem.frames[i].fixed ? problem.frames[i].T_kf_map : paramsToPose(s.poses[i].data()));
+    out.T_kf_map.push_back(problem.frames[i].fixed ? problem.frames[i].T_kf_map
+                                                   : paramsToPose(s.poses[i].data()));
     out.w.push_back(problem.frames[i].fixed_w ? problem.frames[i].w : s.w[i]);
     report.fixed_frames += problem.frames[i].fixed ? 1 : 0;
   }

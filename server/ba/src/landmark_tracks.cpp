@@ -12,7 +12,8 @@ namespace rgbdmap {
 LandmarkMap::LandmarkMap(LandmarkMapConfig config) : config_(std::move(config)) {}
 
 Status LandmarkMap::addKeyframe(LandmarkKeyframe keyframe) {
-  if (keyframes_.count(keyframe.id)) return Status::failure("duplicate keyframe " + std::to_string(keyframe.id));
+  if (keyframes_.count(keyframe.id))
+    return Status::failure("duplicate keyframe " + std::to_string(keyframe.id));
   const FrameFeatures* f = keyframe.features.get();
   if (!f) return Status::failure("keyframe " + std::to_string(keyframe.id) + ": no features");
   const size_t n = f->size();
@@ -64,7 +65,8 @@ bool LandmarkMap::attach(int64_t landmark, Keyframe& k, int feature) {
 
 void LandmarkMap::detach(int64_t landmark, int64_t keyframe) {
   Landmark& l = landmarks_.at(landmark);
-  const auto it = std::find_if(l.obs.begin(), l.obs.end(), [&](const auto& o) { return o.first == keyframe; });
+  const auto it =
+      std::find_if(l.obs.begin(), l.obs.end(), [&](const auto& o) { return o.first == keyframe; });
   if (it == l.obs.end()) return;
   keyframes_.at(keyframe).landmark[it->second] = -1;
   l.obs.erase(it);
@@ -149,8 +151,8 @@ int LandmarkMap::descriptorDistance(const Landmark& l, const uint8_t* descriptor
   for (size_t j = 0; j < n; ++j) {
     if (j != 0 && j + 3 < n) continue;
     const auto& [kf, feature] = l.obs[j];
-    best = std::min(best, hammingDistance(keyframes_.at(kf).kf.features->descriptors.ptr<uint8_t>(feature),
-                                          descriptor));
+    best = std::min(
+        best, hammingDistance(keyframes_.at(kf).kf.features->descriptors.ptr<uint8_t>(feature), descriptor));
   }
   return best;
 }

@@ -27,8 +27,9 @@ std::vector<std::pair<int64_t, int>> LandmarkMap::covisible(int64_t id) const {
         if (o.first != id) ++shared[o.first];
   for (const auto& [kf, n] : shared)
     if (n >= config_.min_covisibility) out.emplace_back(kf, n);
-  std::sort(out.begin(), out.end(),
-            [](const auto& a, const auto& b) { return a.second != b.second ? a.second > b.second : a.first < b.first; });
+  std::sort(out.begin(), out.end(), [](const auto& a, const auto& b) {
+    return a.second != b.second ? a.second > b.second : a.first < b.first;
+  });
   return out;
 }
 
@@ -61,8 +62,9 @@ LandmarkMap::Window LandmarkMap::localWindow(int64_t id, int64_t anchor) const {
   w.points.assign(points.begin(), points.end());
   std::sort(w.points.begin(), w.points.end());
   std::vector<std::pair<int64_t, int>> fixed(outside.begin(), outside.end());
-  std::sort(fixed.begin(), fixed.end(),
-            [](const auto& a, const auto& b) { return a.second != b.second ? a.second > b.second : a.first < b.first; });
+  std::sort(fixed.begin(), fixed.end(), [](const auto& a, const auto& b) {
+    return a.second != b.second ? a.second > b.second : a.first < b.first;
+  });
   for (size_t i = 0; i < fixed.size() && static_cast<int>(i) < config_.local_fixed_max; ++i)
     w.fixed.push_back(fixed[i].first);
   if (w.fixed.empty() && !w.free.empty()) {
@@ -206,7 +208,8 @@ LandmarkStats LandmarkMap::stats() const { return stats_; }
 
 int64_t LandmarkMap::landmarkOf(int64_t keyframe, int feature) const {
   const auto it = keyframes_.find(keyframe);
-  if (it == keyframes_.end() || feature < 0 || feature >= static_cast<int>(it->second.landmark.size())) return -1;
+  if (it == keyframes_.end() || feature < 0 || feature >= static_cast<int>(it->second.landmark.size()))
+    return -1;
   return it->second.landmark[feature];
 }
 

@@ -79,7 +79,8 @@ void MapOptimizer::processPending() {
     adjustNewKeyframes(ids);
     std::set<int> maps;
     for (const auto& [map, added] : added_since_global_)
-      if (config_.ba.global_every_keyframes > 0 && added >= config_.ba.global_every_keyframes) maps.insert(map);
+      if (config_.ba.global_every_keyframes > 0 && added >= config_.ba.global_every_keyframes)
+        maps.insert(map);
     if (b.global || large_cycle) maps.insert(changed_maps_.begin(), changed_maps_.end());
     adjustGlobally(maps);
   }
@@ -260,9 +261,9 @@ void MapOptimizer::adjustGlobally(const std::set<int>& maps) {
     changed_maps_.erase(map);
     if (!r.ok) continue;
     log::info("optimiser: global BA of map ", map, ": ", r.report.frames, " keyframes, ", r.report.points,
-              " landmarks, ", r.report.observations, " observations (", r.outliers_removed, " rejected), rms ",
-              r.report.initial_rms_px, " -> ", r.report.final_rms_px, " px, ", r.report.iterations,
-              " iterations, ", ms, " ms (", cpu_ms, " ms CPU)");
+              " landmarks, ", r.report.observations, " observations (", r.outliers_removed,
+              " rejected), rms ", r.report.initial_rms_px, " -> ", r.report.final_rms_px, " px, ",
+              r.report.iterations, " iterations, ", ms, " ms (", cpu_ms, " ms CPU)");
     ++counters_.global_runs;
     counters_.global_ms_last = ms;
     counters_.global_ms_max = std::max(counters_.global_ms_max, ms);

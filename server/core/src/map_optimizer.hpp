@@ -42,12 +42,11 @@ struct OptimizerBatch {
   std::vector<PoseGraphEdge> edges;         ///< new odometry and loop edges
   std::vector<LandmarkKeyframe> keyframes;  ///< features of new keyframes, for bundle adjustment
   std::map<int64_t, EdgeMatches> matches;   ///< inlier pairs of new loop edges, by edge id
-  bool solve = false;   ///< loop edges added or chains joined: a pose-graph solve first
+  bool solve = false;                       ///< loop edges added or chains joined: a pose-graph solve first
   bool global = false;  ///< a global BA of every map changed since its last one (waitIdle)
   bool empty() const { return nodes.empty() && edges.empty() && keyframes.empty() && !solve && !global; }
   void append(OptimizerBatch&& other);
 };
-
 
 struct MapOptimization {
   uint64_t revision = 0;  ///< the highest submit() this result includes
@@ -103,9 +102,9 @@ class MapOptimizer {
   // ---- the worker's own state
   PoseGraph graph_;
   LandmarkMap landmarks_;
-  std::map<int64_t, int> map_of_;       ///< node -> map id (first node of its component)
-  std::map<int, int64_t> anchor_of_;    ///< map id -> the node that holds its gauge
-  std::map<int64_t, int> chain_of_;     ///< node -> its chain (PoseGraphNode::robot)
+  std::map<int64_t, int> map_of_;                          ///< node -> map id (first node of its component)
+  std::map<int, int64_t> anchor_of_;                       ///< map id -> the node that holds its gauge
+  std::map<int64_t, int> chain_of_;                        ///< node -> its chain (PoseGraphNode::robot)
   std::map<int64_t, std::vector<int64_t>> edges_of_node_;  ///< node -> ids of its edges
   struct Waiting {
     EdgeMatches matches;

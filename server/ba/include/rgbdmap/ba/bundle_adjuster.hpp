@@ -28,11 +28,11 @@ struct BaSolveConfig {
   /// common to every keyframe drift where the cameras all face one way (a synthetic sideways sweep: keyframe
   /// error 4.5 cm); 0.005 keeps it (2 mm, as without the model) and gains as much on fr1_rpy.
   double rolling_shutter_sigma_rad = 0.005;
-  double chi2_2dof = 5.991;           ///< Huber threshold and outlier test, 2 rows (95 %)
-  double chi2_3dof = 7.815;           ///< same, 3 rows
-  int first_iterations = 5;           ///< Levenberg-Marquardt iterations before the outlier test
-  int second_iterations = 10;         ///< after it; 0 skips the second solve
-  double max_time_s = 1.0;            ///< wall-clock limit of each solve
+  double chi2_2dof = 5.991;    ///< Huber threshold and outlier test, 2 rows (95 %)
+  double chi2_3dof = 7.815;    ///< same, 3 rows
+  int first_iterations = 5;    ///< Levenberg-Marquardt iterations before the outlier test
+  int second_iterations = 10;  ///< after it; 0 skips the second solve
+  double max_time_s = 1.0;     ///< wall-clock limit of each solve
   int num_threads = 1;
 };
 
@@ -51,8 +51,8 @@ struct BaPoint {
 };
 
 struct BaObservation {
-  int frame = 0;  ///< index into BaProblem::frames
-  int point = 0;  ///< index into BaProblem::points
+  int frame = 0;                                 ///< index into BaProblem::frames
+  int point = 0;                                 ///< index into BaProblem::points
   Eigen::Vector2d px = Eigen::Vector2d::Zero();  ///< undistorted keypoint
   int octave = 0;
   double depth_m = 0.0;       ///< 0: no depth
@@ -75,10 +75,10 @@ struct BaReport {
 };
 
 struct BaSolution {
-  std::vector<SE3> T_kf_map;    ///< per frame (fixed frames unchanged)
-  std::vector<Vec3> w;          ///< per frame, rolling-shutter rotation
-  std::vector<Vec3> p_map;      ///< per point
-  std::vector<int> outliers;    ///< indices into observations
+  std::vector<SE3> T_kf_map;  ///< per frame (fixed frames unchanged)
+  std::vector<Vec3> w;        ///< per frame, rolling-shutter rotation
+  std::vector<Vec3> p_map;    ///< per point
+  std::vector<int> outliers;  ///< indices into observations
   BaReport report;
 };
 

@@ -36,14 +36,14 @@ struct LandmarkMapConfig {
   int local_window = 10;      ///< keyframes a local BA moves: the new one and its most covisible
   int local_fixed_max = 30;   ///< other observers of the window's landmarks held fixed (most shared first)
   int min_covisibility = 15;  ///< landmarks two keyframes must share to be covisible
-  int projection_keyframes = 10;        ///< covisible keyframes whose landmarks are projected into a new one
-  double projection_radius_px = 6.0;    ///< search radius at octave 0 (grows with the landmark's octave)
-  int projection_max_distance = 60;     ///< Hamming distance accepted when matching by projection
-  double projection_ratio = 0.8;        ///< best vs second best within the radius
-  double projection_depth_chi2 = 9.0;   ///< a keypoint with depth must agree with the projected depth
-  int global_max_iterations = 10;       ///< iterations of a global BA (second solve)
-  double global_max_time_s = 2.0;       ///< wall-clock limit of each of its two solves
-  int global_min_observations = 2;      ///< landmarks with fewer observations stay out of a global BA
+  int projection_keyframes = 10;       ///< covisible keyframes whose landmarks are projected into a new one
+  double projection_radius_px = 6.0;   ///< search radius at octave 0 (grows with the landmark's octave)
+  int projection_max_distance = 60;    ///< Hamming distance accepted when matching by projection
+  double projection_ratio = 0.8;       ///< best vs second best within the radius
+  double projection_depth_chi2 = 9.0;  ///< a keypoint with depth must agree with the projected depth
+  int global_max_iterations = 10;      ///< iterations of a global BA (second solve)
+  double global_max_time_s = 2.0;      ///< wall-clock limit of each of its two solves
+  int global_min_observations = 2;     ///< landmarks with fewer observations stay out of a global BA
   /// A global BA takes the longest tracks up to this many observations (0: all): its cost grows with them.
   int global_max_observations = 100000;
   /// A keyframe with fewer observations in an adjustment is held there (too weakly constrained to move:
@@ -74,10 +74,11 @@ struct BundleResult {
   std::string error;
   BaReport report;
   std::vector<int64_t> moved;  ///< keyframes whose poses the adjustment changed
-  std::vector<int64_t> fixed;  ///< keyframes it held in place (their relative poses to `moved` are refined too)
-  std::vector<int64_t> weak;   ///< keyframes held for too few observations (min_frame_observations): their
-                               ///< relative poses to the others are not refined
-  int outliers_removed = 0;    ///< observations that left their tracks
+  std::vector<int64_t>
+      fixed;  ///< keyframes it held in place (their relative poses to `moved` are refined too)
+  std::vector<int64_t> weak;  ///< keyframes held for too few observations (min_frame_observations): their
+                              ///< relative poses to the others are not refined
+  int outliers_removed = 0;   ///< observations that left their tracks
 };
 
 struct LandmarkStats {
