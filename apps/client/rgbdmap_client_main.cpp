@@ -197,8 +197,10 @@ int run(int argc, char** argv) {
 
   RobotLink link(**transport, config.link);
   StopRequest stop;
-  signals.start(&stop, &link, source.get());
   if (Status s = link.start(); !s) return log::error(s.error()), 1;
+  // After the link started: a signal that came earlier waits (blocked) and then stops the run, whose outputs
+  // are still written (taken during start, it made the start fail: exit 1 and no outputs).
+  signals.start(&stop, &link, source.get());
   RobotRunOptions ro;
   ro.realtime = !a.fast;
   ro.final_wait_s = config.final_wait_s;
