@@ -1,12 +1,14 @@
-// camera.yaml of a dataset folder (see readDatasetCamera in tum_dataset.hpp).
+// camera.yaml of a dataset folder: read (readDatasetCamera in tum_dataset.hpp) and written (datasetCameraYaml).
 #include <filesystem>
 #include <set>
+#include <sstream>
 #include <string>
 #include <type_traits>
 #include <vector>
 
 #include <yaml-cpp/yaml.h>
 
+#include "rgbdmap/common/text_lines.hpp"
 #include "rgbdmap/common/tum_dataset.hpp"
 
 namespace rgbdmap {
@@ -111,6 +113,17 @@ Result<std::optional<CameraIntrinsics>> readDatasetCamera(const std::string& dir
   auto k = parseCamera(root, path);
   if (!k) return R::failure(k.error());
   return std::optional<CameraIntrinsics>(k.value());
+}
+
+std::string datasetCameraYaml(const CameraIntrinsics& k, const std::string& comment) {
+  std::ostringstream os;
+  os << "# " << comment << "\ncamera:\n"
+     << "  fx: " << formatExact(k.fx) << "\n  fy: " << formatExact(k.fy) << "\n  cx: " << formatExact(k.cx)
+     << "\n  cy: " << formatExact(k.cy) << "\n  width: " << k.width << "\n  height: " << k.height
+     << "\n  distortion: [";
+  for (size_t i = 0; i < k.distortion.size(); ++i) os << (i ? ", " : "") << formatExact(k.distortion[i]);
+  os << "]\n  depth_scale: " << formatExact(k.depth_scale) << "\n";
+  return os.str();
 }
 
 }  // namespace rgbdmap

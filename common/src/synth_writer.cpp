@@ -3,7 +3,6 @@
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
-#include <sstream>
 #include <string_view>
 #include <vector>
 
@@ -13,51 +12,24 @@
 #include "rgbdmap/common/atomic_file.hpp"
 #include "rgbdmap/common/logging.hpp"
 #include "rgbdmap/common/synth.hpp"
+#include "rgbdmap/common/text_lines.hpp"
+#include "rgbdmap/common/tum_dataset.hpp"
 
 namespace rgbdmap {
 namespace {
 
 namespace fs = std::filesystem;
 
-std::string stamp(double t) {
-  char buf[64];
-  std::snprintf(buf, sizeof buf, "%.6f", t);
-  return buf;
-}
-
-/// Shortest decimal text that reads back as exactly v.
-std::string number(double v) {
-  char buf[64];
-  for (int precision = 6; precision <= 17; ++precision) {
-    std::snprintf(buf, sizeof buf, "%.*g", precision, v);
-    if (std::strtod(buf, nullptr) == v) break;
-  }
-  return buf;
-}
-
 std::string describe(const SynthConfig& c) {
   return "rgbdmap synth: scene " + c.scene + ", seed " + std::to_string(c.seed) + ", " +
          std::to_string(c.frames) + " frames";
-}
-
-std::string cameraYaml(const SynthConfig& c) {
-  const CameraIntrinsics& k = c.camera;
-  std::ostringstream os;
-  os << "# " << describe(c) << ". Ideal pinhole; depth is registered to colour.\n"
-     << "camera:\n"
-     << "  fx: " << number(k.fx) << "\n  fy: " << number(k.fy) << "\n  cx: " << number(k.cx)
-     << "\n  cy: " << number(k.cy) << "\n  width: " << k.width << "\n  height: " << k.height
-     << "\n  distortion: [";
-  for (size_t i = 0; i < k.distortion.size(); ++i) os << (i ? ", " : "") << number(k.distortion[i]);
-  os << "]\n  depth_scale: " << number(k.depth_scale) << "\n";
-  return os.str();
 }
 
 std::string fileList(const SynthConfig& c, bool depth) {
   std::string out = depth ? "# depth maps\n" : "# color images\n";
   out += "# " + describe(c) + "\n# timestamp filename\n";
   for (int i = 0; i < c.frames; ++i) {
-    const std::string ts = stamp(depth ? c.depthTimestamp(i) : c.colorTimestamp(i));
+    const std::string ts = formatTimestamp(depth ? c.depthTimestamp(i) : c.colorTimestamp(i));
     out += ts + (depth ? " depth/" : " rgb/") + ts + ".png\n";
   }
   return out;
@@ -99,8 +71,8 @@ std::string writeFrame(const SyntheticScene& scene, int i, const fs::path& out) 
   const std::vector<int> png = {cv::IMWRITE_PNG_STRATEGY, cv::IMWRITE_PNG_STRATEGY_HUFFMAN_ONLY};
   try {
     const RgbdFrame frame = scene.renderFrame(i);
-    const fs::path rgb = out / "rgb" / (stamp(c.colorTimestamp(i)) + ".png");
-    const fs::path depth = out / "depth" / (stamp(c.depthTimestamp(i)) + ".png");
+    const fs::path rgb = out / "rgb" / (formatTimestamp(c.colorTimestamp(i)) + ".png");
+    const fs::path depth = out / "depth" / (formatTimestamp(c.depthTimestamp(i)) + ".png");
     if (std::string e = writePng(rgb, frame.color, png); !e.empty()) return e;
     if (std::string e = writePng(depth, frame.depth, png); !e.empty()) return e;
   } catch (const cv::Exception& e) {
@@ -132,7 +104,12 @@ Status writeSyntheticSequence(const SynthConfig& config, const std::string& out_
   if (Status s = prepareDirectories(out); !s) return s;
   auto scene = SyntheticScene::build(config);
   if (!scene) return Status::failure(scene.error());
-  if (Status s = writeText(out / "camera.yaml", cameraYaml(config)); !s) return s;
+  if (Status s =
+          writeText(out / "camera.yaml",
+                    datasetCameraYaml(config.camera,
+                                      describe(config) + ". Ideal pinhole; depth is registered to colour."));
+      !s)
+    return s;
   if (Status s = writeText(out / "rgb.txt", fileList(config, false)); !s) return s;
   if (Status s = writeText(out / "depth.txt", fileList(config, true)); !s) return s;
   const std::string gt_path = (out / "groundtruth.txt").string();

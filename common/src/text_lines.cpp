@@ -42,6 +42,21 @@ std::string formatShort(double value) {
   return buf;
 }
 
+std::string formatExact(double value) {
+  char buf[64];
+  for (int precision = 6; precision <= 17; ++precision) {
+    std::snprintf(buf, sizeof buf, "%.*g", precision, value);
+    if (std::strtod(buf, nullptr) == value) break;
+  }
+  return buf;
+}
+
+std::string formatTimestamp(double seconds) {
+  char buf[64];
+  std::snprintf(buf, sizeof buf, "%.6f", seconds);
+  return buf;
+}
+
 Result<std::string> readTextFile(const std::string& path) {
   std::ifstream f(path);
   if (!f) return Result<std::string>::failure(path + ": cannot open");

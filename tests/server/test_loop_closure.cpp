@@ -178,9 +178,9 @@ TEST(LoopConsistency, DropsAnEdgeContradictedByMostOfItsTriangles) {
   const SE3 T_w_x = pose({0, 0, 0}, {0, 0, 0}), T_w_a = pose({0.3, 0, 0}, {0, 0.1, 0}),
             T_w_b = pose({0.5, 0.1, 0}, {0, 0.2, 0}), T_w_c = pose({0.7, 0, 0.1}, {0.1, 0.2, 0});
   LoopEdgeStore store;
-  store.add({2, 1, T_w_b.inverse() * T_w_a, Mat6::Identity(), 100, 0.1});
-  store.add({3, 1, T_w_c.inverse() * T_w_a, Mat6::Identity(), 100, 0.1});
-  store.add({3, 2, T_w_c.inverse() * T_w_b, Mat6::Identity(), 100, 0.1});
+  store.add({2, 1, T_w_b.inverse() * T_w_a, Mat6::Identity(), 100, 0.1, {}});
+  store.add({3, 1, T_w_c.inverse() * T_w_a, Mat6::Identity(), 100, 0.1, {}});
+  store.add({3, 2, T_w_c.inverse() * T_w_b, Mat6::Identity(), 100, 0.1, {}});
   auto edge = [&](int to, const SE3& T_w_to) {
     return LoopEdge{9, to, T_w_x.inverse() * T_w_to, Mat6::Identity(), 80, 0.2, {}};
   };

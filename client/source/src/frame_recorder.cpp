@@ -4,42 +4,16 @@
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
-#include <sstream>
 
 #include <opencv2/imgcodecs.hpp>
 
 #include "rgbdmap/common/atomic_file.hpp"
+#include "rgbdmap/common/text_lines.hpp"
 
 namespace rgbdmap {
 namespace {
 
 namespace fs = std::filesystem;
-
-std::string stamp(double t) {
-  char buf[64];
-  std::snprintf(buf, sizeof buf, "%.6f", t);
-  return buf;
-}
-
-std::string number(double v) {
-  char buf[64];
-  for (int precision = 6; precision <= 17; ++precision) {
-    std::snprintf(buf, sizeof buf, "%.*g", precision, v);
-    if (std::strtod(buf, nullptr) == v) break;
-  }
-  return buf;
-}
-
-std::string cameraYaml(const CameraIntrinsics& k) {
-  std::ostringstream os;
-  os << "# recorded by rgbdmap; depth is registered to colour, depth_scale raw units per metre\ncamera:\n"
-     << "  fx: " << number(k.fx) << "\n  fy: " << number(k.fy) << "\n  cx: " << number(k.cx)
-     << "\n  cy: " << number(k.cy) << "\n  width: " << k.width << "\n  height: " << k.height
-     << "\n  distortion: [";
-  for (size_t i = 0; i < k.distortion.size(); ++i) os << (i ? ", " : "") << number(k.distortion[i]);
-  os << "]\n  depth_scale: " << number(k.depth_scale) << "\n";
-  return os.str();
-}
 
 Status writePng(const std::string& path, const cv::Mat& image) {
   std::vector<uchar> png;
@@ -71,12 +45,12 @@ Result<TumRecorder> TumRecorder::create(const std::string& dir, const CameraIntr
 }
 
 Status TumRecorder::add(const RgbdFrame& frame) {
-  const std::string ts = stamp(frame.timestamp);
+  const std::string ts = formatTimestamp(frame.timestamp);
   if (Status s = writePng(dir_ + "/rgb/" + ts + ".png", frame.color); !s) return s;
   if (Status s = writePng(dir_ + "/depth/" + ts + ".png", frame.depth); !s) return s;
   if (frame.depth_scale != camera_.depth_scale)
-    return Status::failure("frame " + ts + ": depth scale " + number(frame.depth_scale) +
-                           " differs from the " + "recording's " + number(camera_.depth_scale));
+    return Status::failure("frame " + ts + ": depth scale " + formatExact(frame.depth_scale) +
+                           " differs from the " + "recording's " + formatExact(camera_.depth_scale));
   rgb_list_ += ts + " rgb/" + ts + ".png\n";
   depth_list_ += ts + " depth/" + ts + ".png\n";
   if (++lines_ % kListEvery == 0) return writeLists();
@@ -84,7 +58,13 @@ Status TumRecorder::add(const RgbdFrame& frame) {
 }
 
 Status TumRecorder::writeLists() const {
-  if (Status s = writeFileAtomic(dir_ + "/camera.yaml", cameraYaml(camera_)); !s) return s;
+  if (Status s = writeFileAtomic(
+          dir_ + "/camera.yaml",
+          datasetCameraYaml(
+              camera_,
+              "recorded by rgbdmap; depth is registered to colour, depth_scale raw units per metre"));
+      !s)
+    return s;
   if (Status s = writeFileAtomic(dir_ + "/rgb.txt", rgb_list_); !s) return s;
   return writeFileAtomic(dir_ + "/depth.txt", depth_list_);
 }

@@ -61,6 +61,8 @@ const ConfigTable<LandmarkMapConfig>& landmarkMapConfigTable() {
                "wall-clock limit of each of a global BA's two solves")
           .add("global_min_observations", &C::global_min_observations, R::closed(2, 1000),
                "landmarks with fewer observations stay out of a global BA")
+          .add("global_rolling_shutter", &C::global_rolling_shutter,
+               "a global BA estimates the rolling-shutter rotations too (false: it keeps the local BAs')")
           .add("global_max_observations", &C::global_max_observations, R::closed(0, 100000000),
                "a global BA takes the longest tracks up to this many observations (0: all)")
           .add("min_frame_observations", &C::min_frame_observations, R::closed(0, 100000),

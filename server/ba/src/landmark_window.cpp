@@ -148,11 +148,12 @@ BaProblem LandmarkMap::problemOf(const Window& w) const {
 }
 
 BundleResult LandmarkMap::solveAndApply(const Window& w, int second_iterations, double max_time_s,
-                                        const std::atomic<bool>* cancel) {
+                                        bool rolling_shutter, const std::atomic<bool>* cancel) {
   BundleResult out;
   const BaProblem problem = problemOf(w);
   BaSolveConfig solve = config_.solve;
   solve.second_iterations = second_iterations;
+  solve.rolling_shutter = solve.rolling_shutter && rolling_shutter;
   solve.max_time_s = max_time_s;
   const Result<BaSolution> s = solveBundle(problem, solve, cancel);
   if (!s) {
@@ -195,13 +196,14 @@ BundleResult LandmarkMap::localAdjust(int64_t id, int64_t anchor, const std::ato
   if (!keyframes_.count(id)) return {false, "unknown keyframe " + std::to_string(id), {}, {}, {}, {}, 0};
   const Window w = localWindow(id, anchor);
   if (w.free.empty() || w.points.empty()) return {false, "nothing to adjust", {}, {}, {}, {}, 0};
-  return solveAndApply(w, config_.solve.second_iterations, config_.solve.max_time_s, cancel);
+  return solveAndApply(w, config_.solve.second_iterations, config_.solve.max_time_s, true, cancel);
 }
 
 BundleResult LandmarkMap::globalAdjust(int map_id, int64_t anchor, const std::atomic<bool>* cancel) {
   const Window w = globalWindow(map_id, anchor);
   if (w.free.empty() || w.points.empty()) return {false, "nothing to adjust", {}, {}, {}, {}, 0};
-  return solveAndApply(w, config_.global_max_iterations, config_.global_max_time_s, cancel);
+  return solveAndApply(w, config_.global_max_iterations, config_.global_max_time_s,
+                       config_.global_rolling_shutter, cancel);
 }
 
 LandmarkStats LandmarkMap::stats() const { return stats_; }

@@ -9,6 +9,7 @@
 #include "rgbdmap/common/logging.hpp"
 
 namespace rgbdmap {
+
 void OptimizerBatch::append(OptimizerBatch&& other) {
   std::move(other.nodes.begin(), other.nodes.end(), std::back_inserter(nodes));
   std::move(other.edges.begin(), other.edges.end(), std::back_inserter(edges));
@@ -105,14 +106,14 @@ void MapOptimizer::onIdle() {
 }
 
 void MapOptimizer::applyAdditions(const OptimizerBatch& b) {
+  std::map<int64_t, const PoseGraphEdge*> odometry_from;  // a new node's odometry edge to its predecessor
+  for (const PoseGraphEdge& e : b.edges)
+    if (e.kind == EdgeKind::kOdometry) odometry_from.emplace(e.from, &e);
   for (const PoseGraphNode& n : b.nodes) {
-    SE3 pose = n.T_map_kf;
-    for (const PoseGraphEdge& e : b.edges)
-      if (e.kind == EdgeKind::kOdometry && e.from == n.id)
-        if (const auto prev = graph_.pose(e.to)) {
-          pose = se3::normalized(*prev * e.T_from_to.inverse());
-          break;
-        }
+    SE3 pose = n.T_map_kf;  // chained from the predecessor's current pose when it is known here
+    if (const auto it = odometry_from.find(n.id); it != odometry_from.end())
+      if (const auto prev = graph_.pose(it->second->to))
+        pose = se3::normalized(*prev * it->second->T_from_to.inverse());
     if (const Status s = graph_.addNode(n.id, n.robot, pose); !s) {
       log::warn("optimiser: ", s.error());
       continue;

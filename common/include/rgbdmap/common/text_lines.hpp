@@ -22,6 +22,10 @@ Result<double> parseFiniteNumber(const std::string& token, const std::string& wh
 
 /// Shortest readable form of a number (printf %g), e.g. "0.02", "1": for messages.
 std::string formatShort(double value);
+/// Shortest decimal text that reads back as exactly `value` (for files read back: camera.yaml).
+std::string formatExact(double value);
+/// A TUM timestamp: seconds with 6 decimals (microseconds).
+std::string formatTimestamp(double seconds);
 
 /// The contents of a file, or "<path>: cannot open".
 Result<std::string> readTextFile(const std::string& path);

@@ -80,5 +80,8 @@ class TumDataset {
 /// depth_scale means 5000. nullopt when the file does not exist; an error (all problems listed) when it is
 /// malformed or fails CameraIntrinsics::validate(). The caller decides how it combines with DatasetOptions.
 Result<std::optional<CameraIntrinsics>> readDatasetCamera(const std::string& dir);
+/// The text of a dataset's camera.yaml for `k` (what readDatasetCamera reads back exactly), after a comment
+/// line `# <comment>`.
+std::string datasetCameraYaml(const CameraIntrinsics& k, const std::string& comment);
 
 }  // namespace rgbdmap

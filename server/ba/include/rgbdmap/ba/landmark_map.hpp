@@ -44,6 +44,9 @@ struct LandmarkMapConfig {
   int global_max_iterations = 10;      ///< iterations of a global BA (second solve)
   double global_max_time_s = 2.0;      ///< wall-clock limit of each of its two solves
   int global_min_observations = 2;     ///< landmarks with fewer observations stay out of a global BA
+  /// A global BA estimates the rolling-shutter rotations too (else it keeps the local BAs' estimates:
+  /// fewer parameters per keyframe, a cheaper solve).
+  bool global_rolling_shutter = true;
   /// A global BA takes the longest tracks up to this many observations (0: all): its cost grows with them.
   int global_max_observations = 100000;
   /// A keyframe with fewer observations in an adjustment is held there (too weakly constrained to move:
@@ -156,7 +159,7 @@ class LandmarkMap {
   Window localWindow(int64_t id, int64_t anchor) const;
   Window globalWindow(int map_id, int64_t anchor) const;
   BaProblem problemOf(const Window& w) const;
-  BundleResult solveAndApply(const Window& w, int second_iterations, double max_time_s,
+  BundleResult solveAndApply(const Window& w, int second_iterations, double max_time_s, bool rolling_shutter,
                              const std::atomic<bool>* cancel);
 
   LandmarkMapConfig config_;
