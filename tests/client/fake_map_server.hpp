@@ -183,4 +183,20 @@ class FakeMapServer {
   std::shared_ptr<Core> core_;
 };
 
+/// Options of a fake server that verifies and signs with `key`.
+inline FakeServerOptions serverOptions(const msg::Bytes& key) {
+  FakeServerOptions o;
+  o.verify_key = key;
+  o.sign_key = key;
+  return o;
+}
+
+/// Sends keyframes first_id .. first_id + count - 1 of a segment (small test keyframes on testPose(i)).
+inline void sendKeyframes(RobotLink& link, int count, int segment = 0, int first_id = 0) {
+  for (int i = first_id; i < first_id + count; ++i) {
+    const Status s = link.sendKeyframe(smallKeyframe(i, segment, testPose(i)), smallFrame(i));
+    ASSERT_TRUE(s) << s.error();
+  }
+}
+
 }  // namespace rgbdmap::testing

@@ -19,16 +19,11 @@ using testing::FakeMapServer;
 using testing::FakeServerOptions;
 using testing::linkKey;
 using testing::linkOptions;
+using testing::sendKeyframes;
+using testing::serverOptions;
 using testing::smallFrame;
 using testing::smallKeyframe;
 using testing::testPose;
-
-FakeServerOptions serverOptions(const msg::Bytes& key) {
-  FakeServerOptions o;
-  o.verify_key = key;
-  o.sign_key = key;
-  return o;
-}
 
 /// Sealed bytes (a failure is a test failure, never a dereferenced empty result).
 template <typename T>
@@ -36,13 +31,6 @@ msg::Bytes sealOrFail(msg::Signer& signer, const T& message) {
   Result<msg::Bytes> bytes = signer.seal(message, 1);
   EXPECT_TRUE(bytes) << bytes.error();
   return bytes ? *bytes : msg::Bytes{};
-}
-
-void sendKeyframes(RobotLink& link, int count, int segment = 0, int first_id = 0) {
-  for (int i = first_id; i < first_id + count; ++i) {
-    const Status s = link.sendKeyframe(smallKeyframe(i, segment, testPose(i)), smallFrame(i));
-    ASSERT_TRUE(s) << s.error();
-  }
 }
 
 TEST(RobotLink, SignedKeyframesAreAckedHelloAndHeartbeatsArrive) {

@@ -15,22 +15,9 @@ using testing::FakeMapServer;
 using testing::FakeServerOptions;
 using testing::linkKey;
 using testing::linkOptions;
+using testing::sendKeyframes;
+using testing::serverOptions;
 using testing::testPose;
-
-FakeServerOptions serverOptions(const msg::Bytes& key) {
-  FakeServerOptions o;
-  o.verify_key = key;
-  o.sign_key = key;
-  return o;
-}
-
-void sendKeyframes(RobotLink& link, int count, int segment = 0, int first_id = 0) {
-  for (int i = first_id; i < first_id + count; ++i) {
-    const Status s =
-        link.sendKeyframe(testing::smallKeyframe(i, segment, testPose(i)), testing::smallFrame(i));
-    ASSERT_TRUE(s) << s.error();
-  }
-}
 
 TEST(RobotLink, HelloCarriesTheCameraMountAndLivePosesAreThrottled) {
   auto transport = testing::makeMemq();
