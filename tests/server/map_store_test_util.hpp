@@ -96,6 +96,9 @@ inline StoredLoop makeLoop(int64_t from, int64_t to) {
   loop.information(1, 4) = loop.information(4, 1) = -3.25;
   loop.inliers = static_cast<int>(40 + from);
   loop.motion_measure = 0.125 * static_cast<double>(to);
+  // Odd sources carry their verified feature matches; even ones are the original record without them.
+  if (from % 2 == 1)
+    for (int i = 0; i < 50; ++i) loop.inlier_pairs.emplace_back(3 * i + static_cast<int>(from), 499 - i);
   return loop;
 }
 
@@ -137,6 +140,7 @@ inline void expectSameLoop(const StoredLoop& a, const StoredLoop& b) {
   EXPECT_EQ(a.information, b.information);
   EXPECT_EQ(a.inliers, b.inliers);
   EXPECT_EQ(a.motion_measure, b.motion_measure);
+  EXPECT_EQ(a.inlier_pairs, b.inlier_pairs);
 }
 
 inline std::unique_ptr<MapStore> openStore(const std::string& dir, bool sync = false) {

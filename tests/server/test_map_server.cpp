@@ -114,6 +114,11 @@ TEST(MapServer, RestartOnTheSameMapDirectoryLosesNoAcknowledgedKeyframe) {
   h.server.reset();  // "killed": everything acknowledged is on disk
   h.start(serverTestConfig(dir));
   EXPECT_EQ(h.server->stats().restored_keyframes, static_cast<int>(half));
+  // The stored loops' inlier matches rebuild the landmark tracks of the restored keyframes.
+  EXPECT_TRUE(h.server->waitIdle(30.0));
+  const BundleAdjustmentStats restored = h.server->stats().ba;
+  EXPECT_GT(restored.edges_in_tracks, 0);
+  EXPECT_GT(restored.landmarks.landmarks, 500) << "restored keyframes without landmark tracks";
   // The same robot process goes on: it re-sends its last three keyframes (acks it never saw) and the rest.
   ScriptedRobot robot(*h.transport, "robot0", rgbdmap::testing::testKey(1), 100);
   testing::driveRobot(*h.server, robot, seg, half - 3, seg.keyframes.size());
@@ -125,7 +130,9 @@ TEST(MapServer, RestartOnTheSameMapDirectoryLosesNoAcknowledgedKeyframe) {
   const double slam = ateOf(seg.gt, testing::serverTrajectory(*h.server, "robot0"));
   const double odo = ateOf(seg.gt, testing::odometryTrajectory(seg));
   std::printf("[ measured ] restart mid-run: ATE %.4f m (odometry %.4f m)\n", slam, odo);
-  EXPECT_LE(slam, 0.65 * odo) << "same bound as without a restart (measured 0.0045 m both ways)";
+  // Measured 0.0037 m, as without a restart (0.0037-0.0039 m; 0.0051 m before the stored loops kept
+  // their inlier matches).
+  EXPECT_LE(slam, 0.55 * odo) << "a restart must not cost accuracy";
 }
 
 TEST(MapServer, AfterARestartARobotThatSaysNoHelloAgainStillGetsCorrections) {

@@ -168,10 +168,14 @@ TEST(MapStore, InvalidInputIsRefusedAndNothingWritten) {
     EXPECT_FALSE(s.error().empty());
   }
   StoredLoop nan_info = makeLoop(0, 1), unknown = makeLoop(0, 7), self = makeLoop(1, 1),
-             bad_rotation = makeLoop(0, 1);
+             bad_rotation = makeLoop(0, 1), negative_pair = makeLoop(1, 0), too_many_pairs = makeLoop(1, 0);
   nan_info.information(2, 2) = std::numeric_limits<double>::infinity();
   bad_rotation.T_from_to.linear()(0, 0) = 2.0;
-  for (const StoredLoop* l : {&nan_info, &unknown, &self, &bad_rotation}) EXPECT_FALSE(store->appendLoop(*l));
+  negative_pair.inlier_pairs[7].second = -1;
+  too_many_pairs.inlier_pairs.assign(kMaxStoredLoopPairs + 1, {0, 0});
+  for (const StoredLoop* l : {&nan_info, &unknown, &self, &bad_rotation, &negative_pair, &too_many_pairs})
+    EXPECT_FALSE(store->appendLoop(*l));
+  EXPECT_NE(store->appendLoop(negative_pair).error().find("negative feature index"), std::string::npos);
   EXPECT_NE(store->appendLoop(unknown).error().find("unknown node id 7"), std::string::npos);
   EXPECT_EQ(store->bytesOnDisk(), bytes);
   EXPECT_EQ(store->keyframes().size(), 2u);

@@ -189,8 +189,8 @@ int IngestPipeline::addDetectedLoopsLocked(const std::vector<LoopEdge>& edges, i
       log::warn("server: loop edge ", edge.from_id, "-", edge.to_id, ": ", s.error());
       continue;
     }
-    to_store.push_back(
-        {edge.from_id, edge.to_id, edge.T_from_to, edge.information, edge.inliers, edge.motion_measure});
+    to_store.push_back({edge.from_id, edge.to_id, edge.T_from_to, edge.information, edge.inliers,
+                        edge.motion_measure, edge.inlier_pairs});
     ++added;
     registry_.countLoop(index_.node(edge.from_id).kf.robot_id);
     if (index_.node(edge.to_id).robot != robot) registry_.countLoop(index_.node(edge.to_id).kf.robot_id);

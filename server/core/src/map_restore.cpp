@@ -65,6 +65,7 @@ void IngestPipeline::restoreLoopsLocked() {
     edge.information = loop.information;
     edge.inliers = loop.inliers;
     edge.motion_measure = loop.motion_measure;
+    edge.inlier_pairs = loop.inlier_pairs;  // the landmark tracks come back with them
     if (const Status s = addLoopEdgeLocked(edge); !s) {
       log::error("server: stored loop: ", s.error());
       continue;

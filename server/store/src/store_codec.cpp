@@ -145,6 +145,9 @@ Status validateLoop(const StoredLoop& loop) {
     return Status::failure("information not symmetric");
   if (loop.inliers < 0) return Status::failure("negative inlier count");
   if (!std::isfinite(loop.motion_measure)) return Status::failure("motion measure not finite");
+  if (loop.inlier_pairs.size() > kMaxStoredLoopPairs) return Status::failure("too many inlier pairs");
+  for (const auto& [a, b] : loop.inlier_pairs)
+    if (a < 0 || b < 0) return Status::failure("negative feature index in an inlier pair");
   return Status::success();
 }
 
@@ -161,13 +164,20 @@ Result<Bytes> encodeLoopPayload(const StoredLoop& loop) {
     for (int c = 0; c < 6; ++c) w.f64(loop.information(r, c));
   w.u32(static_cast<uint32_t>(loop.inliers));
   w.f64(loop.motion_measure);
+  if (loop.inlier_pairs.empty()) return out;  // the original 412-byte record
+  w.u32(static_cast<uint32_t>(loop.inlier_pairs.size()));
+  for (const auto& [a, b] : loop.inlier_pairs) {
+    w.u32(static_cast<uint32_t>(a));
+    w.u32(static_cast<uint32_t>(b));
+  }
   return out;
 }
 
 Result<StoredLoop> decodeLoopPayload(const uint8_t* data, size_t size) {
-  if (size != kLoopPayloadSize)
+  // The fixed part, optionally followed by the inlier pairs: count (u32), then count x (u32, u32).
+  if (size != kLoopPayloadSize && size < kLoopPayloadSize + 4)
     return Result<StoredLoop>::failure("loop payload of " + std::to_string(size) + " bytes, expected " +
-                                       std::to_string(kLoopPayloadSize));
+                                       std::to_string(kLoopPayloadSize) + " or more with inlier pairs");
   ByteReader r(data);
   StoredLoop loop;
   loop.from_node = r.i64();
@@ -183,6 +193,20 @@ Result<StoredLoop> decodeLoopPayload(const uint8_t* data, size_t size) {
     return Result<StoredLoop>::failure("inlier count out of range");
   loop.inliers = static_cast<int>(inliers);
   loop.motion_measure = r.f64();
+  if (size > kLoopPayloadSize) {
+    const uint32_t n = r.u32();
+    if (n == 0 || n > kMaxStoredLoopPairs || size != kLoopPayloadSize + 4 + 8 * static_cast<size_t>(n))
+      return Result<StoredLoop>::failure("loop payload of " + std::to_string(size) +
+                                         " bytes does not hold its " + std::to_string(n) + " inlier pairs");
+    loop.inlier_pairs.reserve(n);
+    for (uint32_t i = 0; i < n; ++i) {
+      const uint32_t a = r.u32(), b = r.u32();
+      if (a > static_cast<uint32_t>(std::numeric_limits<int>::max()) ||
+          b > static_cast<uint32_t>(std::numeric_limits<int>::max()))
+        return Result<StoredLoop>::failure("inlier pair index out of range");
+      loop.inlier_pairs.emplace_back(static_cast<int>(a), static_cast<int>(b));
+    }
+  }
   if (Status s = validateLoop(loop); !s) return Result<StoredLoop>::failure("invalid loop: " + s.error());
   return loop;
 }

@@ -11,6 +11,7 @@
 #include <cstdint>
 #include <memory>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "rgbdmap/common/result.hpp"
@@ -34,7 +35,12 @@ struct StoredLoop {
   Mat6 information = Mat6::Identity();  ///< finite and symmetric
   int inliers = 0;                      ///< >= 0
   double motion_measure = 0.0;          ///< finite
+  /// The verified feature matches (index in from, index in to), each >= 0, at most kMaxStoredLoopPairs:
+  /// a restarted server rebuilds the bundle adjustment's landmark tracks from them. Empty in records
+  /// written before they were stored.
+  std::vector<std::pair<int, int>> inlier_pairs;
 };
+constexpr size_t kMaxStoredLoopPairs = 100000;
 
 struct MapStoreOptions {
   bool sync = true;  ///< fdatasync after every append (durability); false only for benchmarks/tests
