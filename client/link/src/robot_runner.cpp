@@ -211,6 +211,8 @@ void finish(const RunState& state, RobotLink& link, const RobotRunOptions& optio
   out->all_acked = !any_sent || link.waitAllAcked(std::max(0.0, remaining()));
   out->final_correction_received =
       any_sent && link.waitForCorrection(state.last_sent_keyframe, std::max(0.0, remaining()));
+  // A stop during the final wait (Ctrl-C once the frames ran out) also cut the run short.
+  if (stopRequested(options)) out->interrupted = true;
   out->frame_records = state.frames;
   out->keyframe_records = state.keyframes;
   reanchorFinalMap(link, out);
