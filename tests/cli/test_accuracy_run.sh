@@ -2,8 +2,8 @@
 # The full system's accuracy as a user gets it (issue #14): `rgbdmap run` on the shared fr1_rpy frames, every
 # frame of the trajectory it writes (map frame, re-anchored on the optimised keyframes) against the ground
 # truth; one robot, then two robots on overlapping halves whose maps merge. Skips (77) without the data.
-# Measured (Release, 2 cores): one robot 0.0156-0.0158 m (keyframes 0.0160 m), odometry 0.0253 m; two robots
-# 0.0139 / 0.0126 m each, 0.0154 m joint.
+# Measured (Release, 2 cores): one robot 0.0147-0.0148 m, odometry 0.0253 m; two robots
+# 0.0134 / 0.0127 m each, 0.0154 m joint.
 set -uo pipefail
 bin=$1
 data=$(cd "$(dirname "$0")/../../.." && pwd)/shared/data/tum_fr1_rpy_first250

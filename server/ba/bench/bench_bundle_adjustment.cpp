@@ -18,6 +18,8 @@
 namespace rgbdmap {
 namespace {
 
+BaSolver g_solver = BaSolver::kSchur;
+
 struct Built {
   BaSynthScene scene;
   LandmarkMap map;
@@ -27,6 +29,9 @@ Built build(int keyframes, const LandmarkMapConfig& config, unsigned seed) {
   BaSynthConfig sc;
   sc.keyframes = keyframes;
   sc.step_m = 0.2;  // a point is seen by ~15 keyframes
+  sc.turn_rad_per_m = 0.002;  // a long sweep that keeps facing the points (up to 100 m)
+  sc.climb_per_m = 0.0;
+  sc.roll_rad_per_keyframe = 0.0002;
   sc.points = 1500 + 60 * keyframes;
   sc.seed = seed;
   Built b{makeBaSynthScene(sc), LandmarkMap(config)};
@@ -60,6 +65,7 @@ double rmsError(const Built& b) {
 
 void localBa(int window) {
   LandmarkMapConfig config;
+  config.solve.solver = g_solver;
   config.local_window = window;
   std::vector<double> ms, cpu;
   int obs = 0, frames = 0;
@@ -81,6 +87,7 @@ void localBa(int window) {
 
 void globalBa(int keyframes, bool rolling_shutter) {
   LandmarkMapConfig config;
+  config.solve.solver = g_solver;
   config.solve.rolling_shutter = rolling_shutter;
   Built b = build(keyframes, config, 3);
   const double before = rmsError(b);
@@ -88,18 +95,34 @@ void globalBa(int keyframes, bool rolling_shutter) {
   const BundleResult r = b.map.globalAdjust(0, 0);
   const double cpu = threadCpuMs() - cpu0;
   std::printf(
-      "global BA %4d keyframes%s: %8.1f ms CPU (%.1f ms wall; %d points, %d observations, %d iterations; "
+      "global BA %4d keyframes%s: %8.1f ms CPU (%.1f ms wall; %d points, %d observations, %d iterations%s; "
       "keyframe rms %.4f -> %.5f m)\n",
       keyframes, rolling_shutter ? "" : " (no rolling shutter)", cpu, r.report.time_ms, r.report.points,
-      r.report.observations, r.report.iterations, before, rmsError(b));
+      r.report.observations, r.report.iterations, r.report.out_of_time ? ", OUT OF TIME" : "", before,
+      rmsError(b));
 }
 
 }  // namespace
 }  // namespace rgbdmap
 
 int main(int argc, char** argv) {
-  const bool quick = argc > 1 && std::string(argv[1]) == "--quick";
-  std::printf("bundle adjustment, one thread (synthetic, ~1000 features per keyframe)\n");
+  bool quick = false;
+  for (int i = 1; i < argc; ++i) {
+    const std::string a = argv[i];
+    if (a == "--quick") {
+      quick = true;
+    } else if (a == "--ceres") {
+      rgbdmap::g_solver = rgbdmap::BaSolver::kCeres;
+    } else {
+      std::fprintf(stderr, "usage: bench_bundle_adjustment [--quick] [--ceres]\n");
+      return 2;
+    }
+  }
+  std::printf("bundle adjustment, one thread (synthetic, ~1000 features per keyframe), %s solver\n",
+              rgbdmap::g_solver == rgbdmap::BaSolver::kCeres ? "Ceres" : "own Schur");
+  const rgbdmap::LandmarkMapConfig defaults;
+  std::printf("global BA caps: %d observations, %d per landmark, %.1f s per solve\n",
+              defaults.global_max_observations, defaults.global_max_track, defaults.global_max_time_s);
   for (int w : {5, 10, 15, 20}) rgbdmap::localBa(w);
   for (int n : quick ? std::vector<int>{100} : std::vector<int>{100, 250, 500})
     for (bool rs : {true, false}) rgbdmap::globalBa(n, rs);

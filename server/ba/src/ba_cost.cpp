@@ -68,32 +68,48 @@ bool BaPoseManifold::MinusJacobian(const double*, double* jacobian) const {
 }
 
 template <int kRows>
-bool ObservationCost<kRows>::Evaluate(double const* const* parameters, double* residuals,
-                                      double** jacobians) const {
-  const Mat3 R = Eigen::Map<const Eigen::Quaterniond>(parameters[0]).toRotationMatrix();
-  const Vec3 p = R * Eigen::Map<const Vec3>(parameters[1]) + Eigen::Map<const Vec3>(parameters[0] + 4);
-  const Vec3 w = Eigen::Map<const Vec3>(parameters[2]);
-  const double r = m_.row_fraction;
+bool observationJacobians(const BaIntrinsics& k, const BaMeasurement& m, const Mat3& R, const Vec3& t,
+                          const Vec3& p_map, const Vec3& w, double* residual,
+                          ObservationJacobians<kRows>* jacobians) {
+  const Vec3 p = R * p_map + t;
+  const double r = m.row_fraction;
   const Vec3 p_rs = rollingShutterPoint(p, w, r);
   if (p_rs.z() <= kMinDepth) return false;
   Eigen::Matrix<double, kRows, 3> dr_dprs;
-  residualOf<kRows>(k_, m_, p_rs, residuals, jacobians ? &dr_dprs : nullptr);
+  residualOf<kRows>(k, m, p_rs, residual, jacobians ? &dr_dprs : nullptr);
   if (!jacobians) return true;
   // p_rs = (I - r [w]x) p: d p_rs / d p = I - r [w]x; d p_rs / d w = r [p]x.
   const Eigen::Matrix<double, kRows, 3> dr_dp = dr_dprs * (Mat3::Identity() - r * se3::hat(w));
-  if (jacobians[0]) {  // d p / d delta = [I, -[p]x] (left perturbation)
-    Eigen::Map<Eigen::Matrix<double, kRows, 7, Eigen::RowMajor>> J(jacobians[0]);
-    J.template leftCols<3>() = dr_dp;
-    J.template middleCols<3>(3) = -dr_dp * se3::hat(p);
-    J.col(6).setZero();
+  jacobians->pose.template leftCols<3>() = dr_dp;  // d p / d delta = [I, -[p]x] (left perturbation)
+  jacobians->pose.template rightCols<3>() = -dr_dp * se3::hat(p);
+  jacobians->point = dr_dp * R;
+  jacobians->w = r * dr_dprs * se3::hat(p);
+  return true;
+}
+
+template <int kRows>
+bool ObservationCost<kRows>::Evaluate(double const* const* parameters, double* residuals,
+                                      double** jacobians) const {
+  const Mat3 R = Eigen::Map<const Eigen::Quaterniond>(parameters[0]).toRotationMatrix();
+  const Vec3 t = Eigen::Map<const Vec3>(parameters[0] + 4);
+  const Vec3 p_map = Eigen::Map<const Vec3>(parameters[1]);
+  const Vec3 w = Eigen::Map<const Vec3>(parameters[2]);
+  ObservationJacobians<kRows> J;
+  if (!observationJacobians<kRows>(k_, m_, R, t, p_map, w, residuals, jacobians ? &J : nullptr)) return false;
+  if (!jacobians) return true;
+  if (jacobians[0]) {
+    Eigen::Map<Eigen::Matrix<double, kRows, 7, Eigen::RowMajor>> J0(jacobians[0]);
+    J0.template leftCols<6>() = J.pose;
+    J0.col(6).setZero();
   }
+  using Map3 = Eigen::Map<Eigen::Matrix<double, kRows, 3, Eigen::RowMajor>>;
   if (jacobians[1]) {
-    Eigen::Map<Eigen::Matrix<double, kRows, 3, Eigen::RowMajor>> J(jacobians[1]);
-    J = dr_dp * R;
+    Map3 J1(jacobians[1]);
+    J1 = J.point;
   }
   if (jacobians[2]) {
-    Eigen::Map<Eigen::Matrix<double, kRows, 3, Eigen::RowMajor>> J(jacobians[2]);
-    J = r * dr_dprs * se3::hat(p);
+    Map3 J2(jacobians[2]);
+    J2 = J.w;
   }
   return true;
 }
@@ -111,6 +127,10 @@ bool RollingShutterPrior::Evaluate(double const* const* parameters, double* resi
 
 template class ObservationCost<2>;
 template class ObservationCost<3>;
+template bool observationJacobians<2>(const BaIntrinsics&, const BaMeasurement&, const Mat3&, const Vec3&,
+                                      const Vec3&, const Vec3&, double*, ObservationJacobians<2>*);
+template bool observationJacobians<3>(const BaIntrinsics&, const BaMeasurement&, const Mat3&, const Vec3&,
+                                      const Vec3&, const Vec3&, double*, ObservationJacobians<3>*);
 
 ObservationResidual observationResidual(const BaIntrinsics& k, const SE3& T_kf_map, const Vec3& p_map,
                                         const Vec3& w, const BaMeasurement& m) {

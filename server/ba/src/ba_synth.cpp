@@ -7,10 +7,10 @@
 namespace rgbdmap {
 namespace {
 
-SE3 keyframePose(int k, double step_m) {
+SE3 keyframePose(int k, const BaSynthConfig& o) {
   SE3 T = SE3::Identity();
-  T.translation() = Vec3(k * step_m, 0.02 * std::sin(k * 0.7), 0.03 * k * step_m);
-  T.linear() = se3::expSO3(Vec3(0.01 * std::cos(k), 0.04 * k * step_m, 0.005 * k));
+  T.translation() = Vec3(k * o.step_m, 0.02 * std::sin(k * 0.7), o.climb_per_m * k * o.step_m);
+  T.linear() = se3::expSO3(Vec3(0.01 * std::cos(k), o.turn_rad_per_m * k * o.step_m, o.roll_rad_per_keyframe * k));
   return T;
 }
 
@@ -30,7 +30,7 @@ BaSynthScene makeBaSynthScene(const BaSynthConfig& o) {
   }
   std::normal_distribution<double> unit(0.0, 1.0);
   for (int k = 0; k < o.keyframes; ++k) {
-    const SE3 T = keyframePose(k, o.step_m);
+    const SE3 T = keyframePose(k, o);
     s.T_map_kf.push_back(T);
     const Vec3 w = Vec3(unit(rng), unit(rng), unit(rng)).normalized() * o.rolling_shutter_rad;
     s.rolling_shutter.push_back(w);

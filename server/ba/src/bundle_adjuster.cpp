@@ -8,10 +8,14 @@
 
 #include <ceres/ceres.h>
 
+#include "schur_bundle.hpp"
+
 namespace rgbdmap {
 namespace {
 
-using Params = std::array<double, 7>;
+using ba_detail::measurementOf;
+using ba_detail::SolveState;
+using ba_detail::SolveSummary;
 
 class CancelCallback final : public ceres::IterationCallback {
  public:
@@ -45,21 +49,8 @@ std::string checkProblem(const BaProblem& p) {
   return "";
 }
 
-/// What one solve works on: the parameters (updated in place) and which observations take part.
-struct SolveState {
-  std::vector<Params> poses;
-  std::vector<Vec3> w;  ///< per frame
-  std::vector<Vec3> points;
-  std::vector<double> sigma_px;  ///< per observation
-  std::vector<char> active;      ///< per observation
-};
-
 double sigmaOf(const BaObservation& o, const BaSolveConfig& c) {
   return c.pixel_sigma * std::pow(c.scale_factor, o.octave);
-}
-
-BaMeasurement measurementOf(const BaObservation& o, double sigma, const BaSolveConfig& c) {
-  return {o.px, sigma, o.row_fraction, c.use_depth ? o.depth_m : 0.0, c.inverse_depth_sigma};
 }
 
 ceres::CostFunction* costOf(const BaProblem& p, const BaObservation& o, double sigma,
@@ -114,9 +105,8 @@ class CeresBundle {
   }
 
   /// Levenberg-Marquardt from the current parameters; nothing when no frame is free.
-  ceres::Solver::Summary solve(int iterations, const std::atomic<bool>* cancel) {
-    ceres::Solver::Summary summary;
-    if (free_frames_ == 0) return summary;
+  SolveSummary solve(int iterations, const std::atomic<bool>* cancel) {
+    if (free_frames_ == 0) return {};
     ceres::Solver::Options so;
     so.linear_solver_type = free_frames_ <= 40 ? ceres::DENSE_SCHUR : ceres::SPARSE_SCHUR;
     // A fresh ordering each solve (Ceres drops the blocks that were constant from the one it is given):
@@ -133,8 +123,11 @@ class CeresBundle {
     so.minimizer_progress_to_stdout = false;
     CancelCallback cancel_callback(cancel);
     if (cancel) so.callbacks.push_back(&cancel_callback);
+    ceres::Solver::Summary summary;
     ceres::Solve(so, &problem_, &summary);
-    return summary;
+    return {summary.initial_cost, summary.final_cost, static_cast<int>(summary.iterations.size()),
+            summary.termination_type == ceres::NO_CONVERGENCE &&
+                summary.total_time_in_seconds >= c_.max_time_s};
   }
 
   /// The free frames' rolling-shutter rotations take part from now on.
@@ -195,6 +188,35 @@ double classify(const BaProblem& p, const BaSolveConfig& c, SolveState* s) {
   return n ? std::sqrt(sum_sq / n) : 0.0;
 }
 
+/// The two solves with the outlier test between them.
+template <typename Bundle>
+void runSolves(const BaProblem& problem, const BaSolveConfig& config, const std::atomic<bool>* cancel,
+               Bundle* bundle, SolveState* s, BaReport* report) {
+  const SolveSummary first = bundle->solve(config.first_iterations, cancel);
+  report->initial_cost = first.initial_cost;
+  report->final_cost = first.final_cost;
+  report->iterations = first.iterations;
+  report->out_of_time = first.out_of_time;
+  if (first.out_of_time) {
+    // Unconverged, residuals are still large where the solve did not get to: the outlier test would take
+    // good observations out. The estimate so far (lower cost than the start) stands; no observation leaves.
+    SolveState probe = *s;
+    report->final_rms_px = classify(problem, config, &probe);
+    return;
+  }
+  report->final_rms_px = classify(problem, config, s);
+  const bool cancelled = cancel && cancel->load();
+  if (config.second_iterations > 0 && !cancelled) {
+    bundle->removeInactive();
+    bundle->freeRollingShutter();
+    const SolveSummary second = bundle->solve(config.second_iterations, cancel);
+    report->final_cost = second.final_cost;
+    report->iterations += second.iterations;
+    report->out_of_time = second.out_of_time;
+    report->final_rms_px = classify(problem, config, s);
+  }
+}
+
 }  // namespace
 
 Result<BaSolution> solveBundle(const BaProblem& problem, const BaSolveConfig& config,
@@ -218,20 +240,12 @@ Result<BaSolution> solveBundle(const BaProblem& problem, const BaSolveConfig& co
   BaReport& report = out.report;
   SolveState probe = s;
   report.initial_rms_px = classify(problem, config, &probe);
-  CeresBundle bundle(problem, config, &s);
-  const auto first = bundle.solve(config.first_iterations, cancel);
-  report.initial_cost = first.initial_cost;
-  report.final_cost = first.final_cost;
-  report.iterations = static_cast<int>(first.iterations.size());
-  report.final_rms_px = classify(problem, config, &s);
-  const bool cancelled = cancel && cancel->load();
-  if (config.second_iterations > 0 && !cancelled) {
-    bundle.removeInactive();
-    bundle.freeRollingShutter();
-    const auto second = bundle.solve(config.second_iterations, cancel);
-    report.final_cost = second.final_cost;
-    report.iterations += static_cast<int>(second.iterations.size());
-    report.final_rms_px = classify(problem, config, &s);
+  if (config.solver == BaSolver::kCeres) {
+    CeresBundle bundle(problem, config, &s);
+    runSolves(problem, config, cancel, &bundle, &s, &report);
+  } else {
+    ba_detail::SchurBundle bundle(problem, config, &s);
+    runSolves(problem, config, cancel, &bundle, &s, &report);
   }
   report.cancelled = cancel && cancel->load();
   for (size_t i = 0; i < problem.observations.size(); ++i)

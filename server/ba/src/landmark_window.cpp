@@ -1,7 +1,9 @@
 // LandmarkMap: covisibility, the windows of local and global bundle adjustment, and their results applied.
 #include <algorithm>
+#include <cmath>
 #include <cstdint>
 #include <map>
+#include <tuple>
 #include <unordered_set>
 
 #include "rgbdmap/ba/landmark_map.hpp"
@@ -14,7 +16,41 @@ namespace rgbdmap {
 /// drifts (measured on fr1_rpy: keyframe ATE 0.016-0.018 m with it free, 0.015 m held).
 struct LandmarkMap::Window {
   std::vector<int64_t> free, fixed, points;
+  int max_track = 0;  ///< observations taken per landmark, spread over its observers (0: all)
+  std::vector<int64_t> selected_for;  ///< with max_track: per point, the keyframe whose observation stays
 };
+
+namespace {
+
+/// The observations of a landmark a window takes: those by its keyframes, at most `max_track` of them
+/// (0: all) spread evenly over the observers in keyframe order, always with keyframe `keep`'s (when it
+/// observes the landmark: the keyframe the landmark was selected for).
+template <typename InWindow>
+std::vector<std::pair<int64_t, int>> observationsTaken(const std::vector<std::pair<int64_t, int>>& obs,
+                                                       int max_track, const InWindow& in_window,
+                                                       int64_t keep) {
+  std::vector<std::pair<int64_t, int>> in;
+  for (const auto& o : obs)
+    if (in_window(o.first)) in.push_back(o);
+  if (max_track <= 0 || in.size() <= static_cast<size_t>(max_track)) return in;
+  std::sort(in.begin(), in.end());
+  std::vector<size_t> picks;
+  const double step = static_cast<double>(in.size() - 1) / static_cast<double>(max_track - 1);
+  for (int i = 0; i < max_track; ++i) picks.push_back(static_cast<size_t>(std::lround(i * step)));
+  const auto own = std::find_if(in.begin(), in.end(), [keep](const auto& o) { return o.first == keep; });
+  if (own != in.end()) {
+    const size_t k = static_cast<size_t>(own - in.begin());
+    size_t* nearest = &picks[0];
+    for (size_t& p : picks)
+      if ((p > k ? p - k : k - p) < (*nearest > k ? *nearest - k : k - *nearest)) nearest = &p;
+    *nearest = k;  // the picks stay distinct: k lies between its neighbours' picks
+  }
+  std::vector<std::pair<int64_t, int>> out;
+  for (size_t p : picks) out.push_back(in[p]);
+  return out;
+}
+
+}  // namespace
 
 std::vector<std::pair<int64_t, int>> LandmarkMap::covisible(int64_t id) const {
   std::vector<std::pair<int64_t, int>> out;
@@ -90,6 +126,8 @@ LandmarkMap::Window LandmarkMap::globalWindow(int map_id, int64_t anchor) const 
                            ? std::max<size_t>(static_cast<size_t>(config_.min_frame_observations),
                                               static_cast<size_t>(config_.global_max_observations) / frames)
                            : SIZE_MAX;
+  w.max_track = std::max(config_.global_max_track > 0 ? 2 : 0, config_.global_max_track);
+  const auto any = [](int64_t) { return true; };
   std::unordered_map<int64_t, size_t> taken;  // keyframe -> its observations selected so far
   std::unordered_set<int64_t> selected;
   for (const auto* group : {&w.fixed, &w.free})
@@ -104,11 +142,15 @@ LandmarkMap::Window LandmarkMap::globalWindow(int map_id, int64_t anchor) const 
       for (const auto& [n, l] : tracks) {
         if (taken[kf] >= share) break;
         if (!selected.insert(l).second) continue;
-        for (const auto& o : landmarks_.at(l).obs) ++taken[o.first];
+        for (const auto& o : observationsTaken(landmarks_.at(l).obs, w.max_track, any, kf)) ++taken[o.first];
         w.points.push_back(l);
+        w.selected_for.push_back(kf);
       }
     }
-  std::sort(w.points.begin(), w.points.end());
+  std::vector<std::pair<int64_t, int64_t>> order;  // sorted by landmark, with their keyframes
+  for (size_t i = 0; i < w.points.size(); ++i) order.emplace_back(w.points[i], w.selected_for[i]);
+  std::sort(order.begin(), order.end());
+  for (size_t i = 0; i < order.size(); ++i) std::tie(w.points[i], w.selected_for[i]) = order[i];
   return w;
 }
 
@@ -122,13 +164,15 @@ BaProblem LandmarkMap::problemOf(const Window& w) const {
       const bool fixed = group == &w.fixed;
       p.frames.push_back({id, k.kf.camera, k.kf.T_map_kf.inverse(), fixed, k.w, fixed});
     }
-  for (int64_t l_id : w.points) {
+  for (size_t i = 0; i < w.points.size(); ++i) {
+    const int64_t l_id = w.points[i];
     const Landmark& l = landmarks_.at(l_id);
+    const int64_t keep = i < w.selected_for.size() ? w.selected_for[i] : -1;
     const int point = static_cast<int>(p.points.size());
     int used = 0;
-    for (const auto& [kf, feature] : l.obs) {
+    const auto in_window = [&](int64_t kf) { return frame_index.count(kf) > 0; };
+    for (const auto& [kf, feature] : observationsTaken(l.obs, w.max_track, in_window, keep)) {
       const auto fi = frame_index.find(kf);
-      if (fi == frame_index.end()) continue;
       const LandmarkKeyframe& k = keyframes_.at(kf).kf;
       const FrameFeatures& f = *k.features;
       const double row = (f.keypoints[feature].pt.y - 0.5 * k.height) / k.height;

@@ -231,6 +231,7 @@ void MapOptimizer::adjustNewKeyframes(const std::vector<int64_t>& ids) {
     local_ms_.add(msSince(t0));
     local_cpu_ms_.add(threadCpuMs() - cpu0);
     ++counters_.local_runs;
+    counters_.out_of_time += r.report.out_of_time ? 1 : 0;
     if (!r.ok) {
       ++counters_.local_failures;
       continue;
@@ -260,11 +261,13 @@ void MapOptimizer::adjustGlobally(const std::set<int>& maps) {
     const double ms = msSince(t0), cpu_ms = threadCpuMs() - cpu0;
     added_since_global_[map] = 0;
     changed_maps_.erase(map);
+    counters_.out_of_time += r.report.out_of_time ? 1 : 0;
     if (!r.ok) continue;
     log::info("optimiser: global BA of map ", map, ": ", r.report.frames, " keyframes, ", r.report.points,
               " landmarks, ", r.report.observations, " observations (", r.outliers_removed,
               " rejected), rms ", r.report.initial_rms_px, " -> ", r.report.final_rms_px, " px, ",
-              r.report.iterations, " iterations, ", ms, " ms (", cpu_ms, " ms CPU)");
+              r.report.iterations, " iterations", r.report.out_of_time ? " (out of time)" : "", ", ", ms,
+              " ms (", cpu_ms, " ms CPU)");
     ++counters_.global_runs;
     counters_.global_ms_last = ms;
     counters_.global_ms_max = std::max(counters_.global_ms_max, ms);

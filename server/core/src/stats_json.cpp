@@ -24,7 +24,8 @@ Json bundleAdjustmentJson(const BundleAdjustmentStats& s) {
           {"global_ba_ms_max", jsonNumber(s.global_ms_max)},
           {"global_ba_cpu_ms_last", jsonNumber(s.global_cpu_ms_last)},
           {"global_ba_cpu_ms_max", jsonNumber(s.global_cpu_ms_max)},
-          {"global_ba_keyframes_last", s.global_keyframes_last}};
+          {"global_ba_keyframes_last", s.global_keyframes_last},
+          {"ba_out_of_time", s.out_of_time}};
 }
 
 }  // namespace rgbdmap

@@ -60,6 +60,22 @@ struct BaMeasurement {
   double inverse_depth_sigma = 0.01;
 };
 
+/// One observation's whitened residual rows by the pose's left perturbation (6), the point (3) and the
+/// rolling-shutter rotation w (3).
+template <int kRows>
+struct ObservationJacobians {
+  Eigen::Matrix<double, kRows, 6> pose;
+  Eigen::Matrix<double, kRows, 3> point, w;
+};
+
+/// The residual (kRows values) of an observation of p_map by the keyframe T_kf_map = [R | t] and, when
+/// `jacobians` is given, its Jacobians. False when the point is (nearly) behind the camera. Shared by the
+/// Ceres cost functions and the own Schur solver (bundle_adjuster.cpp).
+template <int kRows>
+bool observationJacobians(const BaIntrinsics& k, const BaMeasurement& m, const Mat3& R, const Vec3& t,
+                          const Vec3& p_map, const Vec3& w, double* residual,
+                          ObservationJacobians<kRows>* jacobians);
+
 /// Reprojection (2 residuals) or reprojection + inverse depth (3). Parameter blocks: pose (7), point (3),
 /// rolling-shutter rotation w (3).
 template <int kRows>

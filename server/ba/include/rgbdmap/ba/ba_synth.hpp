@@ -16,6 +16,11 @@ struct BaSynthConfig {
   int keyframes = 12;
   int points = 1500;
   double step_m = 0.08;        ///< camera motion between keyframes (along x)
+  /// The arc: yaw and height gained per metre along x, roll per keyframe. Over tens of metres the default
+  /// arc turns the cameras away from the points (which fill a slab at z 1.5-4 m): long scenes want ~0.
+  double turn_rad_per_m = 0.04;
+  double climb_per_m = 0.03;
+  double roll_rad_per_keyframe = 0.005;
   double pixel_noise = 0.5;    ///< keypoint sigma, px
   double depth_noise = 0.003;  ///< sigma of 1/depth, 1/m
   int flipped_bits = 8;        ///< descriptor bits changed per view

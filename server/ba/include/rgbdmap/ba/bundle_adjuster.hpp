@@ -1,6 +1,6 @@
 #pragma once
 // One bundle adjustment: keyframe poses and landmark positions refined against every observation, with
-// Ceres (Schur complement over the landmarks). Plain structs in and out: the caller (LandmarkMap) decides
+// Levenberg-Marquardt and the Schur complement over the landmarks (the own solver, or Ceres). Plain structs in and out: the caller (LandmarkMap) decides
 // the window, which keyframes are held fixed, and what to do with the observations found to be outliers.
 //
 // Two solves, as ORB-SLAM's local BA: a first solve with a Huber loss, then observations whose whitened
@@ -17,7 +17,13 @@
 
 namespace rgbdmap {
 
+/// Which solver minimises: the own Levenberg-Marquardt with the landmarks eliminated per point and fixed-size
+/// blocks (src/schur_bundle.hpp; 3-6x faster), or Ceres (the reference; the same residuals and trust-region
+/// rule, held to the same minimum by a test).
+enum class BaSolver { kSchur, kCeres };
+
 struct BaSolveConfig {
+  BaSolver solver = BaSolver::kSchur;
   double pixel_sigma = 1.0;           ///< keypoint sigma at octave 0, px
   double scale_factor = 1.2;          ///< ORB pyramid scale: sigma grows by this per octave
   double inverse_depth_sigma = 0.01;  ///< sigma of 1/depth, 1/m (0.01: 1 cm at 1 m, 4 cm at 2 m)
@@ -33,7 +39,7 @@ struct BaSolveConfig {
   int first_iterations = 5;    ///< Levenberg-Marquardt iterations before the outlier test
   int second_iterations = 10;  ///< after it; 0 skips the second solve
   double max_time_s = 1.0;     ///< wall-clock limit of each solve
-  int num_threads = 1;
+  int num_threads = 1;  ///< Ceres threads (the own solver uses one)
 };
 
 struct BaFrame {
@@ -72,6 +78,9 @@ struct BaReport {
   double initial_rms_px = 0.0, final_rms_px = 0.0;  ///< reprojection RMS over the inliers, octave-0 px
   double time_ms = 0.0;
   bool cancelled = false;
+  /// A solve hit its wall-clock limit. When the first did, no observation was rejected and the second
+  /// solve did not run (an unconverged state would reject good observations).
+  bool out_of_time = false;
 };
 
 struct BaSolution {

@@ -49,6 +49,10 @@ struct LandmarkMapConfig {
   bool global_rolling_shutter = true;
   /// A global BA takes the longest tracks up to this many observations (0: all): its cost grows with them.
   int global_max_observations = 100000;
+  /// A global BA takes at most this many observations of one landmark, spread evenly over its observers
+  /// (0: all): the landmarks' elimination costs the square of their track length, and a long track's
+  /// middle observations add little. Frees the observation budget for more landmarks.
+  int global_max_track = 8;
   /// A keyframe with fewer observations in an adjustment is held there (too weakly constrained to move:
   /// e.g. a keyframe restored after a restart that only new tracks reach).
   int min_frame_observations = 30;

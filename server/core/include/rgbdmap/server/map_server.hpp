@@ -76,6 +76,7 @@ struct ServerRobotStats {
 /// Bundle adjustment (issue #14), cumulative: landmark tracks and the local and global adjustments.
 struct BundleAdjustmentStats {
   int64_t local_runs = 0, local_failures = 0, global_runs = 0;
+  int64_t out_of_time = 0;  ///< adjustments stopped by their wall-clock limit (local or global)
   double local_ms_median = 0.0, local_ms_p90 = 0.0;  ///< wall time of one local BA (its own worker)
   double local_cpu_ms_median = 0.0, local_cpu_ms_p90 = 0.0;  ///< the same in worker-thread CPU time
   double global_ms_last = 0.0, global_ms_max = 0.0;

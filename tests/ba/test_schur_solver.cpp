@@ -1,0 +1,122 @@
+// The bundle adjuster's own Levenberg-Marquardt solver (server/ba/src/schur_bundle.hpp) against Ceres, the
+// reference: on one synthetic problem with rolling shutter, depth and wrong observations, both must reach
+// the same minimum (cost, outliers, poses), and both must recover the true poses.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <random>
+#include <set>
+
+#include "rgbdmap/ba/ba_synth.hpp"
+#include "rgbdmap/ba/bundle_adjuster.hpp"
+
+namespace rgbdmap {
+namespace {
+
+/// Every view of every scene point by keyframes perturbed by 2 cm / 0.6 deg (the first fixed), points by
+/// 1 cm, and `wrong` of the observations pointed at a random other point.
+BaProblem syntheticProblem(const BaSynthScene& s, double wrong, unsigned seed) {
+  std::mt19937 rng(seed);
+  std::normal_distribution<double> n(0.0, 1.0);
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  BaProblem p;
+  for (size_t k = 0; k < s.T_map_kf.size(); ++k) {
+    SE3 T = s.T_map_kf[k];
+    if (k > 0)
+      T = se3::exp((Vec6() << 0.02 * n(rng), 0.02 * n(rng), 0.02 * n(rng), 0.01 * n(rng), 0.01 * n(rng),
+                    0.01 * n(rng))
+                       .finished()) *
+          T;
+    p.frames.push_back({static_cast<int64_t>(k), s.camera, T.inverse(), k == 0, Vec3::Zero(), k == 0});
+  }
+  for (size_t i = 0; i < s.points.size(); ++i)
+    p.points.push_back({static_cast<int64_t>(i), s.points[i] + 0.01 * Vec3(n(rng), n(rng), n(rng))});
+  std::uniform_int_distribution<int> any_point(0, static_cast<int>(s.points.size()) - 1);
+  for (size_t k = 0; k < s.features.size(); ++k) {
+    const FrameFeatures& f = *s.features[k];
+    for (size_t i = 0; i < f.size(); ++i) {
+      const int point = u(rng) < wrong ? any_point(rng) : s.point_of_feature[k][i];
+      p.observations.push_back({static_cast<int>(k), point, f.px[i], f.keypoints[i].octave, f.depth_m[i],
+                                (f.keypoints[i].pt.y - 240.0) / 480.0});
+    }
+  }
+  return p;
+}
+
+double rmsAgainstTruth(const BaSynthScene& s, const BaSolution& x) {
+  double sum = 0.0;
+  for (size_t k = 0; k < s.T_map_kf.size(); ++k)
+    sum += (x.T_kf_map[k].inverse().translation() - s.T_map_kf[k].translation()).squaredNorm();
+  return std::sqrt(sum / static_cast<double>(s.T_map_kf.size()));
+}
+
+TEST(SchurSolver, ReachesTheMinimumCeresReaches) {
+  BaSynthConfig o;
+  o.keyframes = 15;
+  o.rolling_shutter_rad = 0.01;
+  const BaSynthScene s = makeBaSynthScene(o);
+  const BaProblem problem = syntheticProblem(s, 0.05, 3);
+  BaSolveConfig config;
+  config.first_iterations = 20;  // both run to their convergence tests
+  config.second_iterations = 30;
+  config.max_time_s = 60.0;
+  config.solver = BaSolver::kCeres;
+  const Result<BaSolution> ceres = solveBundle(problem, config);
+  config.solver = BaSolver::kSchur;
+  const Result<BaSolution> own = solveBundle(problem, config);
+  ASSERT_TRUE(ceres) << ceres.error();
+  ASSERT_TRUE(own) << own.error();
+  double max_dt = 0.0, max_dw = 0.0;
+  for (size_t k = 0; k < problem.frames.size(); ++k) {
+    max_dt = std::max(max_dt, (own->T_kf_map[k].inverse().translation() -
+                               ceres->T_kf_map[k].inverse().translation())
+                                  .norm());
+    max_dw = std::max(max_dw, (own->w[k] - ceres->w[k]).norm());
+  }
+  std::vector<int> both;
+  std::set_intersection(own->outliers.begin(), own->outliers.end(), ceres->outliers.begin(),
+                        ceres->outliers.end(), std::back_inserter(both));
+  const double rms_own = rmsAgainstTruth(s, *own), rms_ceres = rmsAgainstTruth(s, *ceres);
+  std::printf(
+      "[ measured ] %zu observations: cost %.2f (own, %d iterations, %.0f ms) vs %.2f (Ceres, %d, %.0f ms); "
+      "outliers %zu vs %zu (%zu common); poses differ <= %.2e m, w <= %.2e rad; truth rms %.5f vs %.5f m\n",
+      problem.observations.size(), own->report.final_cost, own->report.iterations, own->report.time_ms,
+      ceres->report.final_cost, ceres->report.iterations, ceres->report.time_ms, own->outliers.size(),
+      ceres->outliers.size(), both.size(), max_dt, max_dw, rms_own, rms_ceres);
+  EXPECT_NEAR(own->report.final_cost, ceres->report.final_cost, 1e-3 * ceres->report.final_cost);
+  EXPECT_NEAR(own->report.initial_cost, ceres->report.initial_cost, 1e-9 * ceres->report.initial_cost)
+      << "the two solvers do not evaluate the same cost";
+  const size_t n_out = std::max(own->outliers.size(), ceres->outliers.size());
+  EXPECT_GT(n_out, problem.observations.size() / 40) << "the wrong observations were not found";
+  EXPECT_GE(both.size(), n_out - n_out / 100);
+  EXPECT_LT(max_dt, 2e-4);
+  EXPECT_LT(max_dw, 1e-3);
+  EXPECT_LT(rms_own, 0.003);
+  EXPECT_LT(rms_ceres, 0.003);
+}
+
+TEST(SchurSolver, HeldFramesStayAndACancelledSolveReturnsItsBestEstimate) {
+  BaSynthConfig o;
+  o.keyframes = 8;
+  const BaSynthScene s = makeBaSynthScene(o);
+  BaProblem problem = syntheticProblem(s, 0.0, 4);
+  problem.frames[3].fixed = problem.frames[3].fixed_w = true;
+  const Result<BaSolution> x = solveBundle(problem, BaSolveConfig{});
+  ASSERT_TRUE(x) << x.error();
+  EXPECT_TRUE(x->T_kf_map[0].isApprox(problem.frames[0].T_kf_map, 1e-12));
+  EXPECT_TRUE(x->T_kf_map[3].isApprox(problem.frames[3].T_kf_map, 1e-12));
+  EXPECT_EQ(x->w[3], problem.frames[3].w);
+  // Frame 3 is held where it was perturbed to, so the others cannot fit it exactly.
+  EXPECT_LT(x->report.final_cost, 0.1 * x->report.initial_cost);
+  std::atomic<bool> cancel{true};
+  const Result<BaSolution> c = solveBundle(problem, BaSolveConfig{}, &cancel);
+  ASSERT_TRUE(c) << c.error();
+  EXPECT_TRUE(c->report.cancelled);
+  EXPECT_EQ(c->report.iterations, 0);
+  EXPECT_TRUE(c->T_kf_map[5].isApprox(problem.frames[5].T_kf_map, 1e-12)) << "a cancelled solve moved";
+}
+
+}  // namespace
+}  // namespace rgbdmap
