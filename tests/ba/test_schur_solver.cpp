@@ -118,5 +118,25 @@ TEST(SchurSolver, HeldFramesStayAndACancelledSolveReturnsItsBestEstimate) {
   EXPECT_TRUE(c->T_kf_map[5].isApprox(problem.frames[5].T_kf_map, 1e-12)) << "a cancelled solve moved";
 }
 
+TEST(SchurSolver, ASolveOutOfTimeRejectsNoObservation) {
+  BaSynthConfig o;
+  o.keyframes = 8;
+  const BaSynthScene s = makeBaSynthScene(o);
+  const BaProblem problem = syntheticProblem(s, 0.05, 5);
+  for (BaSolver solver : {BaSolver::kSchur, BaSolver::kCeres}) {
+    BaSolveConfig config;
+    config.solver = solver;
+    const Result<BaSolution> full = solveBundle(problem, config);
+    ASSERT_TRUE(full) << full.error();
+    EXPECT_FALSE(full->report.out_of_time);
+    EXPECT_GT(full->outliers.size(), problem.observations.size() / 40);
+    config.max_time_s = 1e-9;  // out of time before the first step
+    const Result<BaSolution> cut = solveBundle(problem, config);
+    ASSERT_TRUE(cut) << cut.error();
+    EXPECT_TRUE(cut->report.out_of_time);
+    EXPECT_TRUE(cut->outliers.empty()) << "an unconverged solve rejected observations";
+  }
+}
+
 }  // namespace
 }  // namespace rgbdmap
