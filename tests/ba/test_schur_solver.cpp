@@ -54,7 +54,7 @@ double rmsAgainstTruth(const BaSynthScene& s, const BaSolution& x) {
 
 TEST(SchurSolver, ReachesTheMinimumCeresReaches) {
   BaSynthConfig o;
-  o.keyframes = 15;
+  o.keyframes = 10;
   o.rolling_shutter_rad = 0.01;
   const BaSynthScene s = makeBaSynthScene(o);
   const BaProblem problem = syntheticProblem(s, 0.05, 3);
@@ -70,9 +70,9 @@ TEST(SchurSolver, ReachesTheMinimumCeresReaches) {
   ASSERT_TRUE(own) << own.error();
   double max_dt = 0.0, max_dw = 0.0;
   for (size_t k = 0; k < problem.frames.size(); ++k) {
-    max_dt = std::max(max_dt, (own->T_kf_map[k].inverse().translation() -
-                               ceres->T_kf_map[k].inverse().translation())
-                                  .norm());
+    max_dt = std::max(
+        max_dt,
+        (own->T_kf_map[k].inverse().translation() - ceres->T_kf_map[k].inverse().translation()).norm());
     max_dw = std::max(max_dw, (own->w[k] - ceres->w[k]).norm());
   }
   std::vector<int> both;

@@ -28,7 +28,7 @@ struct Built {
 Built build(int keyframes, const LandmarkMapConfig& config, unsigned seed) {
   BaSynthConfig sc;
   sc.keyframes = keyframes;
-  sc.step_m = 0.2;  // a point is seen by ~15 keyframes
+  sc.step_m = 0.2;            // a point is seen by ~15 keyframes
   sc.turn_rad_per_m = 0.002;  // a long sweep that keeps facing the points (up to 100 m)
   sc.climb_per_m = 0.0;
   sc.roll_rad_per_keyframe = 0.0002;

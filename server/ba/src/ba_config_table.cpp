@@ -7,9 +7,10 @@ const ConfigTable<BaSolveConfig>& baSolveConfigTable() {
   using R = ConfigRange;
   static const ConfigTable<C> table =
       ConfigTable<C>()
-          .addChoice("solver", &C::solver, {{BaSolver::kSchur, "schur"}, {BaSolver::kCeres, "ceres"}},
-                     "(schur: the own Levenberg-Marquardt with fixed-size blocks, 3x faster; ceres: the reference, "
-                     "same residuals and minimum)")
+          .addChoice(
+              "solver", &C::solver, {{BaSolver::kSchur, "schur"}, {BaSolver::kCeres, "ceres"}},
+              "(schur: the own Levenberg-Marquardt with fixed-size blocks, 3x faster; ceres: the reference, "
+              "same residuals and minimum)")
           .add("pixel_sigma", &C::pixel_sigma, R::closed(0.05, 100.0), "keypoint sigma at octave 0 (px)")
           .add("scale_factor", &C::scale_factor, R::closed(1.0, 4.0),
                "ORB pyramid scale: the keypoint sigma grows by this per octave")

@@ -10,7 +10,8 @@ namespace {
 SE3 keyframePose(int k, const BaSynthConfig& o) {
   SE3 T = SE3::Identity();
   T.translation() = Vec3(k * o.step_m, 0.02 * std::sin(k * 0.7), o.climb_per_m * k * o.step_m);
-  T.linear() = se3::expSO3(Vec3(0.01 * std::cos(k), o.turn_rad_per_m * k * o.step_m, o.roll_rad_per_keyframe * k));
+  T.linear() =
+      se3::expSO3(Vec3(0.01 * std::cos(k), o.turn_rad_per_m * k * o.step_m, o.roll_rad_per_keyframe * k));
   return T;
 }
 

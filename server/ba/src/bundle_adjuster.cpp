@@ -125,9 +125,9 @@ class CeresBundle {
     if (cancel) so.callbacks.push_back(&cancel_callback);
     ceres::Solver::Summary summary;
     ceres::Solve(so, &problem_, &summary);
-    return {summary.initial_cost, summary.final_cost, static_cast<int>(summary.iterations.size()),
-            summary.termination_type == ceres::NO_CONVERGENCE &&
-                summary.total_time_in_seconds >= c_.max_time_s};
+    return {
+        summary.initial_cost, summary.final_cost, static_cast<int>(summary.iterations.size()),
+        summary.termination_type == ceres::NO_CONVERGENCE && summary.total_time_in_seconds >= c_.max_time_s};
   }
 
   /// The free frames' rolling-shutter rotations take part from now on.

@@ -16,7 +16,7 @@ namespace rgbdmap {
 /// drifts (measured on fr1_rpy: keyframe ATE 0.016-0.018 m with it free, 0.015 m held).
 struct LandmarkMap::Window {
   std::vector<int64_t> free, fixed, points;
-  int max_track = 0;  ///< observations taken per landmark, spread over its observers (0: all)
+  int max_track = 0;                  ///< observations taken per landmark, spread over its observers (0: all)
   std::vector<int64_t> selected_for;  ///< with max_track: per point, the keyframe whose observation stays
 };
 

@@ -15,7 +15,7 @@ namespace rgbdmap {
 struct BaSynthConfig {
   int keyframes = 12;
   int points = 1500;
-  double step_m = 0.08;        ///< camera motion between keyframes (along x)
+  double step_m = 0.08;  ///< camera motion between keyframes (along x)
   /// The arc: yaw and height gained per metre along x, roll per keyframe. Over tens of metres the default
   /// arc turns the cameras away from the points (which fill a slab at z 1.5-4 m): long scenes want ~0.
   double turn_rad_per_m = 0.04;

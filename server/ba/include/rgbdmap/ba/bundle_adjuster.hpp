@@ -1,7 +1,8 @@
 #pragma once
 // One bundle adjustment: keyframe poses and landmark positions refined against every observation, with
-// Levenberg-Marquardt and the Schur complement over the landmarks (the own solver, or Ceres). Plain structs in and out: the caller (LandmarkMap) decides
-// the window, which keyframes are held fixed, and what to do with the observations found to be outliers.
+// Levenberg-Marquardt and the Schur complement over the landmarks (the own solver, or Ceres). Plain structs
+// in and out: the caller (LandmarkMap) decides the window, which keyframes are held fixed, and what to do
+// with the observations found to be outliers.
 //
 // Two solves, as ORB-SLAM's local BA: a first solve with a Huber loss, then observations whose whitened
 // chi2 exceeds the 95 % quantile (2 or 3 dof) or that fall behind their camera are left out and a second
@@ -39,7 +40,7 @@ struct BaSolveConfig {
   int first_iterations = 5;    ///< Levenberg-Marquardt iterations before the outlier test
   int second_iterations = 10;  ///< after it; 0 skips the second solve
   double max_time_s = 1.0;     ///< wall-clock limit of each solve
-  int num_threads = 1;  ///< Ceres threads (the own solver uses one)
+  int num_threads = 1;         ///< Ceres threads (the own solver uses one)
 };
 
 struct BaFrame {
