@@ -7,17 +7,23 @@
 #   cli    the programs driven by shell scripts (cli.*, run.transports.netns, integration.*, faults.*,
 #          viewer.*)
 #   accuracy  e2e tests of accuracy bounds on whole sequences (odometry, full system on fr1_rpy)
+#   sanitize  the tests run again under AddressSanitizer + UBSan: every GoogleTest unit test, the e2e tests
+#          that feed forged, malformed or corrupt input (decoders, forged messages, chunk reassembly, bad images,
+#          a full disk, refused configurations) and the short network tests (transport.netns,
+#          server.chunked.netns)
 # Usage:
-#   bash deploy/test.sh           the full suite (CI): every test in Release (build/), then every test but the
-#                                 cli and accuracy tiers again under AddressSanitizer + UBSan (build-asan/,
-#                                 RelWithDebInfo; the cli tier's multi-process runs are timing-sensitive under
-#                                 ASan; the accuracy tests repeat, on longer sequences, code paths the
-#                                 shorter e2e tests run under the sanitizers, and take ~3 min there)
-#   bash deploy/test.sh --quick   the unit tier only, Release, no sanitizers (about half a minute after the
-#                                 build)
-#   Further arguments go to ctest, e.g. `bash deploy/test.sh -L e2e` or `-R '^server\.'`.
+#   bash deploy/test.sh           the full suite (CI): the Release build (unity), every test in Release
+#                                 (build/), then the sanitize tier under ASan + UBSan (build-asan/,
+#                                 RelWithDebInfo at -O1: only the GoogleTest executables and the relay they
+#                                 start are built, unity; the long server runs, the cli tier's multi-process
+#                                 runs and the accuracy tests run in Release only: under ASan they take 1-2 min
+#                                 each and repeat code paths the sanitize tier covers). On 2 cores shared with
+#                                 other builds (upper bounds): Release build 11 min, Release tests 8-14 min,
+#                                 sanitizer build 24 min from scratch, sanitizer tests 7 min
+#   bash deploy/test.sh --quick   the unit tier only, Release, no sanitizers (about a minute after the build)
+#   Further arguments go to both ctest runs, e.g. `bash deploy/test.sh -L e2e` or `-R '^server\.'`.
 # Tests needing ../shared/data skip when it is absent. By hand: `ctest --test-dir build -L unit` (or e2e,
-# slow, netns, cli; -LE to exclude).
+# slow, netns, cli, accuracy, faults, sanitize; -LE to exclude).
 # Environment: BUILD_DIR (Release tree, default build), RGBDMAP_SKIP_SANITIZERS=1 skips the sanitizer pass.
 set -euo pipefail
 root=$(cd "$(dirname "$0")/.." && pwd)
@@ -33,16 +39,16 @@ if [ "$quick" = 1 ]; then
 fi
 ctest --test-dir "$build_dir" --output-on-failure -j "$(nproc)" "$@"
 if [ "${RGBDMAP_SKIP_SANITIZERS:-0}" != "1" ]; then
-  echo "== sanitizer pass (ASan + UBSan): every tier but cli and accuracy"
-  # The server tests' recorded keyframe stream is copied from the Release tree (byte-identical). A unity
-  # build (16 sources per compiler run) at -O1 -g1 compiles in ~5 min on 2 cores instead of ~19 min.
-  BUILD_DIR="$root/build-asan" BUILD_TYPE=RelWithDebInfo CMAKE_EXTRA_ARGS="-DRGBDMAP_SANITIZE=ON \
--DRGBDMAP_BUILD_BENCHMARKS=OFF -DRGBDMAP_KEYFRAME_FIXTURE_FROM=$build_dir/tests/fixtures \
--DCMAKE_UNITY_BUILD=ON -DCMAKE_UNITY_BUILD_BATCH_SIZE=16" \
+  echo "== sanitizer pass (ASan + UBSan): the sanitize tier"
+  # The server tests' recorded keyframe stream is copied from the Release tree (byte-identical). Only the
+  # GoogleTest executables (rgbdmap_test_executables), unity (16 sources per compiler run), at -O1 -g1.
+  BUILD_DIR="$root/build-asan" BUILD_TYPE=RelWithDebInfo BUILD_TARGETS=rgbdmap_test_executables \
+  CMAKE_EXTRA_ARGS="-DRGBDMAP_SANITIZE=ON -DRGBDMAP_BUILD_BENCHMARKS=OFF \
+-DRGBDMAP_KEYFRAME_FIXTURE_FROM=$build_dir/tests/fixtures" \
     "$root/deploy/build.sh"
   export UBSAN_OPTIONS=halt_on_error=1:print_stacktrace=1 ASAN_OPTIONS=detect_leaks=1
   log="$root/build-asan/sanitizer_tests.log"
-  if ! ctest --test-dir "$root/build-asan" --output-on-failure -j "$(nproc)" -LE '^(cli|accuracy)$' "$@" 2>&1 | tee "$log"; then
+  if ! ctest --test-dir "$root/build-asan" --output-on-failure -j "$(nproc)" -L '^sanitize$' "$@" 2>&1 | tee "$log"; then
     # LeakSanitizer's own tracer sometimes crashes at exit after a test passed ("Tracer caught signal 11",
     # google/sanitizers#1353): not a leak, not our failure. Then, and only then, the failed tests run again.
     grep -q "LeakSanitizer has encountered a fatal error" "$log" || exit 1
