@@ -14,5 +14,11 @@ function(rgbdmap_target_defaults target)
     # that compiles in about half the time of -O2 -g.
     target_compile_options(${target} PRIVATE -fsanitize=address,undefined -fno-omit-frame-pointer -O1 -g1)
     target_link_options(${target} PRIVATE -fsanitize=address,undefined)
+    # Under ASan, Eigen allocates its aligned buffers by hand (malloc + offset) unless told that malloc
+    # aligns; Debian's libceres.a (linked statically) was built without ASan and frees with plain free().
+    # Template functions both instantiate (the sparse Cholesky's, since the bundle adjuster's own solver)
+    # are merged by the linker, so one side's allocation met the other's free: "bad-free" in Ceres'
+    # EigenSparseCholesky. ASan's malloc returns 16-byte aligned memory on x86-64, as glibc's does.
+    target_compile_definitions(${target} PRIVATE EIGEN_MALLOC_ALREADY_ALIGNED=1)
   endif()
 endfunction()
