@@ -13,7 +13,8 @@ using detail::BlobKind;
 using detail::Bytes;
 
 bool knownFilter(DepthFilter f) {
-  return f == DepthFilter::kNone || f == DepthFilter::kRowDelta || f == DepthFilter::kRankMed;
+  return f == DepthFilter::kNone || f == DepthFilter::kRowDelta || f == DepthFilter::kRankMed ||
+         f == DepthFilter::kRankCtx;
 }
 
 Status checkDepthOptions(const ImageCodecOptions& o) {
@@ -24,14 +25,16 @@ Status checkDepthOptions(const ImageCodecOptions& o) {
   return Status::success();
 }
 
-/// Runs the requested filter (kRankMed falls back to kRowDelta past kMaxRankTableSize distinct values) and
-/// records the filter actually used, and the table size, in the header.
-void filterDepth(const cv::Mat& depth, DepthFilter filter, detail::BlobHeader& header, Bytes& content) {
-  if (filter == DepthFilter::kRankMed) {
+/// Runs the requested filter (kRankMed and kRankCtx fall back to kRowDelta + zstd past kMaxRankTableSize
+/// distinct values) and records the filter actually used, and the table size, in the header.
+DepthFilter filterDepth(const cv::Mat& depth, DepthFilter filter, detail::BlobHeader& header,
+                        Bytes& content) {
+  if (filter == DepthFilter::kRankMed || filter == DepthFilter::kRankCtx) {
     const std::vector<uint16_t> table = detail::distinctNonZero(depth);
     if (table.size() <= detail::kMaxRankTableSize) {
       header.aux = static_cast<uint16_t>(table.size());
-      detail::packRankMed(depth, table, content);
+      if (filter == DepthFilter::kRankMed) detail::packRankMed(depth, table, content);
+      if (filter == DepthFilter::kRankCtx) detail::packRankCtx(depth, table, content);
     } else {
       filter = DepthFilter::kRowDelta;
     }
@@ -39,6 +42,7 @@ void filterDepth(const cv::Mat& depth, DepthFilter filter, detail::BlobHeader& h
   if (filter == DepthFilter::kRowDelta) detail::packRowDelta(depth, content);
   if (filter == DepthFilter::kNone) detail::packRaw(depth, content);
   header.method = static_cast<uint8_t>(filter);
+  return filter;
 }
 
 }  // namespace
@@ -51,11 +55,15 @@ Result<Bytes> encodeDepth(const cv::Mat& depth16, const ImageCodecOptions& optio
   if (const Status s = checkDepthOptions(options); !s) return R::failure(s.error());
   detail::BlobHeader header{0, static_cast<uint16_t>(depth16.cols), static_cast<uint16_t>(depth16.rows), 0};
   Bytes content;
-  filterDepth(depth16, options.depth_filter, header, content);
+  const DepthFilter used = filterDepth(depth16, options.depth_filter, header, content);
   Bytes blob;
   detail::beginBlob(BlobKind::kDepth, header, blob);
-  if (Status s = detail::appendZstdFrame(content.data(), content.size(), options.zstd_level, blob); !s)
+  if (used == DepthFilter::kRankCtx) {
+    blob.insert(blob.end(), content.begin(), content.end());  // range coded already
+  } else if (Status s = detail::appendZstdFrame(content.data(), content.size(), options.zstd_level, blob);
+             !s) {
     return R::failure("depth: " + s.error());
+  }
   if (Status s = detail::finishBlob(blob); !s) return R::failure("depth: " + s.error());
   return blob;
 }
@@ -67,10 +75,19 @@ Result<cv::Mat> decodeDepth(const uint8_t* data, size_t size, int expected_width
   const DepthFilter filter = static_cast<DepthFilter>(header->method);
   if (!knownFilter(filter)) return R::failure("depth blob: unknown filter " + std::to_string(header->method));
   const size_t n = static_cast<size_t>(header->width) * header->height;
-  const size_t k = filter == DepthFilter::kRankMed ? header->aux : 0;
+  const bool ranked = filter == DepthFilter::kRankMed || filter == DepthFilter::kRankCtx;
+  const size_t k = ranked ? header->aux : 0;
   if (header->aux != k || k > detail::kMaxRankTableSize || k > n)
     return R::failure("depth blob: bad aux field " + std::to_string(header->aux) + " for filter " +
                       toString(filter));
+  if (filter == DepthFilter::kRankCtx) {
+    cv::Mat depth(header->height, header->width, CV_16UC1);
+    if (const Status s =
+            detail::unpackRankCtx(data + kImageBlobHeaderSize, size - kImageBlobHeaderSize, k, depth);
+        !s)
+      return R::failure(s.error());
+    return depth;
+  }
   const auto content =
       detail::decompressZstdFrame(data + kImageBlobHeaderSize, size - kImageBlobHeaderSize, 2 * k + 2 * n);
   if (!content) return R::failure("depth blob: " + content.error());
@@ -91,6 +108,8 @@ std::string toString(DepthFilter filter) {
       return "row-delta";
     case DepthFilter::kRankMed:
       return "rank-med";
+    case DepthFilter::kRankCtx:
+      return "rank-ctx";
   }
   return "unknown(" + std::to_string(static_cast<int>(filter)) + ")";
 }

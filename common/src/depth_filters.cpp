@@ -8,8 +8,6 @@
 namespace rgbdmap::detail {
 namespace {
 
-constexpr int kHole = -1;  // rank of a pixel without depth, or outside the image
-
 // kRankMed. Ranks index the table of distinct non-zero depths; a Kinect frame has a few hundred, so
 // neighbouring ranks differ by a few units where the raw depths differ by tens. With a = left, b = above,
 // c = above-left and `last` = the rank of the previous pixel with depth in scan order (0 at first):

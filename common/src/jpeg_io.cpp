@@ -90,6 +90,9 @@ bool runEncode(jpeg_compress_struct* cinfo, JpegErrorManager* err, VectorDestina
   cinfo->in_color_space = JCS_EXT_BGR;
   jpeg_set_defaults(cinfo);
   jpeg_set_quality(cinfo, quality, TRUE);
+  // Huffman tables fitted to the image (a second pass over the coefficients): 5-10 % smaller, still
+  // baseline, at ~0.2 ms more per frame.
+  cinfo->optimize_coding = TRUE;
   jpeg_start_compress(cinfo, TRUE);
   while (cinfo->next_scanline < cinfo->image_height) {
     // libjpeg takes non-const rows but only reads them.

@@ -37,6 +37,8 @@ std::vector<Sample> samples(int width, int height) {
        height},
       {"depth rank-med", depthBlob(DepthFilter::kRankMed, width, height), true, ColorCodec::kNone, width,
        height},
+      {"depth rank-ctx", depthBlob(DepthFilter::kRankCtx, width, height), true, ColorCodec::kNone, width,
+       height},
       {"colour jpeg", colorBlob(ColorCodec::kJpeg, width, height), false, ColorCodec::kJpeg, width, height},
       {"colour lossless", colorBlob(ColorCodec::kLossless, width, height), false, ColorCodec::kLossless,
        width, height}};

@@ -141,6 +141,18 @@ TEST(ImageBlobValidation, ForgedDepthPayloadsAreRejectedWithAReason) {
   });
 }
 
+TEST(ImageBlobValidation, ForgedRangeCodedDepthIsRejectedWithAReason) {
+  const Bytes ctx = depthBlob(DepthFilter::kRankCtx);
+  ASSERT_EQ(ctx[5], static_cast<uint8_t>(DepthFilter::kRankCtx));
+  expectDepthRejected({
+      {"cut", resized(ctx, ctx.size() - 4, true), "bytes early"},
+      {"trailing", resized(ctx, ctx.size() + 3, true), "3 bytes after the coded stream"},
+      {"empty", withPayload(ctx, Bytes()), "ends early, in the rank table"},
+      {"aux huge", setU16(ctx, 10, 40000), "bad aux field 40000"},
+      {"ones", withPayload(ctx, Bytes(64, 0xFF)), "depth blob:"},
+  });
+}
+
 TEST(ImageBlobValidation, ForgedColourPayloadsAreRejectedWithAReason) {
   const Bytes jpeg = colorBlob(ColorCodec::kJpeg), lossless = colorBlob(ColorCodec::kLossless);
   expectColorRejected(

@@ -18,7 +18,8 @@ namespace {
 using testing::Bytes;
 using testing::identical;
 
-const DepthFilter kAllFilters[] = {DepthFilter::kNone, DepthFilter::kRowDelta, DepthFilter::kRankMed};
+const DepthFilter kAllFilters[] = {DepthFilter::kNone, DepthFilter::kRowDelta, DepthFilter::kRankMed,
+                                   DepthFilter::kRankCtx};
 
 Result<cv::Mat> depthRoundTrip(const cv::Mat& depth, DepthFilter filter, Bytes* blob_out = nullptr) {
   ImageCodecOptions options;
@@ -46,15 +47,33 @@ TEST(DepthCodec, LosslessRoundTripOnSyntheticAndRandomImages) {
   }
 }
 
-TEST(DepthCodec, RankMedFallsBackToRowDeltaWithTooManyDistinctValues) {
+TEST(DepthCodec, RankFiltersFallBackToRowDeltaWithTooManyDistinctValues) {
   cv::Mat depth(300, 300, CV_16UC1);
   for (int i = 0; i < 300 * 300; ++i)
     depth.at<uint16_t>(i / 300, i % 300) = static_cast<uint16_t>(1 + (i * 7) % 65535);
+  for (DepthFilter filter : {DepthFilter::kRankMed, DepthFilter::kRankCtx}) {
+    Bytes blob;
+    const auto decoded = depthRoundTrip(depth, filter, &blob);
+    ASSERT_TRUE(decoded) << decoded.error();
+    EXPECT_TRUE(identical(*decoded, depth));
+    EXPECT_EQ(blob[5], static_cast<uint8_t>(DepthFilter::kRowDelta)) << toString(filter);
+  }
+}
+
+// Large jumps (edges far beyond the unary part of the residual code) and a table whose steps need the
+// escape code: every residual magnitude path of kRankCtx round-trips.
+TEST(DepthCodec, RankCtxRoundTripsLargeResidualsAndSparseTables) {
+  cv::Mat depth(64, 80, CV_16UC1, cv::Scalar(0));
+  std::mt19937 rng(7);
+  const uint16_t values[] = {1, 2, 900, 901, 20000, 20001, 20003, 65000, 65535};
+  for (int y = 0; y < depth.rows; ++y)
+    for (int x = 0; x < depth.cols; ++x)
+      if (rng() % 5 != 0) depth.at<uint16_t>(y, x) = values[(x / 7 + y / 5 + rng() % 2) % 9];
   Bytes blob;
-  const auto decoded = depthRoundTrip(depth, DepthFilter::kRankMed, &blob);
+  const auto decoded = depthRoundTrip(depth, DepthFilter::kRankCtx, &blob);
   ASSERT_TRUE(decoded) << decoded.error();
   EXPECT_TRUE(identical(*decoded, depth));
-  EXPECT_EQ(blob[5], static_cast<uint8_t>(DepthFilter::kRowDelta));
+  EXPECT_EQ(blob[5], static_cast<uint8_t>(DepthFilter::kRankCtx));
 }
 
 TEST(DepthCodec, AcceptsNonContinuousInput) {
@@ -192,6 +211,7 @@ TEST(ImageCodec, JpegColourIsFittedToTheKeyframeBudget) {
   frame.depth = testing::syntheticDepth(320, 240, 16);
   frame.color = testing::randomColor(320, 240, 17);  // noise: large at any quality
   ImageCodecOptions options;
+  options.jpeg_quality = 90;  // room for steps above min_jpeg_quality
   options.max_keyframe_bytes = 0;
   const auto unlimited = encodeImages(frame, options);
   ASSERT_TRUE(unlimited) << unlimited.error();
@@ -220,9 +240,10 @@ std::vector<std::string> sortedFiles(const std::string& dir) {
   return files;
 }
 
-// The target: lossless depth + JPEG colour in at most 120 KB per keyframe (default options: q90,
-// stepped down for the frames that would exceed the budget).
-TEST(ImageCodecRealData, Fr1RpyKeyframesAreLosslessAndUnder120KB) {
+// Lossless depth + JPEG colour within the default keyframe image budget (default options: rank-ctx depth,
+// JPEG colour stepped down for the frames that would exceed the budget); the range-coded depth of a
+// fr1_rpy frame takes 31-37 KB (rank-med + zstd: 55-65 KB).
+TEST(ImageCodecRealData, Fr1RpyKeyframesAreLosslessAndWithinTheBudget) {
   RGBDMAP_REQUIRE_SHARED_DATA("tum_fr1_rpy_first250");
   const std::string dir = testing::sharedDataDir("tum_fr1_rpy_first250");
   const auto rgb = sortedFiles(dir + "/rgb"), depth = sortedFiles(dir + "/depth");
@@ -232,15 +253,18 @@ TEST(ImageCodecRealData, Fr1RpyKeyframesAreLosslessAndUnder120KB) {
     frame.color = cv::imread(rgb[i], cv::IMREAD_COLOR);
     frame.depth = cv::imread(depth[i], cv::IMREAD_UNCHANGED);
     ASSERT_EQ(frame.depth.type(), CV_16UC1) << depth[i];
-    const auto encoded = encodeImages(frame);  // defaults: rank-med depth, JPEG q90
+    const ImageCodecOptions defaults;
+    const auto encoded = encodeImages(frame, defaults);
     ASSERT_TRUE(encoded) << encoded.error();
+    EXPECT_EQ(encoded->depth[5], static_cast<uint8_t>(DepthFilter::kRankCtx));
+    EXPECT_LE(encoded->depth.size(), 42000u) << "frame " << i;
     const size_t bytes = encoded->depth.size() + encoded->color.size();
-    EXPECT_LE(bytes, 120000u) << "frame " << i << ": depth " << encoded->depth.size() << " colour "
-                              << encoded->color.size();
+    EXPECT_LE(bytes, defaults.max_keyframe_bytes)
+        << "frame " << i << ": depth " << encoded->depth.size() << " colour " << encoded->color.size();
     const auto decoded = decodeImages(*encoded);
     ASSERT_TRUE(decoded) << decoded.error();
     EXPECT_TRUE(identical(decoded->depth, frame.depth)) << "frame " << i;
-    EXPECT_GT(cv::PSNR(decoded->color, frame.color), 33.0) << "frame " << i;
+    EXPECT_GT(cv::PSNR(decoded->color, frame.color), 29.0) << "frame " << i;
   }
 }
 
