@@ -45,6 +45,7 @@ Json serverJson(const MapServerStats& s, const ServerOutcome& server, size_t rob
           {"server_ms_per_keyframe_median", jsonNumber(s.ingest_ms_median)},
           {"server_ms_per_keyframe_p90", jsonNumber(s.ingest_ms_p90)},
           {"server_cpu_ms_per_keyframe_median", jsonNumber(s.ingest_cpu_ms_median)},
+          {"keyframes_features_extracted", s.keyframes_features_extracted},
           {"messages_rejected", s.messages_rejected},
           {"octree_leaves", s.map_leaves},
           {"octree_occupied_leaves", s.map_occupied_leaves},
@@ -63,7 +64,10 @@ Json robotJson(const RunOptions& o, const RobotPlan& plan, const RobotOutcome& r
   const ServerRobotStats* sr = nullptr;
   for (const ServerRobotStats& x : s.robots)
     if (x.robot_id == plan.id) sr = &x;
-  const double bytes_per_kf = l.keyframes_sent ? static_cast<double>(l.bytes_sent) / l.keyframes_sent : 0.0;
+  const auto per_kf = [&](uint64_t bytes) {
+    return l.keyframes_sent ? static_cast<double>(bytes) / static_cast<double>(l.keyframes_sent) : 0.0;
+  };
+  const double bytes_per_kf = per_kf(l.bytes_sent);
   return {{"dataset", o.datasets[plan.dataset]},
           {"frame_range", {plan.first, plan.end}},
           {"frames", r.frames},
@@ -77,6 +81,15 @@ Json robotJson(const RunOptions& o, const RobotPlan& plan, const RobotOutcome& r
           {"ate_rmse_odometry_only_m", ateOrNull(robot.ate_odometry)},
           {"client_ms_per_frame_median", jsonNumber(r.medianMs())},
           {"bytes_per_keyframe_mean", jsonNumber(bytes_per_kf)},
+          // The parts of a keyframe; bytes_per_keyframe_mean is all the link sent (envelopes, other fields,
+          // retransmissions, heartbeats, poses) over the keyframes sent.
+          {"keyframe_message_bytes_mean", jsonNumber(per_kf(l.keyframe_message_bytes))},
+          {"keyframe_part_bytes_mean",
+           {{"depth", jsonNumber(per_kf(l.keyframe_depth_bytes))},
+            {"colour", jsonNumber(per_kf(l.keyframe_color_bytes))},
+            {"features", jsonNumber(per_kf(l.keyframe_feature_bytes))}}},
+          {"uplink_kbit_per_s",
+           jsonNumber(r.wall_s > 0 ? 8e-3 * static_cast<double>(l.bytes_sent) / r.wall_s : 0.0)},
           {"bytes_sent", l.bytes_sent},
           {"bytes_received", l.bytes_received},
           {"retransmissions", l.retransmissions},

@@ -16,8 +16,8 @@
 #include "rgbdmap/common/text_lines.hpp"
 #include "rgbdmap/common/trajectory.hpp"
 #include "rgbdmap/server/map_server.hpp"
-#include "rgbdmap/server/stats_json.hpp"
 #include "rgbdmap/server/server_config.hpp"
+#include "rgbdmap/server/stats_json.hpp"
 #include "rgbdmap/transport/transport.hpp"
 
 namespace {
@@ -87,6 +87,7 @@ rgbdmap::Json summaryJson(const rgbdmap::MapServer& server) {
           {"ingest_ms_median", jsonNumber(s.ingest_ms_median)},
           {"ingest_ms_p90", jsonNumber(s.ingest_ms_p90)},
           {"ingest_cpu_ms_median", jsonNumber(s.ingest_cpu_ms_median)},
+          {"keyframes_features_extracted", s.keyframes_features_extracted},
           {"robots", robots},
           {"merged_maps", server.mergedMaps()},
           {"rejects_by_robot", rejects_by_robot},      // claimed robot -> reason -> count (known robots)

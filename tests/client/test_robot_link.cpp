@@ -60,8 +60,34 @@ TEST(RobotLink, SignedKeyframesAreAckedHelloAndHeartbeatsArrive) {
   std::lock_guard<std::mutex> lock(server.state().mutex);
   ASSERT_EQ(server.state().stored.size(), 5u);
   EXPECT_EQ(server.state().stored.at(3).images.width, 64);
-  EXPECT_EQ(server.state().stored.at(3).keypoints.size(), 20u);
+  EXPECT_EQ(server.state().stored.at(3).keypoints.size(), 0u) << "send_features is off by default";
   EXPECT_EQ(server.state().last_heartbeat.tracking_state, static_cast<int>(TrackingState::kTracking));
+}
+
+// send_features: the keyframes carry the odometry's keypoints and descriptors, and the per-part byte counts
+// say what they cost; without, the message is the images and the fields only.
+TEST(RobotLink, SendFeaturesPutsTheKeypointsIntoTheKeyframesAndCountsTheirBytes) {
+  for (const bool send : {true, false}) {
+    auto transport = testing::makeMemq();
+    FakeMapServer server(*transport, serverOptions(linkKey(1)));
+    server.start();
+    RobotLinkOptions o = linkOptions("robot0", linkKey(1));
+    o.send_features = send;
+    RobotLink link(*transport, o);
+    ASSERT_TRUE(link.start());
+    sendKeyframes(link, 3);
+    ASSERT_TRUE(link.waitAllAcked(5.0));
+    const RobotLinkStats st = link.stats();
+    EXPECT_EQ(st.keyframe_feature_bytes, send ? 3u * 20u * (21u + 32u) : 0u);
+    EXPECT_GT(st.keyframe_depth_bytes, 0u);
+    EXPECT_GT(st.keyframe_color_bytes, 0u);
+    EXPECT_GT(st.keyframe_message_bytes,
+              st.keyframe_depth_bytes + st.keyframe_color_bytes + st.keyframe_feature_bytes);
+    std::lock_guard<std::mutex> lock(server.state().mutex);
+    ASSERT_EQ(server.state().stored.size(), 3u);
+    EXPECT_EQ(server.state().stored.at(2).keypoints.size(), send ? 20u : 0u);
+    EXPECT_EQ(server.state().stored.at(2).descriptors.size(), send ? 20u * 32u : 0u);
+  }
 }
 
 TEST(RobotLink, DroppedKeyframesAreRetransmittedAndStoredOnce) {

@@ -101,8 +101,8 @@ class ScriptedRobot {
     h.software_version = "test";
     publish(h);
   }
-  void send(const Keyframe& kf, const EncodedImages& images) {
-    auto m = keyframeToMessage(kf, id_, images);
+  void send(const Keyframe& kf, const EncodedImages& images, bool with_features = true) {
+    auto m = keyframeToMessage(kf, id_, images, with_features);
     ASSERT_TRUE(m) << m.error();
     publish(*m);
   }

@@ -86,5 +86,56 @@ TEST(KeyframeMessage, NonFiniteInformationIsSentAsZero) {
   EXPECT_TRUE(message->information.isZero());
 }
 
+// Sent without features, a keyframe carries only its images; the server's extraction from the decoded
+// JPEG finds the robot's keypoints again (same extractor configuration): most within a pixel, with depth
+// from the lossless depth, and descriptors close in Hamming distance. Stored with putFeatures, the
+// extracted features read back exactly.
+TEST(KeyframeMessage, WithoutFeaturesTheServerExtractsThemFromTheImages) {
+  const Made m = firstKeyframe();
+  ASSERT_TRUE(m.keyframe);
+  const FrameFeatures& robot = m.keyframe->features;
+  auto images = encodeImages(m.frame);
+  ASSERT_TRUE(images) << images.error();
+  auto message = keyframeToMessage(*m.keyframe, "robot7", *images, false);
+  ASSERT_TRUE(message) << message.error();
+  EXPECT_TRUE(message->keypoints.empty());
+  EXPECT_TRUE(message->descriptors.empty());
+  EXPECT_TRUE(needsServerFeatures(*message));
+
+  auto decoded = decodeImages(message->images);
+  ASSERT_TRUE(decoded) << decoded.error();
+  const OrbExtractor extractor{OrbConfig{}};
+  const FrameFeatures server = extractServerFeatures(extractor, *decoded, m.camera);
+  ASSERT_GT(server.size(), robot.size() * 8 / 10);
+  size_t found = 0, close_descriptor = 0, same_depth = 0;
+  for (size_t i = 0; i < robot.size(); ++i) {
+    for (size_t j = 0; j < server.size(); ++j) {
+      if (server.keypoints[j].octave != robot.keypoints[i].octave ||
+          cv::norm(server.keypoints[j].pt - robot.keypoints[i].pt) > 1.0)
+        continue;
+      ++found;
+      same_depth += std::abs(server.depth_m[j] - robot.depth_m[i]) <= 0.05;  // not when moved onto an edge
+      close_descriptor += cv::norm(server.descriptors.row(static_cast<int>(j)),
+                                   robot.descriptors.row(static_cast<int>(i)), cv::NORM_HAMMING) <= 40;
+      break;
+    }
+  }
+  EXPECT_GT(found, robot.size() * 7 / 10);
+  EXPECT_GT(close_descriptor, found * 8 / 10);
+  EXPECT_GT(same_depth, found * 95 / 100);
+
+  ASSERT_TRUE(putFeatures(server, &*message));
+  EXPECT_FALSE(needsServerFeatures(*message));
+  auto back = featuresFromMessage(*message, PinholeCamera(m.camera));
+  ASSERT_TRUE(back) << back.error();
+  ASSERT_EQ(back->size(), server.size());
+  EXPECT_EQ(cv::norm(back->descriptors, server.descriptors, cv::NORM_HAMMING), 0.0);
+
+  EncodedImages depth_only = *images;
+  depth_only.color_codec = ColorCodec::kNone;
+  depth_only.color.clear();
+  EXPECT_FALSE(keyframeToMessage(*m.keyframe, "robot7", depth_only, false));
+}
+
 }  // namespace
 }  // namespace rgbdmap

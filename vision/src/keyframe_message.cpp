@@ -16,19 +16,35 @@ bool isUsableInformation(const Mat6& info) {
 
 }  // namespace
 
-Result<msg::Keyframe> keyframeToMessage(const Keyframe& keyframe, const std::string& robot_id,
-                                        EncodedImages images) {
-  using R = Result<msg::Keyframe>;
-  const FrameFeatures& f = keyframe.features;
+Status putFeatures(const FrameFeatures& f, msg::Keyframe* m) {
   const size_t n = f.size();
   if (n > static_cast<size_t>(msg::kMaxKeypoints))
-    return R::failure("keyframe " + std::to_string(keyframe.id) + " has " + std::to_string(n) +
-                      " keypoints, more than the message allows");
+    return Status::failure(std::to_string(n) + " keypoints, more than the message allows");
   if (n > 0 && (f.descriptors.rows != static_cast<int>(n) || f.descriptors.cols != msg::kDescriptorBytes ||
                 f.descriptors.type() != CV_8U))
-    return R::failure("keyframe " + std::to_string(keyframe.id) + " has descriptors that do not match its " +
-                      std::to_string(n) + " keypoints");
-  if (f.depth_m.size() != n) return R::failure("keyframe depth array does not match its keypoints");
+    return Status::failure("descriptors that do not match its " + std::to_string(n) + " keypoints");
+  if (f.depth_m.size() != n) return Status::failure("a depth array that does not match its keypoints");
+  m->keypoints.resize(n);
+  for (size_t i = 0; i < n; ++i) {
+    const cv::KeyPoint& k = f.keypoints[i];
+    msg::KeyPoint& out = m->keypoints[i];
+    out.u = k.pt.x;
+    out.v = k.pt.y;
+    out.octave = k.octave;
+    out.angle_deg = k.angle;
+    out.response = k.response;
+    out.depth_m = static_cast<float>(f.depth_m[i]);
+  }
+  m->descriptors.resize(n * msg::kDescriptorBytes);
+  for (size_t i = 0; i < n; ++i)
+    std::memcpy(m->descriptors.data() + i * msg::kDescriptorBytes,
+                f.descriptors.ptr<uint8_t>(static_cast<int>(i)), msg::kDescriptorBytes);
+  return Status::success();
+}
+
+Result<msg::Keyframe> keyframeToMessage(const Keyframe& keyframe, const std::string& robot_id,
+                                        EncodedImages images, bool with_features) {
+  using R = Result<msg::Keyframe>;
   msg::Keyframe m;
   m.robot_id = robot_id;
   m.segment_id = keyframe.segment;
@@ -38,23 +54,28 @@ Result<msg::Keyframe> keyframeToMessage(const Keyframe& keyframe, const std::str
   m.previous_keyframe_id = keyframe.previous_id;
   m.T_prev_cur = keyframe.T_prev_cur;
   m.information = isUsableInformation(keyframe.information) ? keyframe.information : Mat6::Zero();
-  m.keypoints.resize(n);
-  for (size_t i = 0; i < n; ++i) {
-    const cv::KeyPoint& k = f.keypoints[i];
-    msg::KeyPoint& out = m.keypoints[i];
-    out.u = k.pt.x;
-    out.v = k.pt.y;
-    out.octave = k.octave;
-    out.angle_deg = k.angle;
-    out.response = k.response;
-    out.depth_m = static_cast<float>(f.depth_m[i]);
+  if (with_features) {
+    if (const Status s = putFeatures(keyframe.features, &m); !s)
+      return R::failure("keyframe " + std::to_string(keyframe.id) + " has " + s.error());
+  } else if (images.color_codec == ColorCodec::kNone) {
+    return R::failure("keyframe " + std::to_string(keyframe.id) +
+                      ": without features the server needs the colour image to extract them");
   }
-  m.descriptors.resize(n * msg::kDescriptorBytes);
-  for (size_t i = 0; i < n; ++i)
-    std::memcpy(m.descriptors.data() + i * msg::kDescriptorBytes,
-                f.descriptors.ptr<uint8_t>(static_cast<int>(i)), msg::kDescriptorBytes);
   m.images = std::move(images);
   return m;
+}
+
+bool needsServerFeatures(const msg::Keyframe& keyframe) {
+  return keyframe.keypoints.empty() && keyframe.images.color_codec != ColorCodec::kNone;
+}
+
+FrameFeatures extractServerFeatures(const OrbExtractor& extractor, const DecodedImages& images,
+                                    const CameraIntrinsics& camera) {
+  RgbdFrame frame;
+  frame.color = images.color;
+  frame.depth = images.depth;
+  frame.depth_scale = camera.depth_scale;
+  return extractor.extract(frame, PinholeCamera(camera));
 }
 
 Result<FrameFeatures> featuresFromMessage(const msg::Keyframe& keyframe, const PinholeCamera& camera) {

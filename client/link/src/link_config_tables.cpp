@@ -37,11 +37,12 @@ const ConfigTable<ImageCodecOptions>& imageCodecConfigTable() {
           .add("min_jpeg_quality", &C::min_jpeg_quality, R::closed(1, 100),
                "lowest quality the budget may step down to")
           .addChoice("depth_filter", &C::depth_filter,
-                     {{DepthFilter::kRankMed, "rank-med"},
+                     {{DepthFilter::kRankCtx, "rank-ctx"},
+                      {DepthFilter::kRankMed, "rank-med"},
                       {DepthFilter::kRowDelta, "row-delta"},
                       {DepthFilter::kNone, "none"}},
-                     "(rank-med is the smallest; depth is always lossless)")
-          .add("zstd_level", &C::zstd_level, R::closed(1, 19), "depth and lossless colour");
+                     "(rank-ctx is the smallest, rank-med the fastest; depth is always lossless)")
+          .add("zstd_level", &C::zstd_level, R::closed(1, 19), "zstd-coded depth and lossless colour");
   return table;
 }
 
@@ -60,6 +61,10 @@ const ConfigTable<RobotLinkOptions>& robotLinkConfigTable() {
                "1100 on udpm://, else 0")
           .add("pose_period_s", &C::pose_period_s, R::closed(0.0, 3600.0),
                "the live pose (RobotPose, for visualisers) at most every this many seconds; 0 = never")
+          .add("send_features", &C::send_features,
+               "keyframes carry the odometry's keypoints and descriptors; false: the server extracts them "
+               "from "
+               "the colour image (its features: section must match the odometry's orb: section)")
           .section("reliable", "keyframe delivery (resent until acknowledged)")
           .nest("reliable.", &C::reliable, reliableSenderConfigTable())
           .section("codec", "keyframe images (common/image_codec.hpp)")

@@ -10,6 +10,7 @@
 #include "rgbdmap/common/logging.hpp"
 #include "rgbdmap/link/link_config_tables.hpp"
 #include "rgbdmap/proto/channels.hpp"
+#include "rgbdmap/proto/codec.hpp"
 #include "rgbdmap/vision/keyframe_message.hpp"
 
 #include "robot_link_impl.hpp"
@@ -43,6 +44,8 @@ std::string RobotLinkOptions::validate() const {
   if (chunk_bytes > 0 && chunk_bytes < msg::kMinChunkBytes)
     fail("chunk_bytes must be -1, 0 or " + std::to_string(msg::kMinChunkBytes) + ".." +
          std::to_string(msg::kMaxChunkBytes));
+  if (!send_features && codec.color == ColorCodec::kNone)
+    fail("send_features false needs colour (codec.color not none): the server extracts features from it");
   for (const std::string& problem : robotLinkConfigTable().problems(*this)) fail(problem);
   return out;
 }
@@ -192,8 +195,16 @@ Status RobotLink::Impl::sendKeyframe(const Keyframe& keyframe, const RgbdFrame& 
   if (keyframe.id < 0) return Status::failure(what + ": negative id");
   Result<EncodedImages> images = encodeImages(frame, options_.codec);
   if (!images) return Status::failure(what + ": images: " + images.error());
-  Result<msg::Keyframe> message = keyframeToMessage(keyframe, options_.robot_id, std::move(*images));
+  const size_t depth_bytes = images->depth.size(), color_bytes = images->color.size();
+  Result<msg::Keyframe> message =
+      keyframeToMessage(keyframe, options_.robot_id, std::move(*images), options_.send_features);
   if (!message) return Status::failure(what + ": " + message.error());
+  constexpr size_t kLcmKeypointBytes = 21;  // keypoint_t: 5 floats and an int8
+  const size_t feature_bytes = message->keypoints.size() * kLcmKeypointBytes + message->descriptors.size();
+  message->header.sender = options_.robot_id;  // seal() stamps the rest of the header
+  const Result<msg::Bytes> encoded = msg::encodePayload(*message);
+  if (!encoded) return Status::failure(what + ": " + encoded.error());
+  const size_t message_bytes = encoded->size();
   std::unique_lock<std::mutex> lock(mutex_);
   if (!started_ || stopping_) return Status::failure(what + ": link not running");
   if (sent_.count(keyframe.id)) return Status::failure(what + ": already sent");
@@ -217,6 +228,10 @@ Status RobotLink::Impl::sendKeyframe(const Keyframe& keyframe, const RgbdFrame& 
   }
   lock.lock();
   ++counts_.keyframes_sent;
+  counts_.keyframe_depth_bytes += depth_bytes;
+  counts_.keyframe_color_bytes += color_bytes;
+  counts_.keyframe_feature_bytes += feature_bytes;
+  counts_.keyframe_message_bytes += message_bytes;
   return Status::success();
 }
 

@@ -3,6 +3,8 @@
 // ingest time (decode + store + candidates + verification + graph) and its stages, then the occupancy map's
 // numbers (octree insertion and slice extraction on the map worker, tree size, rebuilds, map files). Odometry
 // and image encoding happen before the clock starts. `--no-occupancy` turns the octree off (A/B comparison).
+// Keyframes are sent as the robot's default sends them, without features (the server extracts them:
+// "decode+features" below); `--robot-features` sends the odometry's features instead.
 // Run on one core: taskset -c 1 build/bin/bench_map_server
 #include <chrono>
 #include <condition_variable>
@@ -30,7 +32,7 @@ struct Sequence {
   std::vector<msg::Keyframe> keyframes;
 };
 
-Sequence prepare() {
+Sequence prepare(bool robot_features) {
   Sequence seq;
   const std::string tum = std::string(RGBDMAP_SHARED_DATA_DIR) + "/tum_fr1_rpy_first250";
   std::vector<RgbdFrame> frames;
@@ -50,8 +52,8 @@ Sequence prepare() {
     const TrackingResult r = vo.track(f);
     if (!r.new_keyframe) continue;
     auto images = encodeImages(f);
-    auto m =
-        images ? keyframeToMessage(*r.new_keyframe, "robot0", *images) : Result<msg::Keyframe>::failure("");
+    auto m = images ? keyframeToMessage(*r.new_keyframe, "robot0", *images, robot_features)
+                    : Result<msg::Keyframe>::failure("");
     if (m) seq.keyframes.push_back(*m);
   }
   return seq;
@@ -60,10 +62,21 @@ Sequence prepare() {
 }  // namespace
 
 int main(int argc, char** argv) {
-  const bool occupancy = !(argc > 1 && std::string(argv[1]) == "--no-occupancy");  // A/B on a shared machine
+  bool occupancy = true, robot_features = false;  // A/B switches on a shared machine
+  for (int i = 1; i < argc; ++i) {
+    const std::string a = argv[i];
+    if (a == "--no-occupancy") {
+      occupancy = false;
+    } else if (a == "--robot-features") {
+      robot_features = true;
+    } else {
+      std::fprintf(stderr, "usage: bench_map_server [--no-occupancy] [--robot-features]\n");
+      return 2;
+    }
+  }
   cv::setNumThreads(1);
   log::setLevel(log::Level::kWarn);
-  const Sequence seq = prepare();
+  const Sequence seq = prepare(robot_features);
   auto transport = std::move(transport::makeTransport("memq://").value());
   MapServerConfig config;
   config.map_dir = (std::filesystem::temp_directory_path() / "rgbdmap_bench_map_server").string();
@@ -108,8 +121,11 @@ int main(int argc, char** argv) {
   const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   server.waitIdle(60.0);
   const MapServerStats s = server.stats();
-  std::printf("bench_map_server: %s, %d keyframes, store fdatasync on, one keyframe in flight, octree %s\n",
-              seq.name.c_str(), s.keyframes, occupancy ? "on" : "off (--no-occupancy)");
+  std::printf(
+      "bench_map_server: %s, %d keyframes, store fdatasync on, one keyframe in flight, octree %s, features "
+      "%s\n",
+      seq.name.c_str(), s.keyframes, occupancy ? "on" : "off (--no-occupancy)",
+      robot_features ? "sent by the robot (--robot-features)" : "extracted by the server");
   std::printf(
       "  ingest per keyframe   median %6.1f ms  p90 %6.1f ms  max %6.1f ms   (target: median <= 30 ms)\n",
       s.ingest_ms_median, s.ingest_ms_p90, s.ingest_ms_max);

@@ -19,7 +19,8 @@ IngestPipeline::IngestPipeline(const MapServerConfig& config, RobotRegistry& reg
       publisher_(publisher),
       revision_base_(revision_base),
       detector_(CameraIntrinsics{}, config.loop),
-      hello_hold_(static_cast<size_t>(config.reorder_capacity), config.robot_queue_bytes) {}
+      hello_hold_(static_cast<size_t>(config.reorder_capacity), config.robot_queue_bytes),
+      extractor_(config.features) {}
 
 void IngestPipeline::attach(MapStore* store, SubmitGraph submit) {
   std::lock_guard<std::mutex> lock(mutex_);
@@ -79,13 +80,20 @@ void IngestPipeline::onKeyframe(const msg::Keyframe& kf) {
   KeyframeTiming timing;
   const auto t_decode = Clock::now();
   ++counters_.keyframes_decoded;
-  Result<Decoded> decoded = decode(kf, *camera);
+  const bool extract = needsServerFeatures(kf);
+  Result<Decoded> decoded = decodeLocked(kf, *camera);
   if (!decoded) return refuseLocked(kf, key, decoded.error(), lock);
   WaitingKeyframe waiting;
   StoredKeyframe& stored = waiting.stored;
   stored.node_id = next_node_id_;
   stored.session = kf.header.session;
   stored.keyframe = kf;
+  if (extract) {
+    // Stored with the extracted features: a restart reads them back as if the robot had sent them.
+    if (const Status s = putFeatures(decoded->features, &stored.keyframe); !s)
+      return refuseLocked(kf, key, "extracted features: " + s.error(), lock);
+    ++counters_.keyframes_features_extracted;
+  }
   timing.decode_ms = msSince(t_decode);
   const auto t_store = Clock::now();
   if (const Status s = store_->appendKeyframe(stored); !s) {
@@ -147,10 +155,14 @@ bool IngestPipeline::storeWritableLocked() {
   return false;
 }
 
-Result<IngestPipeline::Decoded> IngestPipeline::decode(const msg::Keyframe& kf,
-                                                       const CameraIntrinsics& camera) {
+Result<IngestPipeline::Decoded> IngestPipeline::decodeLocked(const msg::Keyframe& kf,
+                                                             const CameraIntrinsics& camera) {
   auto images = msg::decodeKeyframeImages(kf);
   if (!images) return Result<Decoded>::failure("images: " + images.error());
+  if (needsServerFeatures(kf)) {
+    FrameFeatures features = extractServerFeatures(extractor_, *images, camera);
+    return Decoded{std::move(*images), std::move(features)};
+  }
   auto features = featuresFromMessage(kf, PinholeCamera(camera));
   if (!features) return Result<Decoded>::failure(features.error());
   return Decoded{std::move(*images), std::move(*features)};

@@ -30,6 +30,7 @@
 #include "rgbdmap/proto/codec.hpp"
 #include "rgbdmap/server/map_server.hpp"
 #include "rgbdmap/store/map_store.hpp"
+#include "rgbdmap/vision/features.hpp"
 #include "robot_publisher.hpp"
 #include "robot_registry.hpp"
 
@@ -84,7 +85,9 @@ class IngestPipeline {
   bool admitLocked(const msg::Keyframe& kf, const KeyframeKey& key, Lock& lock);
   void refuseLocked(const msg::Keyframe& kf, const KeyframeKey& key, const std::string& reason, Lock& lock);
   /// Decodes the images (their headers were checked against the camera: image_admission.hpp) and features.
-  static Result<Decoded> decode(const msg::Keyframe& kf, const CameraIntrinsics& camera);
+  /// Images, and the features: as sent, or extracted from the colour when sent without (caller holds
+  /// mutex_: the extractor is not thread-safe).
+  Result<Decoded> decodeLocked(const msg::Keyframe& kf, const CameraIntrinsics& camera);
   /// False while the store takes no appends (failed; StoreRetry recovers it) or robots.txt could not be
   /// saved: the keyframe is left unacknowledged (counted), so its robot sends it again later.
   bool storeWritableLocked();
@@ -153,7 +156,7 @@ class IngestPipeline {
 
   mutable std::mutex mutex_;  ///< everything below
   KeyframeIndex index_;
-  PoseGraph graph_;  ///< structure and current poses; the optimiser solves its own copy, fed by batch_
+  PoseGraph graph_;       ///< structure and current poses; the optimiser solves its own copy, fed by batch_
   OptimizerBatch batch_;  ///< additions since the last submit
   LoopDetector detector_;
   int64_t next_edge_id_ = 0;
@@ -176,6 +179,7 @@ class IngestPipeline {
   };
   std::map<std::string, CorrectionsSent> corrections_sent_;
   MapServerStats counters_;  ///< the counting fields; the derived ones are filled in stats()
+  OrbExtractor extractor_;   ///< config_.features, for keyframes sent without features
   IngestTimings timings_;
   // A failed store (a full disk): what waits for it to work again.
   bool registry_unsaved_ = false;          ///< robots.txt not written since a robot (camera) changed

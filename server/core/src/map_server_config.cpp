@@ -5,6 +5,7 @@
 #include "rgbdmap/loop/loop_config_tables.hpp"
 #include "rgbdmap/map/map_config_tables.hpp"
 #include "rgbdmap/proto/channels.hpp"
+#include "rgbdmap/vision/vision_config_tables.hpp"
 
 namespace rgbdmap {
 namespace {
@@ -100,18 +101,25 @@ const ConfigTable<MapServerConfig>& mapServerConfigTable() {
   static const ConfigTable<C> table =
       ConfigTable<C>()
           .section("server", "")  // the sections in this order
+          .section("features", "")
           .section("loop", "")
           .section("graph", "")
           .section("ba", "")
           .section("map", "")
           .section("slice", "")
           .append(ownTable())
+          .section("features",
+                   "ORB features the server extracts from the decoded colour of keyframes sent "
+                   "without them (the robots' link.send_features: false); keep equal to the "
+                   "robots' odometry orb: sections")
+          .nest("features.", &C::features, orbConfigTable())
           .section("loop", "loop closure, Hu et al. 2017 section 3.2, plus nearby and appearance candidates")
           .nest("loop.", &C::loop, loopDetectorConfigTable())
           .section("graph", "Ceres pose graph on SE(3)")
           .nest("graph.", &C::graph, poseGraphConfigTable())
-          .section("ba", "bundle adjustment (issue #14): landmark tracks, local BA after each keyframe, global BA "
-                         "after large loops, merges and when the map is quiet")
+          .section("ba",
+                   "bundle adjustment (issue #14): landmark tracks, local BA after each keyframe, global BA "
+                   "after large loops, merges and when the map is quiet")
           .nest("ba.", &C::ba, bundleAdjustmentConfigTable())
           .section("map", "occupancy octree (issue #5), built on the server's map worker thread")
           .nest("map.", &C::occupancy, occupancyMapConfigTable())
@@ -125,6 +133,8 @@ std::string MapServerConfig::validate() const {
   if (map_dir.empty()) problems.push_back("map_dir is empty");
   for (const std::string& r : robots)
     if (!msg::channelFor(msg::MessageType::kHello, r)) problems.push_back("invalid robot id '" + r + "'");
+  if (const std::string f = joinProblems(orbConfigTable().problems(features)); !f.empty())
+    problems.push_back("features: " + f);
   if (const std::string l = loop.validate(); !l.empty()) problems.push_back(l);
   if (const std::string g = joinProblems(poseGraphConfigTable().problems(graph)); !g.empty())
     problems.push_back("graph: " + g);

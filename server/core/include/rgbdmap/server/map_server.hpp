@@ -77,7 +77,7 @@ struct ServerRobotStats {
 struct BundleAdjustmentStats {
   int64_t local_runs = 0, local_failures = 0, global_runs = 0;
   int64_t out_of_time = 0;  ///< adjustments stopped by their wall-clock limit (local or global)
-  double local_ms_median = 0.0, local_ms_p90 = 0.0;  ///< wall time of one local BA (its own worker)
+  double local_ms_median = 0.0, local_ms_p90 = 0.0;          ///< wall time of one local BA (its own worker)
   double local_cpu_ms_median = 0.0, local_cpu_ms_p90 = 0.0;  ///< the same in worker-thread CPU time
   double global_ms_last = 0.0, global_ms_max = 0.0;
   double global_cpu_ms_last = 0.0, global_cpu_ms_max = 0.0;
@@ -93,8 +93,8 @@ struct MapServerStats {
   int loops_disabled = 0;  ///< currently disabled by the graph's consistency check
   int loop_candidates = 0;
   std::array<int, kLoopRejectionCount> loops_rejected_by_reason{};
-  int optimizations = 0;  ///< optimiser results applied (pose-graph solves and bundle adjustments)
-  int graph_solves = 0;   ///< of which with a pose-graph solve
+  int optimizations = 0;          ///< optimiser results applied (pose-graph solves and bundle adjustments)
+  int graph_solves = 0;           ///< of which with a pose-graph solve
   double last_optimize_ms = 0.0;  ///< of the last pose-graph solve
   BundleAdjustmentStats ba;
   /// Corrections that follow the robots' heartbeats: sent again (the first may have been lost), and
@@ -107,6 +107,7 @@ struct MapServerStats {
   uint64_t keyframes_dropped_queue_full = 0;  ///< all robots' queue_full
   uint64_t keyframes_throttled = 0;           ///< all robots' throttled
   uint64_t keyframes_decoded = 0;             ///< keyframes whose images were decoded (passed the headers)
+  uint64_t keyframes_features_extracted = 0;  ///< of those, sent without features: extracted here
   uint64_t keyframes_refused = 0;
   uint64_t unknown_robot_messages = 0;
   int keyframes_waiting = 0;  ///< in the reorder buffer: stored and acknowledged, not in the graph yet

@@ -11,6 +11,7 @@
 #include "rgbdmap/loop/loop_detector.hpp"
 #include "rgbdmap/map/occupancy_map.hpp"
 #include "rgbdmap/map/occupancy_slice.hpp"
+#include "rgbdmap/vision/vision_config.hpp"
 
 namespace rgbdmap {
 
@@ -68,6 +69,9 @@ struct MapServerConfig {
   /// and detector computed it.
   double edge_sigma_floor_m = 0.01;
   double edge_sigma_floor_deg = 0.5;
+  /// ORB extraction for keyframes sent without features (the robot's link.send_features: false), from
+  /// their decoded colour; must match the robots' odometry orb: sections.
+  OrbConfig features;
   LoopDetectorConfig loop;
   PoseGraphConfig graph;
   BundleAdjustmentConfig ba;
