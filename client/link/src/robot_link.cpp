@@ -300,6 +300,10 @@ RobotLinkStats RobotLink::Impl::stats() const {
   std::lock_guard<std::mutex> lock(mutex_);
   RobotLinkStats s = counts_;
   s.retransmissions = r.retransmissions;
+  s.rtt_samples = r.rtt_samples;
+  s.srtt_ms = r.srtt_ms;
+  s.rttvar_ms = r.rttvar_ms;
+  s.rto_ms = r.rto_ms;
   s.keyframes_given_up = r.given_up;
   s.keyframes_pending = static_cast<uint64_t>(std::count_if(
       sent_.begin(), sent_.end(), [](const auto& kv) { return kv.second.answer == Answer::kPending; }));
