@@ -122,6 +122,24 @@ TEST(TransportReliableSender, RetransmitsWithGrowingGapsThenGivesUp) {
   EXPECT_EQ(s.acked, 0u);
 }
 
+TEST(TransportReliableSender, ZeroMaxAttemptsResendsUntilAcknowledged) {
+  ReliableSenderOptions o;
+  o.initial_backoff = 1ms;
+  o.min_backoff = 1ms;
+  o.max_backoff = 2ms;
+  o.max_attempts = 0;
+  SendLog log;
+  ReliableSender sender(o, log.fn());
+  sender.start();
+  ASSERT_TRUE(sender.submit(1));
+  const auto deadline = Clock::now() + 5s;
+  while (log.count(1) < 30 && Clock::now() < deadline) std::this_thread::sleep_for(5ms);
+  EXPECT_GE(log.count(1), 30u) << "more than the default 20 attempts";
+  EXPECT_EQ(sender.stats().given_up, 0u);
+  EXPECT_EQ(sender.pending(), 1u);
+  EXPECT_TRUE(sender.acknowledge(1));
+}
+
 TEST(TransportReliableSender, QueueIsBoundedAndAckFreesASlot) {
   ReliableSenderOptions o;
   o.max_pending = 4;

@@ -24,8 +24,9 @@ const ConfigTable<transport::ReliableSenderOptions>& reliableSenderConfigTable()
           .add("backoff_factor", &C::backoff_factor, R::closed(1.0, 10.0), "")
           .add("jitter", &C::jitter, R::closed(0.0, 0.9),
                "each delay scaled by 1 + U(-jitter, +jitter); adaptive: 1 + U(0, jitter)")
-          .add("max_attempts", &C::max_attempts, R::closed(1, 100000),
-               "transmissions per keyframe (first included) before it is given up");
+          .add("max_attempts", &C::max_attempts, R::closed(0, 100000),
+               "transmissions per keyframe (first included) before it is given up; 0 = until acknowledged "
+               "(or the end of the run)");
   return table;
 }
 

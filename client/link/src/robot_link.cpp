@@ -230,7 +230,8 @@ Status RobotLink::Impl::transmitKeyframe(uint64_t id) {
     auto it = sent_.find(static_cast<int>(id));
     if (it == sent_.end() || !it->second.message) return Status::success();  // answered meanwhile
     SentKeyframe& entry = it->second;
-    if (++entry.transmissions >= options_.reliable.max_attempts) {
+    const int max_attempts = options_.reliable.max_attempts;
+    if (++entry.transmissions >= max_attempts && max_attempts > 0) {
       last = std::move(entry.message);  // the sender gives the id up after this one: free the images
       message = last.get();
     } else {

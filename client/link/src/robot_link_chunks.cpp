@@ -57,7 +57,8 @@ Status RobotLink::Impl::transmitChunked(int keyframe_id) {
     } else {
       if (!entry.message) return Status::success();
       copy = *entry.message;
-      if (entry.transmissions >= options_.reliable.max_attempts) entry.message.reset();
+      const int max_attempts = options_.reliable.max_attempts;
+      if (entry.transmissions >= max_attempts && max_attempts > 0) entry.message.reset();
     }
   }
   if (!envelope) {  // a new transfer: seal afresh (the server's replay guard refuses a sealed copy twice)

@@ -168,7 +168,7 @@ void ReliableSender::run() {
       const uint64_t id = deadlines_.begin()->second;
       deadlines_.erase(deadlines_.begin());
       Item& item = items_.at(id);
-      if (item.attempts >= options_.max_attempts) {
+      if (options_.max_attempts > 0 && item.attempts >= options_.max_attempts) {
         items_.erase(id);
         ++stats_.given_up;
         changed_.notify_all();

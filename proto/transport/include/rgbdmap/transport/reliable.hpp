@@ -32,7 +32,7 @@ struct ReliableSenderOptions {
   std::chrono::milliseconds max_backoff{2000};     // the RTO and each id's backoff stop growing here
   double backoff_factor = 2.0;                     // growth per retransmission
   double jitter = 0.2;    // each delay is scaled by 1 + U(-jitter, +jitter); adaptive: 1 + U(0, jitter)
-  int max_attempts = 20;  // sends per id (first included); then it is given up
+  int max_attempts = 20;  // sends per id (first included); then it is given up. 0: until acknowledged
   uint64_t seed = 1;      // jitter random stream
 };
 
