@@ -12,7 +12,7 @@
 namespace rgbdmap {
 namespace {
 
-constexpr int kIdleRoundsBeforeReseal = 3;  ///< with the default backoff: ~0.7 s after the last chunk
+constexpr int kIdleRoundsBeforeReseal = 3;  ///< timeouts: ~0.7 s after the last chunk from a 100 ms RTO
 constexpr int kMaxAckRounds = 16;           ///< resends answering ChunkAcks per transfer
 
 std::vector<int> missingChunks(const std::vector<bool>& received) {
