@@ -93,6 +93,8 @@ Json robotJson(const RunOptions& o, const RobotPlan& plan, const RobotOutcome& r
           {"bytes_sent", l.bytes_sent},
           {"bytes_received", l.bytes_received},
           {"retransmissions", l.retransmissions},
+          {"srtt_ms", jsonNumber(l.srtt_ms)},
+          {"rto_ms", jsonNumber(l.rto_ms)},
           {"corrections_received", l.corrections_received}};
 }
 

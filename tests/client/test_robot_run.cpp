@@ -172,13 +172,13 @@ TEST(ClientConfig, ExampleIsTheTablesRendering) {
 TEST(ClientConfig, BadValuesAreAllReported) {
   auto reader = ConfigReader::fromString(
       "robot: {id: r1}\nlink:\n  heartbeat_period_s: 0\n  codec: {color: png, jpeg_quality: 101}\n"
-      "  reliable: {initial_backoff_ms: 500, max_backoff_ms: 100}\n  bogus: 1\n",
+      "  reliable: {initial_backoff_ms: 500, max_backoff_ms: 100, min_backoff_ms: 600}\n  bogus: 1\n",
       "c.yaml");
   ASSERT_TRUE(reader);
   RobotClientConfig c;
   readRobotClientConfig(*reader, &c);
   const auto errors = reader->errors();
-  EXPECT_EQ(errors.size(), 5u) << "heartbeat, colour, quality, backoff order, unknown key";
+  EXPECT_EQ(errors.size(), 6u) << "heartbeat, colour, quality, backoff order (max, min), unknown key";
   EXPECT_EQ(c.robot_id, "r1");
   EXPECT_EQ(c.link.codec.color, ColorCodec::kJpeg) << "defaults kept on error";
 }

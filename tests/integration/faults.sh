@@ -48,7 +48,7 @@ if [ -z "${RGBDMAP_TRANSPORT_NETNS:-}" ]; then  # re-run inside the namespace (e
 fi
 RANDOM=$seed
 robots=(robot0 robot1) ranges=(0:113 87:200)
-drop="" final_wait=20 chunk_bytes=-1 server_pid="" ready_before=0 pace=--fast server_url="" client_pids=()
+drop="" final_wait=20 max_attempts=20 chunk_bytes=-1 server_pid="" ready_before=0 pace=--fast server_url="" client_pids=()
 lcm_url='udpm://239.255.76.67:7667?ttl=0&recv_buf_size=8388608'
 dds_url='dds://?domain=0'
 export CYCLONEDDS_URI="file://$repo/deploy/dds/cyclonedds-loopback.xml"
@@ -67,8 +67,8 @@ write_configs() {
     i=$((i + 1))
     od -An -tx1 -N32 /dev/urandom | tr -d ' \n' >"$out/keys/$r.key"
     echo "$r $(cat "$out/keys/$r.key")" >>"$out/keys/server_keys.txt"
-    printf 'robot:\n  id: %s\n  key_file: keys/%s.key\ntransport:\n  url: "%s"\nlink:\n  final_wait_s: %s\n  chunk_bytes: %s\n' \
-      "$r" "$r" "$(url_for "$i")" "$final_wait" "$chunk_bytes" >"$out/client_$r.yaml"
+    printf 'robot:\n  id: %s\n  key_file: keys/%s.key\ntransport:\n  url: "%s"\nlink:\n  final_wait_s: %s\n  chunk_bytes: %s\n  reliable: {max_attempts: %s}\n' \
+      "$r" "$r" "$(url_for "$i")" "$final_wait" "$chunk_bytes" "$max_attempts" >"$out/client_$r.yaml"
   done
   chmod 600 "$out/keys/"*
   printf 'server:\n  map_dir: %s\n  robots: "robot0,robot1"\n  transport: "%s"\n  keys_file: %s\n' \
@@ -112,7 +112,16 @@ fault_clean() { write_configs; run_plain; }
 # 0, one keyframe = one message): with the udpm:// default of 1100-byte chunks every chunk would be lost
 # at that rate, a link losing 30-60 % of its packets (deploy/lcm.md: chunks are for packet loss, DDS for
 # links that bad; measured there).
-message_loss() { drop=$1; [ "$transport" = lcm ] && chunk_bytes=0; write_configs; run_plain; }
+# The robots are configured for such a link: a keyframe is resent until acknowledged (max_attempts 0) and
+# the final wait is 60 s. The defaults (20 s, 20 attempts) gave the last keyframes ~14 sends (backoff capped
+# at 2 s) before the robot exited: all lost with 0.6^14 = 8e-4 each, ~2 % of loss60 runs lost a keyframe
+# (README.md, Faults). With 60 s they get ~30 sends (0.6^30 = 2e-7); the wait ends as soon as
+# every keyframe is acknowledged.
+message_loss() {
+  drop=$1 final_wait=60 max_attempts=0
+  [ "$transport" = lcm ] && chunk_bytes=0
+  write_configs; run_plain
+}
 fault_loss30() { message_loss 0.3; }
 fault_loss60() { message_loss 0.6; }
 # Five SIGKILLs while the robots run, each 0.2..0.6 s after the (re)start (so at any stage: restoring the

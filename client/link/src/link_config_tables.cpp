@@ -12,14 +12,21 @@ const ConfigTable<transport::ReliableSenderOptions>& reliableSenderConfigTable()
       ConfigTable<C>()
           .add("max_pending", &C::max_pending, R::closed(1, 100000),
                "keyframes in flight (unacknowledged); the send window")
+          .add("adaptive", &C::adaptive,
+               "true: the first retransmission after the timeout adapted to the measured ack latency "
+               "(RFC 6298: smoothed latency + 4 x its deviation); false: after initial_backoff_ms")
           .add("initial_backoff_ms", &C::initial_backoff, R::closed(1, 600000),
-               "first retransmission after this long ...")
+               "first retransmission after this long until an ack was measured (always: adaptive false) ...")
+          .add("min_backoff_ms", &C::min_backoff, R::closed(1, 600000),
+               "adaptive: the timeout never below this (<= initial_backoff_ms)")
           .add("max_backoff_ms", &C::max_backoff, R::closed(1, 600000),
                "... growing by backoff_factor per attempt up to this (>= initial_backoff_ms)")
           .add("backoff_factor", &C::backoff_factor, R::closed(1.0, 10.0), "")
-          .add("jitter", &C::jitter, R::closed(0.0, 0.9), "each delay scaled by 1 + U(-jitter, +jitter)")
-          .add("max_attempts", &C::max_attempts, R::closed(1, 100000),
-               "transmissions per keyframe (first included) before it is given up");
+          .add("jitter", &C::jitter, R::closed(0.0, 0.9),
+               "each delay scaled by 1 + U(-jitter, +jitter); adaptive: 1 + U(0, jitter)")
+          .add("max_attempts", &C::max_attempts, R::closed(0, 100000),
+               "transmissions per keyframe (first included) before it is given up; 0 = until acknowledged "
+               "(or the end of the run)");
   return table;
 }
 

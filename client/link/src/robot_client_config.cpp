@@ -41,6 +41,8 @@ void readRobotClientConfig(ConfigReader& reader, RobotClientConfig* config) {
   const transport::ReliableSenderOptions& r = config->link.reliable;
   if (r.max_backoff < r.initial_backoff)
     reader.addError(reader.source() + ": link.reliable.max_backoff_ms must be >= initial_backoff_ms");
+  if (r.min_backoff > r.initial_backoff)
+    reader.addError(reader.source() + ": link.reliable.min_backoff_ms must be <= initial_backoff_ms");
   if (const std::string e = config->camera_mount.validate(); !e.empty())
     reader.addError(reader.source() + ": robot.camera_mount: " + e);
   config->link.T_base_camera = config->camera_mount.T_base_camera();

@@ -245,7 +245,8 @@ Status RobotLink::Impl::transmitKeyframe(uint64_t id) {
     auto it = sent_.find(static_cast<int>(id));
     if (it == sent_.end() || !it->second.message) return Status::success();  // answered meanwhile
     SentKeyframe& entry = it->second;
-    if (++entry.transmissions >= options_.reliable.max_attempts) {
+    const int max_attempts = options_.reliable.max_attempts;
+    if (++entry.transmissions >= max_attempts && max_attempts > 0) {
       last = std::move(entry.message);  // the sender gives the id up after this one: free the images
       message = last.get();
     } else {
@@ -315,6 +316,10 @@ RobotLinkStats RobotLink::Impl::stats() const {
   std::lock_guard<std::mutex> lock(mutex_);
   RobotLinkStats s = counts_;
   s.retransmissions = r.retransmissions;
+  s.rtt_samples = r.rtt_samples;
+  s.srtt_ms = r.srtt_ms;
+  s.rttvar_ms = r.rttvar_ms;
+  s.rto_ms = r.rto_ms;
   s.keyframes_given_up = r.given_up;
   s.keyframes_pending = static_cast<uint64_t>(std::count_if(
       sent_.begin(), sent_.end(), [](const auto& kv) { return kv.second.answer == Answer::kPending; }));

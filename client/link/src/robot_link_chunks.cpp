@@ -12,7 +12,7 @@
 namespace rgbdmap {
 namespace {
 
-constexpr int kIdleRoundsBeforeReseal = 3;  ///< with the default backoff: ~0.7 s after the last chunk
+constexpr int kIdleRoundsBeforeReseal = 3;  ///< timeouts: ~0.7 s after the last chunk from a 100 ms RTO
 constexpr int kMaxAckRounds = 16;           ///< resends answering ChunkAcks per transfer
 
 std::vector<int> missingChunks(const std::vector<bool>& received) {
@@ -57,7 +57,8 @@ Status RobotLink::Impl::transmitChunked(int keyframe_id) {
     } else {
       if (!entry.message) return Status::success();
       copy = *entry.message;
-      if (entry.transmissions >= options_.reliable.max_attempts) entry.message.reset();
+      const int max_attempts = options_.reliable.max_attempts;
+      if (entry.transmissions >= max_attempts && max_attempts > 0) entry.message.reset();
     }
   }
   if (!envelope) {  // a new transfer: seal afresh (the server's replay guard refuses a sealed copy twice)

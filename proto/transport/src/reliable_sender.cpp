@@ -1,34 +1,70 @@
 // ReliableSender: bounded retransmission queue driven by one worker waiting on a condition variable.
 #include <algorithm>
-#include <cmath>
+#include <cstdlib>
 #include <vector>
 
 #include "rgbdmap/transport/reliable.hpp"
 
 namespace rgbdmap::transport {
 
+namespace {
+
+using std::chrono::nanoseconds;
+
+nanoseconds scaled(nanoseconds d, double factor) {
+  return nanoseconds(static_cast<int64_t>(std::max(0.0, static_cast<double>(d.count()) * factor)));
+}
+
+double toMs(nanoseconds d) { return std::chrono::duration<double, std::milli>(d).count(); }
+
+}  // namespace
+
 ReliableSender::ReliableSender(ReliableSenderOptions options, SendFn send)
-    : options_(options), send_(std::move(send)), rng_(options.seed) {}
+    : options_(options), send_(std::move(send)), rng_(options.seed), rto_(rto(options_, rtt_)) {}
 
 ReliableSender::~ReliableSender() { stop(); }
 
-std::chrono::nanoseconds ReliableSender::backoff(const ReliableSenderOptions& options, int attempt,
-                                                 double u) {
-  const double initial = std::chrono::duration<double>(options.initial_backoff).count();
-  const double cap = std::chrono::duration<double>(options.max_backoff).count();
-  const double grown = initial * std::pow(options.backoff_factor, std::max(0, attempt - 1));
-  const double seconds = std::min(grown, cap) * (1.0 + options.jitter * std::clamp(u, -1.0, 1.0));
-  return std::chrono::nanoseconds(static_cast<int64_t>(std::max(0.0, seconds) * 1e9));
+RttEstimate ReliableSender::updateRtt(const RttEstimate& estimate, nanoseconds sample) {
+  RttEstimate out;
+  out.samples = estimate.samples + 1;
+  if (estimate.samples == 0) {  // 2.2
+    out.srtt = sample;
+    out.rttvar = sample / 2;
+    return out;
+  }
+  // 2.3, RTTVAR first (it uses the previous SRTT)
+  out.rttvar = (3 * estimate.rttvar + nanoseconds(std::abs((estimate.srtt - sample).count()))) / 4;
+  out.srtt = (7 * estimate.srtt + sample) / 8;
+  return out;
 }
 
-ReliableSender::Clock::time_point ReliableSender::nextDeadline(int attempts, Clock::time_point now) {
-  std::uniform_real_distribution<double> unit(-1.0, 1.0);
-  return now + std::chrono::duration_cast<Clock::duration>(backoff(options_, attempts, unit(rng_)));
+nanoseconds ReliableSender::rto(const ReliableSenderOptions& options, const RttEstimate& estimate) {
+  if (estimate.samples == 0) return std::min<nanoseconds>(options.initial_backoff, options.max_backoff);
+  const nanoseconds value = estimate.srtt + std::max<nanoseconds>(kGranularity, 4 * estimate.rttvar);
+  return std::min<nanoseconds>(std::max<nanoseconds>(value, options.min_backoff), options.max_backoff);
+}
+
+nanoseconds ReliableSender::backedOff(const ReliableSenderOptions& options, nanoseconds previous,
+                                      nanoseconds rto_now) {
+  return std::min<nanoseconds>(std::max(scaled(previous, options.backoff_factor), rto_now),
+                               options.max_backoff);
+}
+
+nanoseconds ReliableSender::jittered(const ReliableSenderOptions& options, nanoseconds delay, double u) {
+  return scaled(delay, 1.0 + options.jitter * std::clamp(u, -1.0, 1.0));
 }
 
 void ReliableSender::schedule(uint64_t id, Item& item, Clock::time_point now) {
-  item.deadline = nextDeadline(item.attempts, now);
+  std::uniform_real_distribution<double> unit(-1.0, 1.0);
+  // Adaptive: the RTO already is the earliest moment a retransmission is justified, so jitter only delays.
+  const double u = options_.adaptive ? std::abs(unit(rng_)) : unit(rng_);
+  item.deadline = now + std::chrono::duration_cast<Clock::duration>(jittered(options_, item.delay, u));
   deadlines_.emplace(item.deadline, id);
+}
+
+void ReliableSender::noteSample(nanoseconds sample) {
+  rtt_ = updateRtt(rtt_, sample);
+  if (options_.adaptive) rto_ = rto(options_, rtt_);  // a valid sample ends a backoff (RFC 6298 5.7)
 }
 
 void ReliableSender::start() {
@@ -60,7 +96,9 @@ Status ReliableSender::submit(uint64_t id) {
     }
     Item item;
     item.attempts = 1;
-    schedule(id, item, Clock::now());
+    item.first_sent = Clock::now();
+    item.delay = rto_;
+    schedule(id, item, item.first_sent);
     const bool earliest = deadlines_.begin()->second == id;
     items_.emplace(id, item);
     ++stats_.submitted;
@@ -77,6 +115,8 @@ bool ReliableSender::acknowledge(uint64_t id) {
   std::lock_guard<std::mutex> lock(mutex_);
   auto it = items_.find(id);
   if (it == items_.end()) return false;
+  // Karn's rule: the ack of a retransmitted id may answer any of its sends, so only single sends count.
+  if (it->second.attempts == 1) noteSample(Clock::now() - it->second.first_sent);
   deadlines_.erase({it->second.deadline, id});
   items_.erase(it);
   ++stats_.acked;
@@ -91,7 +131,12 @@ size_t ReliableSender::pending() const {
 
 ReliableSenderStats ReliableSender::stats() const {
   std::lock_guard<std::mutex> lock(mutex_);
-  return stats_;
+  ReliableSenderStats out = stats_;
+  out.rtt_samples = rtt_.samples;
+  out.srtt_ms = toMs(rtt_.srtt);
+  out.rttvar_ms = toMs(rtt_.rttvar);
+  out.rto_ms = toMs(rto_);
+  return out;
 }
 
 bool ReliableSender::waitForCapacity(std::chrono::milliseconds timeout) {
@@ -123,7 +168,7 @@ void ReliableSender::run() {
       const uint64_t id = deadlines_.begin()->second;
       deadlines_.erase(deadlines_.begin());
       Item& item = items_.at(id);
-      if (item.attempts >= options_.max_attempts) {
+      if (options_.max_attempts > 0 && item.attempts >= options_.max_attempts) {
         items_.erase(id);
         ++stats_.given_up;
         changed_.notify_all();
@@ -131,6 +176,8 @@ void ReliableSender::run() {
       }
       ++item.attempts;
       ++stats_.retransmissions;
+      item.delay = backedOff(options_, item.delay, rto_);
+      if (options_.adaptive) rto_ = std::max(rto_, item.delay);  // kept for new ids (RFC 6298 5.5)
       schedule(id, item, now);
       due.push_back(id);
     }

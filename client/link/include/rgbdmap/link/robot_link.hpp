@@ -75,6 +75,10 @@ struct RobotLinkStats {
   uint64_t keyframes_given_up = 0;  ///< max_attempts reached without an answer
   uint64_t keyframes_pending = 0;   ///< still waiting for an answer
   uint64_t retransmissions = 0;
+  /// The ReliableSender's ack latency estimate (RFC 6298, from acks of keyframes sent once) and the
+  /// retransmission timeout it gives a new keyframe now; 0 before any sample (rto: initial_backoff).
+  uint64_t rtt_samples = 0;
+  double srtt_ms = 0.0, rttvar_ms = 0.0, rto_ms = 0.0;
   uint64_t chunks_sent = 0, chunks_resent = 0, chunk_acks = 0;  ///< chunked keyframes (chunk_bytes > 0)
   uint64_t duplicate_acks = 0;        ///< acks for an id already answered (the server re-acks duplicates)
   uint64_t unknown_acks = 0;          ///< acks for an id this process never sent

@@ -2,7 +2,8 @@
 // Reliable delivery over any (best-effort) transport, independent of message schemas:
 //  - ReliableSender keeps a bounded set of unacknowledged ids and calls send(id) again with exponential
 //    backoff and jitter until acknowledge(id) or max_attempts; a worker thread sleeps on a condition
-//    variable until the next deadline.
+//    variable until the next deadline. The first retransmission waits one retransmission timeout (RTO),
+//    adapted to the measured ack latency as in RFC 6298 (or a fixed initial_backoff with adaptive = false).
 //  - DedupFilter on the receiver makes delivery idempotent on (sender, id) with bounded memory.
 #include <chrono>
 #include <condition_variable>
@@ -22,13 +23,17 @@
 namespace rgbdmap::transport {
 
 struct ReliableSenderOptions {
-  size_t max_pending = 256;                        // submit() fails beyond this many unacknowledged ids
-  std::chrono::milliseconds initial_backoff{100};  // wait before the first retransmission
-  std::chrono::milliseconds max_backoff{2000};     // backoff stops growing here
+  size_t max_pending = 256;  // submit() fails beyond this many unacknowledged ids
+  /// true: the RTO follows the ack latency (RFC 6298: SRTT + max(G, 4 RTTVAR), Karn's rule, a backed-off
+  /// RTO kept until the next valid sample); false: every id starts from initial_backoff.
+  bool adaptive = true;
+  std::chrono::milliseconds initial_backoff{100};  // RTO before the first ack sample (or always: !adaptive)
+  std::chrono::milliseconds min_backoff{20};       // adaptive: the RTO never goes below this
+  std::chrono::milliseconds max_backoff{2000};     // the RTO and each id's backoff stop growing here
   double backoff_factor = 2.0;                     // growth per retransmission
-  double jitter = 0.2;                             // each delay is scaled by 1 + U(-jitter, +jitter)
-  int max_attempts = 20;                           // sends per id (first included); then it is given up
-  uint64_t seed = 1;                               // jitter random stream
+  double jitter = 0.2;    // each delay is scaled by 1 + U(-jitter, +jitter); adaptive: 1 + U(0, jitter)
+  int max_attempts = 20;  // sends per id (first included); then it is given up. 0: until acknowledged
+  uint64_t seed = 1;      // jitter random stream
 };
 
 struct ReliableSenderStats {
@@ -38,6 +43,17 @@ struct ReliableSenderStats {
   uint64_t dropped_when_full = 0;  // submit() refused: max_pending reached
   uint64_t given_up = 0;           // max_attempts reached without an ack
   uint64_t send_failures = 0;      // send() returned an error (retried like a loss)
+  uint64_t rtt_samples = 0;        // acks of ids sent exactly once (Karn's rule): the RTO's input
+  double srtt_ms = 0.0;            // smoothed ack latency (0 before any sample)
+  double rttvar_ms = 0.0;          // its mean deviation
+  double rto_ms = 0.0;             // the timeout a newly submitted id gets now
+};
+
+/// RFC 6298 round-trip estimate; no sample yet while samples == 0.
+struct RttEstimate {
+  std::chrono::nanoseconds srtt{0};
+  std::chrono::nanoseconds rttvar{0};
+  uint64_t samples = 0;
 };
 
 class ReliableSender {
@@ -71,17 +87,32 @@ class ReliableSender {
   /// Blocks until nothing is pending or `timeout`; true if drained.
   bool waitUntilEmpty(std::chrono::milliseconds timeout);
 
-  /// Delay after the `attempt`-th send (1-based) before the next one, for jitter draw u in [-1, 1].
-  static std::chrono::nanoseconds backoff(const ReliableSenderOptions& options, int attempt, double u);
+  /// Clock granularity term G of RFC 6298 2.2-2.3 (also covers the worker's wake-up latency).
+  static constexpr std::chrono::milliseconds kGranularity{10};
+  /// RFC 6298 2.2-2.3: the estimate after ack latency `sample` (alpha 1/8, beta 1/4).
+  static RttEstimate updateRtt(const RttEstimate& estimate, std::chrono::nanoseconds sample);
+  /// RFC 6298 2.1-2.4: initial_backoff before any sample, else SRTT + max(G, 4 RTTVAR) clamped to
+  /// [min_backoff, max_backoff] (max_backoff wins should they cross); never above max_backoff.
+  static std::chrono::nanoseconds rto(const ReliableSenderOptions& options, const RttEstimate& estimate);
+  /// An id's next (unjittered) timeout after one more unanswered send: its previous one times
+  /// backoff_factor, at least `rto_now` (the sender's RTO now), at most max_backoff (RFC 6298 5.5).
+  static std::chrono::nanoseconds backedOff(const ReliableSenderOptions& options,
+                                            std::chrono::nanoseconds previous,
+                                            std::chrono::nanoseconds rto_now);
+  /// `delay` scaled by 1 + jitter * u for a draw u in [-1, 1].
+  static std::chrono::nanoseconds jittered(const ReliableSenderOptions& options,
+                                           std::chrono::nanoseconds delay, double u);
 
  private:
   struct Item {
+    Clock::time_point first_sent;  // for the ack latency sample
     Clock::time_point deadline;
+    std::chrono::nanoseconds delay{0};  // unjittered timeout of the latest send
     int attempts = 0;
   };
   void run();
-  Clock::time_point nextDeadline(int attempts, Clock::time_point now);  // caller holds mutex_
-  void schedule(uint64_t id, Item& item, Clock::time_point now);        // caller holds mutex_
+  void schedule(uint64_t id, Item& item, Clock::time_point now);  // caller holds mutex_
+  void noteSample(std::chrono::nanoseconds sample);               // caller holds mutex_
 
   ReliableSenderOptions options_;
   SendFn send_;
@@ -92,6 +123,9 @@ class ReliableSender {
   std::unordered_map<uint64_t, Item> items_;
   std::set<std::pair<Clock::time_point, uint64_t>> deadlines_;
   std::mt19937_64 rng_;
+  RttEstimate rtt_;
+  std::chrono::nanoseconds
+      rto_;  ///< for new ids: rto(options_, rtt_), or backed off since (RFC 6298 5.5-5.7)
   ReliableSenderStats stats_;
   bool stopping_ = false;
   std::thread worker_;
