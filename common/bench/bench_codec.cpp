@@ -69,7 +69,7 @@ std::vector<Mode> makeModes() {
   ImageCodecOptions ctx;
   ctx.depth_filter = DepthFilter::kRankCtx;
   modes.push_back({"depth/rank-ctx/range-coded", Part::kDepth, ctx, {}});
-  for (int quality : {50, 60, 75, 90, 95}) {
+  for (int quality : {50, 60, 70, 75, 90, 95}) {
     ImageCodecOptions o;
     o.jpeg_quality = quality;
     modes.push_back({"colour/jpeg/q" + std::to_string(quality), Part::kColor, o, {}});
@@ -82,7 +82,7 @@ std::vector<Mode> makeModes() {
   ImageCodecOptions none;
   none.color = ColorCodec::kNone;
   modes.push_back({"colour/none", Part::kColor, none, {}});
-  modes.push_back({"keyframe/default(rank-ctx + jpeg q90)", Part::kKeyframe, ImageCodecOptions{}, {}});
+  modes.push_back({"keyframe/default(rank-ctx + jpeg q70)", Part::kKeyframe, ImageCodecOptions{}, {}});
   return modes;
 }
 
