@@ -15,13 +15,11 @@
 #   bash deploy/test.sh           the full suite (CI): the Release build (unity), every test in Release
 #                                 (build/), then the sanitize tier under ASan + UBSan (build-asan/,
 #                                 RelWithDebInfo at -O1: only the GoogleTest executables and the relay they
-#                                 start are built, unity, at idle priority while the Release tests run; the
-#                                 long server runs, the cli tier's multi-process runs and the accuracy tests
-#                                 run in Release only: under ASan they take 1-2 min each and repeat code paths
-#                                 the sanitize tier covers). On 2 cores shared with other builds (upper
-#                                 bounds): Release build 11 min, Release tests 8-14 min, sanitizer build
-#                                 24 min from scratch (mostly overlapped with the Release tests), sanitizer
-#                                 tests 7 min
+#                                 start are built, unity; the long server runs, the cli tier's multi-process
+#                                 runs and the accuracy tests run in Release only: under ASan they take 1-2 min
+#                                 each and repeat code paths the sanitize tier covers). On 2 cores shared with
+#                                 other builds (upper bounds): Release build 11 min, Release tests 8-14 min,
+#                                 sanitizer build 24 min from scratch, sanitizer tests 7 min
 #   bash deploy/test.sh --quick   the unit tier only, Release, no sanitizers (about a minute after the build)
 #   Further arguments go to both ctest runs, e.g. `bash deploy/test.sh -L e2e` or `-R '^server\.'`.
 # Tests needing ../shared/data skip when it is absent. By hand: `ctest --test-dir build -L unit` (or e2e,
@@ -39,37 +37,15 @@ build_dir=$(cd "${BUILD_DIR:-$root/build}" && pwd)
 if [ "$quick" = 1 ]; then
   exec ctest --test-dir "$build_dir" --output-on-failure -j "$(nproc)" -L '^unit$' "$@"
 fi
-sanitizers=1
-[ "${RGBDMAP_SKIP_SANITIZERS:-0}" = "1" ] && sanitizers=0
-asan_log="$root/build-asan/build.log"
-asan_pid=""
-if [ "$sanitizers" = 1 ]; then
-  # The sanitizer tree compiles while the Release tests run: at nice 19 it only takes CPU the tests leave
-  # idle (much of their time they wait on sockets, timers and child processes), so the tests keep their
-  # timing. The server tests' recorded keyframe stream is copied from the Release tree
-  # (byte-identical). Only the GoogleTest executables (rgbdmap_test_executables), unity (16 sources per
-  # compiler run), at -O1 -g1.
-  mkdir -p "$root/build-asan"
-  echo "== sanitizer build (ASan + UBSan) started in the background at idle priority: $asan_log"
-  setsid nice -n 19 env BUILD_DIR="$root/build-asan" BUILD_TYPE=RelWithDebInfo \
-    BUILD_TARGETS=rgbdmap_test_executables \
-    CMAKE_EXTRA_ARGS="-DRGBDMAP_SANITIZE=ON -DRGBDMAP_BUILD_BENCHMARKS=OFF \
--DRGBDMAP_KEYFRAME_FIXTURE_FROM=$build_dir/tests/fixtures" \
-    "$root/deploy/build.sh" >"$asan_log" 2>&1 &
-  asan_pid=$!
-  trap '[ -n "$asan_pid" ] && kill -- -"$asan_pid" 2>/dev/null || true' EXIT
-fi
 ctest --test-dir "$build_dir" --output-on-failure -j "$(nproc)" "$@"
-if [ "$sanitizers" = 1 ]; then
-  echo "== waiting for the sanitizer build"
-  if ! wait "$asan_pid"; then
-    asan_pid=""
-    tail -n 60 "$asan_log"
-    echo "== the sanitizer build failed (whole log: $asan_log)"
-    exit 1
-  fi
-  asan_pid=""
+if [ "${RGBDMAP_SKIP_SANITIZERS:-0}" != "1" ]; then
   echo "== sanitizer pass (ASan + UBSan): the sanitize tier"
+  # The server tests' recorded keyframe stream is copied from the Release tree (byte-identical). Only the
+  # GoogleTest executables (rgbdmap_test_executables), unity (16 sources per compiler run), at -O1 -g1.
+  BUILD_DIR="$root/build-asan" BUILD_TYPE=RelWithDebInfo BUILD_TARGETS=rgbdmap_test_executables \
+  CMAKE_EXTRA_ARGS="-DRGBDMAP_SANITIZE=ON -DRGBDMAP_BUILD_BENCHMARKS=OFF \
+-DRGBDMAP_KEYFRAME_FIXTURE_FROM=$build_dir/tests/fixtures" \
+    "$root/deploy/build.sh"
   export UBSAN_OPTIONS=halt_on_error=1:print_stacktrace=1 ASAN_OPTIONS=detect_leaks=1
   log="$root/build-asan/sanitizer_tests.log"
   if ! ctest --test-dir "$root/build-asan" --output-on-failure -j "$(nproc)" -L '^sanitize$' "$@" 2>&1 | tee "$log"; then
