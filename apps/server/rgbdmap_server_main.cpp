@@ -75,6 +75,7 @@ rgbdmap::Json summaryJson(const rgbdmap::MapServer& server) {
           {"maps", s.maps},
           {"optimizations", s.optimizations},
           {"graph_solves", s.graph_solves},
+          {"graph_solves_skipped", s.graph_solves_skipped},
           {"bundle_adjustment", rgbdmap::bundleAdjustmentJson(s.ba)},
           {"optimizations_for_heartbeats", s.optimizations_for_heartbeats},
           {"corrections_resent", s.corrections_resent},
@@ -87,6 +88,7 @@ rgbdmap::Json summaryJson(const rgbdmap::MapServer& server) {
           {"ingest_ms_median", jsonNumber(s.ingest_ms_median)},
           {"ingest_ms_p90", jsonNumber(s.ingest_ms_p90)},
           {"ingest_cpu_ms_median", jsonNumber(s.ingest_cpu_ms_median)},
+          {"decode_cpu_ms_median", jsonNumber(s.decode_cpu_ms_median)},  // the decode thread's, per keyframe
           {"keyframes_features_extracted", s.keyframes_features_extracted},
           {"robots", robots},
           {"merged_maps", server.mergedMaps()},

@@ -126,6 +126,9 @@ TEST(MapServer, RestartOnTheSameMapDirectoryLosesNoAcknowledgedKeyframe) {
   EXPECT_EQ(s.keyframes, static_cast<int>(seg.keyframes.size())) << "keyframes lost or duplicated";
   ASSERT_EQ(s.robots.size(), 1u);
   EXPECT_EQ(s.robots[0].duplicates, 3u);
+  // Decoded off the ingest worker, all of them (robots.txt gave the camera); the resends not at all.
+  EXPECT_EQ(s.keyframes_decoded, seg.keyframes.size() - half);
+  EXPECT_EQ(s.keyframes_decoded_ahead, seg.keyframes.size() - half) << "resends decoded again, or inline";
   EXPECT_EQ(s.robots[0].chains, 1) << "the restart must continue the same odometry chain";
   const double slam = ateOf(seg.gt, testing::serverTrajectory(*h.server, "robot0"));
   const double odo = ateOf(seg.gt, testing::odometryTrajectory(seg));

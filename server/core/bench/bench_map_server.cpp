@@ -135,6 +135,11 @@ int main(int argc, char** argv) {
       "  stages (median)       decode+features %.1f ms, store %.1f ms, loops+graph %.1f ms (verification "
       "%.1f ms)\n",
       s.decode_ms_median, s.store_ms_median, s.loops_ms_median, s.verify_ms_median);
+  std::printf(
+      "  decode thread         median %6.1f ms CPU per keyframe, %llu of %llu decoded there (not in the "
+      "ingest CPU time)\n",
+      s.decode_cpu_ms_median, static_cast<unsigned long long>(s.keyframes_decoded_ahead),
+      static_cast<unsigned long long>(s.keyframes_decoded));
   std::printf("  loops accepted %d (disabled %d), candidates %d, optimisations %d (last %.1f ms)\n",
               s.loops_accepted, s.loops_disabled, s.loop_candidates, s.optimizations, s.last_optimize_ms);
   std::printf("  wall %.2f s for the sequence (%.1f keyframes/s including acknowledgements and octree)\n",

@@ -20,7 +20,8 @@ IngestPipeline::IngestPipeline(const MapServerConfig& config, RobotRegistry& reg
       revision_base_(revision_base),
       detector_(CameraIntrinsics{}, config.loop),
       hello_hold_(static_cast<size_t>(config.reorder_capacity), config.robot_queue_bytes),
-      extractor_(config.features) {}
+      extractor_(config.features),
+      decode_extractor_(config.features) {}
 
 void IngestPipeline::attach(MapStore* store, SubmitGraph submit) {
   std::lock_guard<std::mutex> lock(mutex_);
@@ -56,7 +57,28 @@ void IngestPipeline::onHello(const msg::Hello& hello) {
   for (const msg::Keyframe& kf : held) onKeyframe(kf);
 }
 
-void IngestPipeline::onKeyframe(const msg::Keyframe& kf) {
+void IngestPipeline::onKeyframe(const msg::Keyframe& kf) { onKeyframe(Prepared{kf, {}, {}, 0.0, 0.0}); }
+
+IngestPipeline::Prepared IngestPipeline::prepare(msg::Keyframe kf) {
+  Prepared prepared{std::move(kf), {}, {}, 0.0, 0.0};
+  const msg::Keyframe& k = prepared.keyframe;
+  const int robot = registry_.index(k.robot_id);  // the registry is thread-safe
+  prepared.camera = registry_.camera(k.robot_id);
+  if (robot < 0 || !prepared.camera || seen({robot, k.header.session, k.segment_id, k.keyframe_id}))
+    return prepared;
+  const ImageLimits limits{config_.max_image_pixels, config_.max_image_bytes};
+  if (!imagesRefusedBeforeDecode(k.images, *prepared.camera, limits).empty()) return prepared;
+  const auto t0 = Clock::now();
+  const double cpu0 = threadCpuMs();
+  prepared.decoded = decode(decode_extractor_, k, *prepared.camera);
+  decoded_ahead_.fetch_add(1, std::memory_order_relaxed);
+  prepared.decode_ms = msSince(t0);
+  prepared.decode_cpu_ms = threadCpuMs() - cpu0;
+  return prepared;
+}
+
+void IngestPipeline::onKeyframe(Prepared prepared) {
+  const msg::Keyframe& kf = prepared.keyframe;
   const auto t0 = Clock::now();
   const double cpu0 = threadCpuMs();
   Lock lock(mutex_);
@@ -81,7 +103,9 @@ void IngestPipeline::onKeyframe(const msg::Keyframe& kf) {
   const auto t_decode = Clock::now();
   ++counters_.keyframes_decoded;
   const bool extract = needsServerFeatures(kf);
-  Result<Decoded> decoded = decodeLocked(kf, *camera);
+  // Decoded on the decode thread for this camera, or here (no camera then, or a Hello changed it since).
+  const bool ahead = prepared.decoded && prepared.camera && sameIntrinsics(*prepared.camera, *camera);
+  Result<Decoded> decoded = ahead ? std::move(*prepared.decoded) : decodeLocked(kf, *camera);
   if (!decoded) return refuseLocked(kf, key, decoded.error(), lock);
   WaitingKeyframe waiting;
   StoredKeyframe& stored = waiting.stored;
@@ -94,13 +118,15 @@ void IngestPipeline::onKeyframe(const msg::Keyframe& kf) {
       return refuseLocked(kf, key, "extracted features: " + s.error(), lock);
     ++counters_.keyframes_features_extracted;
   }
-  timing.decode_ms = msSince(t_decode);
+  timing.decode_ms = ahead ? prepared.decode_ms : msSince(t_decode);
+  if (ahead) timing.decode_thread_cpu_ms = prepared.decode_cpu_ms;
   const auto t_store = Clock::now();
   if (const Status s = store_->appendKeyframe(stored); !s) {
     log::error("server: cannot store keyframe ", kf.keyframe_id, " of ", kf.robot_id, ": ", s.error());
     return;  // not acknowledged: the robot sends it again
   }
   ++next_node_id_;
+  noteSeen(key);
   stored.keyframe.images = {};
   timing.store_ms = msSince(t_store);
   // Stored first, acknowledged at once whatever its order; the graph takes it in chain order.
@@ -129,6 +155,7 @@ bool IngestPipeline::admitLocked(const msg::Keyframe& kf, const KeyframeKey& key
 void IngestPipeline::refuseLocked(const msg::Keyframe& kf, const KeyframeKey& key, const std::string& reason,
                                   Lock& lock) {
   index_.refuse(key);
+  noteSeen(key);
   ++counters_.keyframes_refused;
   registry_.countRefused(kf.robot_id);
   // Keyframes that waited for this one will not get it: they start a new chain.
@@ -157,15 +184,30 @@ bool IngestPipeline::storeWritableLocked() {
 
 Result<IngestPipeline::Decoded> IngestPipeline::decodeLocked(const msg::Keyframe& kf,
                                                              const CameraIntrinsics& camera) {
+  return decode(extractor_, kf, camera);
+}
+
+Result<IngestPipeline::Decoded> IngestPipeline::decode(OrbExtractor& extractor, const msg::Keyframe& kf,
+                                                       const CameraIntrinsics& camera) {
   auto images = msg::decodeKeyframeImages(kf);
   if (!images) return Result<Decoded>::failure("images: " + images.error());
   if (needsServerFeatures(kf)) {
-    FrameFeatures features = extractServerFeatures(extractor_, *images, camera);
+    FrameFeatures features = extractServerFeatures(extractor, *images, camera);
     return Decoded{std::move(*images), std::move(features)};
   }
   auto features = featuresFromMessage(kf, PinholeCamera(camera));
   if (!features) return Result<Decoded>::failure(features.error());
   return Decoded{std::move(*images), std::move(*features)};
+}
+
+void IngestPipeline::noteSeen(const KeyframeKey& key) {
+  std::lock_guard<std::mutex> lock(seen_mutex_);
+  seen_.insert(key);
+}
+
+bool IngestPipeline::seen(const KeyframeKey& key) const {
+  std::lock_guard<std::mutex> lock(seen_mutex_);
+  return seen_.count(key) != 0;
 }
 
 void IngestPipeline::addLiveLocked(const StoredKeyframe& stored, const FrameFeatures& features,
@@ -188,8 +230,9 @@ void IngestPipeline::addLiveLocked(const StoredKeyframe& stored, const FrameFeat
   registry_.countKeyframe(n.kf.robot_id);
   // With bundle adjustment every keyframe goes to the optimiser (a local BA refines it and its neighbours);
   // a pose-graph solve when loops came or chains joined. Without, the additions wait for the next solve.
-  const bool solve = added > 0 || std::exchange(graph_joined_, false);
-  if (solve || config_.ba.enabled) submitOptimizationLocked(solve);
+  const bool joined = std::exchange(graph_joined_, false);
+  const bool solve = added > 0 || joined;
+  if (solve || config_.ba.enabled) submitOptimizationLocked(solve, joined);
 }
 
 /// Adds the detector's loop edges to the graph and stores them. Returns how many were added.
@@ -204,6 +247,8 @@ int IngestPipeline::addDetectedLoopsLocked(const std::vector<LoopEdge>& edges, i
     to_store.push_back({edge.from_id, edge.to_id, edge.T_from_to, edge.information, edge.inliers,
                         edge.motion_measure, edge.inlier_pairs});
     ++added;
+    // Between two maps (as the last applied result has them): they merge, the optimiser must solve.
+    if (index_.node(edge.from_id).kf.map_id != index_.node(edge.to_id).kf.map_id) batch_.must_solve = true;
     registry_.countLoop(index_.node(edge.from_id).kf.robot_id);
     if (index_.node(edge.to_id).robot != robot) registry_.countLoop(index_.node(edge.to_id).kf.robot_id);
   }
@@ -220,8 +265,9 @@ int IngestPipeline::addDetectedLoopsLocked(const std::vector<LoopEdge>& edges, i
   return added;
 }
 
-void IngestPipeline::submitOptimizationLocked(bool solve) {
-  batch_.solve = batch_.solve || solve;
+void IngestPipeline::submitOptimizationLocked(bool solve, bool must_solve) {
+  batch_.solve = batch_.solve || solve || must_solve;
+  batch_.must_solve = batch_.must_solve || must_solve;
   if (submit_) submit_(std::exchange(batch_, {}));
 }
 
@@ -229,12 +275,13 @@ void IngestPipeline::submitRestoredLoops() {
   std::lock_guard<std::mutex> lock(mutex_);
   // The restored graph goes to the optimiser in one batch; a solve when it has loops or joined chains.
   const bool solve = counters_.restored_loops > 0 || std::exchange(graph_joined_, false);
-  if (solve || !batch_.empty()) submitOptimizationLocked(solve);
+  if (solve || !batch_.empty()) submitOptimizationLocked(solve, solve);
 }
 
 MapServerStats IngestPipeline::stats() const {
   std::lock_guard<std::mutex> lock(mutex_);
   MapServerStats s = counters_;
+  s.keyframes_decoded_ahead = decoded_ahead_.load(std::memory_order_relaxed);
   timings_.fill(&s);
   s.maps = static_cast<int>(index_.mapCount());
   s.keyframes_waiting = static_cast<int>(reorder_.size());

@@ -1,6 +1,7 @@
 #pragma once
 // The ingest pipeline owns the map state (keyframe index, pose graph, loop detector, counters) and runs on
-// the ingest worker, one event at a time:
+// the ingest worker, one event at a time (prepare() is the exception: IngestQueue's decode thread decodes
+// the next keyframes with it while the ingest worker integrates this one):
 //   Hello -> session; Keyframe -> image headers against the robot's camera (image_admission.hpp) ->
 //   decode + validate images -> store durably -> acknowledge -> (in chain order, through the reorder
 //   buffer) loop detection -> pose graph (-> a snapshot to the optimiser when loops were added);
@@ -9,12 +10,14 @@
 // Readers (stats, keyframes) take the same state lock from other threads. Restoring from the map store is
 // in map_restore.cpp, graph insertion and optimisation results in ingest_graph.cpp, chain order (reorder
 // buffer, chain splits) in ingest_order.cpp.
+#include <atomic>
 #include <chrono>
 #include <cstdint>
 #include <functional>
 #include <map>
 #include <mutex>
 #include <optional>
+#include <set>
 #include <string>
 #include <vector>
 
@@ -38,6 +41,21 @@ namespace rgbdmap {
 
 class IngestPipeline {
  public:
+  /// A keyframe's decoded images and features.
+  struct Decoded {
+    DecodedImages images;
+    FrameFeatures features;
+  };
+  /// A keyframe as the decode thread left it: decoded for `camera`, or not (`decoded` empty: no camera yet,
+  /// seen before, or refused before decoding) and then onKeyframe() does it all as before.
+  struct Prepared {
+    msg::Keyframe keyframe;
+    std::optional<CameraIntrinsics> camera;  ///< what it was decoded for (a Hello may change it meanwhile)
+    std::optional<Result<Decoded>> decoded;
+    double decode_ms = 0.0;      ///< wall
+    double decode_cpu_ms = 0.0;  ///< the decode thread's CPU time
+  };
+
   /// Hands what was added to the graph since the last call to the optimiser (called with the state lock
   /// held, so keep it short).
   using SubmitGraph = std::function<void(OptimizerBatch batch)>;
@@ -59,6 +77,14 @@ class IngestPipeline {
   // ---- the ingest worker
   void onHello(const msg::Hello& hello);
   void onKeyframe(const msg::Keyframe& keyframe);
+  /// A keyframe prepare()d on the decode thread; its decoding is used when it was for the current camera.
+  void onKeyframe(Prepared prepared);
+
+  // ---- the decode thread (one thread: its feature extractor is its own)
+  /// Decodes the images and the features (extracted when sent without) outside the state lock, so that the
+  /// ingest worker only stores and integrates. Not decoded: a keyframe of a robot without a camera yet, one
+  /// seen before (a resend), or one whose image headers the camera refuses (onKeyframe refuses it).
+  Prepared prepare(msg::Keyframe keyframe);
   void onOptimized(const MapOptimization& result);
   /// Gives up on late predecessors and follows the robots' heartbeats with corrections
   /// (ingest_corrections.cpp).
@@ -75,10 +101,6 @@ class IngestPipeline {
   int64_t graphRevision() const;
 
  private:
-  struct Decoded {
-    DecodedImages images;
-    FrameFeatures features;
-  };
   using Lock = std::unique_lock<std::mutex>;
 
   // ingest_pipeline.cpp: the keyframe path
@@ -88,6 +110,11 @@ class IngestPipeline {
   /// Images, and the features: as sent, or extracted from the colour when sent without (caller holds
   /// mutex_: the extractor is not thread-safe).
   Result<Decoded> decodeLocked(const msg::Keyframe& kf, const CameraIntrinsics& camera);
+  static Result<Decoded> decode(OrbExtractor& extractor, const msg::Keyframe& kf,
+                                const CameraIntrinsics& camera);
+  /// Keys stored or refused, for prepare() without the state lock (a resend is not decoded again).
+  void noteSeen(const KeyframeKey& key);
+  bool seen(const KeyframeKey& key) const;
   /// False while the store takes no appends (failed; StoreRetry recovers it) or robots.txt could not be
   /// saved: the keyframe is left unacknowledged (counted), so its robot sends it again later.
   bool storeWritableLocked();
@@ -96,8 +123,9 @@ class IngestPipeline {
   void addLiveLocked(const StoredKeyframe& stored, const FrameFeatures& features,
                      const DecodedImages* images);
   int addDetectedLoopsLocked(const std::vector<LoopEdge>& edges, int robot);
-  /// Hands batch_ to the optimiser; `solve`: loop edges were added or chains joined.
-  void submitOptimizationLocked(bool solve = false);
+  /// Hands batch_ to the optimiser; `solve`: loop edges were added or chains joined; `must_solve`: chains
+  /// joined or a restore (a solve whatever the loops' consistency; merging loops set batch_.must_solve).
+  void submitOptimizationLocked(bool solve = false, bool must_solve = false);
 
   // ingest_order.cpp: chain order
   /// A stored keyframe into the graph now (its predecessor is there, refused, or it has none), followed by
@@ -178,8 +206,12 @@ class IngestPipeline {
     std::optional<KeyframeKey> optimised_for;  ///< the heartbeat keyframe an optimisation was asked for
   };
   std::map<std::string, CorrectionsSent> corrections_sent_;
-  MapServerStats counters_;  ///< the counting fields; the derived ones are filled in stats()
-  OrbExtractor extractor_;   ///< config_.features, for keyframes sent without features
+  MapServerStats counters_;        ///< the counting fields; the derived ones are filled in stats()
+  OrbExtractor extractor_;         ///< config_.features, for keyframes sent without features
+  OrbExtractor decode_extractor_;  ///< the same, for prepare() (the decode thread only)
+  mutable std::mutex seen_mutex_;  ///< seen_ (not under mutex_: prepare() must not wait for an ingest)
+  std::set<KeyframeKey> seen_;     ///< stored or refused (a few bytes per keyframe)
+  std::atomic<uint64_t> decoded_ahead_{0};  ///< keyframes prepare() decoded
   IngestTimings timings_;
   // A failed store (a full disk): what waits for it to work again.
   bool registry_unsaved_ = false;          ///< robots.txt not written since a robot (camera) changed

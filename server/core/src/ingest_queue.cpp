@@ -18,9 +18,15 @@ SerialWorkerOptions ingestOptions(double tick_s, IngestPipeline& pipeline) {
 }  // namespace
 
 IngestQueue::IngestQueue(RobotQueueLimits limits, double tick_s, IngestPipeline& pipeline)
-    : pipeline_(pipeline), keyframes_(limits), worker_(ingestOptions(tick_s, pipeline)) {}
+    : pipeline_(pipeline),
+      keyframes_(limits),
+      worker_(ingestOptions(tick_s, pipeline)),
+      decode_worker_(SerialWorkerOptions{"rgbdmap-decode", 0, 0.0, {}}) {}
 
-void IngestQueue::start() { worker_.start(); }
+void IngestQueue::start() {
+  worker_.start();
+  decode_worker_.start();
+}
 
 void IngestQueue::stop() {
   {
@@ -30,7 +36,10 @@ void IngestQueue::stop() {
     hello_order_.clear();
     result_.reset();
     keyframes_.clear();
+    decoded_.clear();
   }
+  decoded_room_.notify_all();
+  decode_worker_.stop();
   {
     std::lock_guard<std::mutex> lock(revision_mutex_);
     stopping_ = true;
@@ -65,7 +74,7 @@ IngestQueue::Pushed IngestQueue::pushKeyframe(msg::Keyframe keyframe, size_t byt
   if (events_stopped_) return Pushed::kStopped;
   const std::string robot = keyframe.robot_id;
   if (!keyframes_.push(robot, std::move(keyframe), bytes)) return Pushed::kFull;  // the robot resends
-  postServeLocked();
+  decode_worker_.post([this] { decodeNext(); });
   return Pushed::kQueued;
 }
 
@@ -109,9 +118,27 @@ void IngestQueue::serveNext() {
     lock.unlock();
     return applyResult(result);
   }
+  if (decoded_.empty()) return;  // dropped by stop()
+  IngestPipeline::Prepared prepared = std::move(decoded_.front());
+  decoded_.pop_front();
+  lock.unlock();
+  decoded_room_.notify_all();
+  pipeline_.onKeyframe(std::move(prepared));
+}
+
+/// One task per queued keyframe: waits for room in decoded_, then decodes the next keyframe in fair order.
+void IngestQueue::decodeNext() {
+  std::unique_lock<std::mutex> lock(events_mutex_);
+  decoded_room_.wait(lock, [this] { return events_stopped_ || decoded_.size() < kDecodedAhead; });
+  if (events_stopped_) return;
   std::optional<msg::Keyframe> keyframe = keyframes_.pop();
   lock.unlock();
-  if (keyframe) pipeline_.onKeyframe(*keyframe);
+  if (!keyframe) return;
+  IngestPipeline::Prepared prepared = pipeline_.prepare(std::move(*keyframe));
+  lock.lock();
+  if (events_stopped_) return;
+  decoded_.push_back(std::move(prepared));
+  postServeLocked();
 }
 
 size_t IngestQueue::queued(const std::string& robot) const {
@@ -140,7 +167,10 @@ bool IngestQueue::waitRevisionsUntil(std::chrono::steady_clock::time_point deadl
 bool IngestQueue::waitIdleUntil(std::chrono::steady_clock::time_point deadline) const {
   // Both at once: an event may submit a solve (the worker idles while it runs) and a result is an event.
   for (;;) {
-    if (!waitRevisionsUntil(deadline) || !worker_.waitIdleUntil(deadline)) return false;
+    // The decode worker first: what it decodes becomes an event of the ingest worker (never the reverse).
+    if (!waitRevisionsUntil(deadline) || !decode_worker_.waitIdleUntil(deadline) ||
+        !worker_.waitIdleUntil(deadline))
+      return false;
     std::lock_guard<std::mutex> lock(revision_mutex_);
     if (revisionsApplied()) return true;
   }

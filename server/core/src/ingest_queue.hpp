@@ -7,6 +7,10 @@
 //   3. keyframes, from per-robot bounded queues served round-robin (RobotQueues): a robot flooding the
 //      server fills only its own queue, and is served after the robots within their share for a while.
 //      A keyframe that does not fit is dropped unacknowledged (the robot resends it) and counted.
+//      A second worker ("rgbdmap-decode") takes them from RobotQueues in that order and decodes them
+//      (images, features: IngestPipeline::prepare) while the ingest worker integrates the one before; at
+//      most kDecodedAhead decoded keyframes wait for the ingest worker (their images are ~1.5 MB each), so
+//      the rest wait, encoded and fairly bounded, in RobotQueues.
 // A periodic tick on the same thread lets the pipeline give up on predecessors that do not come.
 // Tracks the submitted and applied optimisation revisions, so that waitIdle() also waits for the solves in
 // flight and their corrections.
@@ -46,6 +50,7 @@ class IngestQueue {
   /// kDemotionS (RobotQueues).
   void demote(const std::string& robot);
   static constexpr double kDemotionS = 5.0;
+  static constexpr size_t kDecodedAhead = 2;
   void pushOptimized(std::shared_ptr<const MapOptimization> result);
   /// A snapshot with this revision went to the optimiser (its result will come back through pushOptimized).
   void noteSubmitted(uint64_t revision);
@@ -60,18 +65,21 @@ class IngestQueue {
   using Task = std::function<void()>;
   /// Posts one "serve the next event" task; false once stopped. Caller holds events_mutex_.
   bool postServeLocked();
-  void serveNext();  ///< on the worker
+  void serveNext();   ///< on the worker
+  void decodeNext();  ///< on the decode worker: one keyframe from RobotQueues, decoded, to decoded_
   void applyResult(const std::shared_ptr<const MapOptimization>& result);
   bool waitRevisionsUntil(std::chrono::steady_clock::time_point deadline) const;
   bool revisionsApplied() const;  ///< caller holds revision_mutex_
 
   IngestPipeline& pipeline_;
 
-  mutable std::mutex events_mutex_;           ///< the events below
-  std::map<std::string, msg::Hello> hellos_;  ///< the latest pending Hello per robot
-  std::deque<std::string> hello_order_;       ///< robots with a pending Hello, oldest first
+  mutable std::mutex events_mutex_;                ///< the events below
+  std::map<std::string, msg::Hello> hellos_;       ///< the latest pending Hello per robot
+  std::deque<std::string> hello_order_;            ///< robots with a pending Hello, oldest first
   std::shared_ptr<const MapOptimization> result_;  ///< the newest optimisation result not applied yet
-  RobotQueues keyframes_;
+  RobotQueues keyframes_;                          ///< waiting for the decode worker
+  std::deque<IngestPipeline::Prepared> decoded_;   ///< decoded, waiting for the ingest worker
+  std::condition_variable decoded_room_;           ///< decoded_ has room (or stopped)
   bool events_stopped_ = false;
 
   mutable std::mutex revision_mutex_;
@@ -79,7 +87,8 @@ class IngestQueue {
   uint64_t submitted_revision_ = 0;
   uint64_t applied_revision_ = 0;
   bool stopping_ = false;
-  SerialWorker worker_;  ///< last: stopped before the state above goes away
+  SerialWorker worker_;         ///< last: stopped before the state above goes away
+  SerialWorker decode_worker_;  ///< stopped before worker_ (it posts to it)
 };
 
 }  // namespace rgbdmap

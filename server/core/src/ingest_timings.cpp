@@ -16,6 +16,7 @@ double msSince(std::chrono::steady_clock::time_point t0) {
 
 void IngestTimings::add(const KeyframeTiming& t) {
   decode_ms_.add(t.decode_ms);
+  if (t.decode_thread_cpu_ms > 0.0) decode_cpu_ms_.add(t.decode_thread_cpu_ms);
   store_ms_.add(t.store_ms);
   loops_ms_.add(t.loops_ms);
   ingest_ms_.add(t.total_ms);
@@ -30,6 +31,7 @@ void IngestTimings::fill(MapServerStats* s) const {
   s->ingest_cpu_ms_p90 = ingest_cpu_ms_.quantile(0.9);
   s->verify_ms_median = verify_ms_.median();
   s->decode_ms_median = decode_ms_.median();
+  s->decode_cpu_ms_median = decode_cpu_ms_.median();
   s->store_ms_median = store_ms_.median();
   s->loops_ms_median = loops_ms_.median();
 }

@@ -16,9 +16,10 @@ double msSince(std::chrono::steady_clock::time_point t0);
 struct KeyframeTiming {
   double total_ms = 0.0;   ///< dequeue to graph update (wall)
   double cpu_ms = 0.0;     ///< the same in worker-thread CPU time
-  double decode_ms = 0.0;  ///< decode + validate images, features
-  double store_ms = 0.0;   ///< durable append
-  double loops_ms = 0.0;   ///< loop detection, graph insertion, loop edges stored
+  double decode_ms = 0.0;  ///< decode + validate images, features (on the decode thread, or this one)
+  double decode_thread_cpu_ms = 0.0;  ///< the decode thread's CPU time for it (0 when decoded here)
+  double store_ms = 0.0;              ///< durable append
+  double loops_ms = 0.0;              ///< loop detection, graph insertion, loop edges stored
 };
 
 class IngestTimings {
@@ -29,7 +30,7 @@ class IngestTimings {
   std::vector<double> ingestMs() const { return ingest_ms_.samples(); }
 
  private:
-  SampleReservoir ingest_ms_, ingest_cpu_ms_, verify_ms_, decode_ms_, store_ms_, loops_ms_;
+  SampleReservoir ingest_ms_, ingest_cpu_ms_, verify_ms_, decode_ms_, decode_cpu_ms_, store_ms_, loops_ms_;
 };
 
 }  // namespace rgbdmap

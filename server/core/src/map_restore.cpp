@@ -46,6 +46,7 @@ int IngestPipeline::restoreKeyframesLocked() {
                  " skipped: ", !in_order ? "node id out of order" : features.error());
       continue;
     }
+    noteSeen(keyOf(stored));
     placeLocked({stored, std::move(*features), now}, nullptr, false);
   }
   giveUpWaitingLocked(now, 0.0, false);

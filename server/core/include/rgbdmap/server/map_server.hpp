@@ -93,8 +93,10 @@ struct MapServerStats {
   int loops_disabled = 0;  ///< currently disabled by the graph's consistency check
   int loop_candidates = 0;
   std::array<int, kLoopRejectionCount> loops_rejected_by_reason{};
-  int optimizations = 0;          ///< optimiser results applied (pose-graph solves and bundle adjustments)
-  int graph_solves = 0;           ///< of which with a pose-graph solve
+  int optimizations = 0;  ///< optimiser results applied (pose-graph solves and bundle adjustments)
+  int graph_solves = 0;   ///< of which with a pose-graph solve
+  int graph_solves_skipped =
+      0;  ///< loops kept without a solve: the estimate satisfied them (solve_above_chi2)
   double last_optimize_ms = 0.0;  ///< of the last pose-graph solve
   BundleAdjustmentStats ba;
   /// Corrections that follow the robots' heartbeats: sent again (the first may have been lost), and
@@ -107,6 +109,8 @@ struct MapServerStats {
   uint64_t keyframes_dropped_queue_full = 0;  ///< all robots' queue_full
   uint64_t keyframes_throttled = 0;           ///< all robots' throttled
   uint64_t keyframes_decoded = 0;             ///< keyframes whose images were decoded (passed the headers)
+  uint64_t keyframes_decoded_ahead =
+      0;  ///< decoded on the decode thread (not the ingest worker); a resend is not
   uint64_t keyframes_features_extracted = 0;  ///< of those, sent without features: extracted here
   uint64_t keyframes_refused = 0;
   uint64_t unknown_robot_messages = 0;
@@ -120,9 +124,10 @@ struct MapServerStats {
   double ingest_ms_median = 0.0, ingest_ms_p90 = 0.0, ingest_ms_max = 0.0;
   double ingest_cpu_ms_median = 0.0, ingest_cpu_ms_p90 = 0.0;  ///< the same in worker-thread CPU time
   double decode_ms_median = 0.0;                               ///< image decoding (validation) and features
-  double store_ms_median = 0.0;                                ///< durable append (fdatasync when store_sync)
-  double loops_ms_median = 0.0;                    ///< loop detection, graph insertion, loop edges stored
-  double verify_ms_median = 0.0;                   ///< of which geometric verification of the candidates
+  double decode_cpu_ms_median = 0.0;  ///< the same in the decode thread's CPU time (not in ingest_cpu_*)
+  double store_ms_median = 0.0;       ///< durable append (fdatasync when store_sync)
+  double loops_ms_median = 0.0;       ///< loop detection, graph insertion, loop edges stored
+  double verify_ms_median = 0.0;      ///< of which geometric verification of the candidates
   int restored_keyframes = 0, restored_loops = 0;  ///< from the map directory at start
   /// Occupancy map (zero when occupancy_enabled is false).
   size_t map_keyframes = 0;            ///< keyframes inserted into the octree (restored ones included)
