@@ -2,6 +2,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cstdio>
 #include <random>
 
 #include "rgbdmap/graph/pose_graph.hpp"
@@ -113,6 +114,52 @@ TEST(PoseGraphLoops, RobustLossAloneKeepsFalseLoopsButBoundsDamage) {
   ASSERT_TRUE(report.ok());
   EXPECT_EQ(report->loops_rejected, 0);
   EXPECT_LT(translationRmse(dirty.graph, dirty), 0.5);
+}
+
+}  // namespace
+}  // namespace rgbdmap
+
+namespace rgbdmap {
+namespace {
+
+// A solve stopped by max_solver_time_s (a loaded machine, a large graph) leaves the poses between odometry
+// and the solution: judged there, true loops look inconsistent. It must disable none (issue #15: a 2 s cap
+// disabled 5,371 of 37,000 true loops on an 8k graph); the next converged solve still rejects false ones.
+TEST(PoseGraphLoops, ASolveOutOfTimeDisablesNoLoop) {
+  SynthGraph synth = makeSynthGraph(circle(1000, 0, 11, 100));
+  ASSERT_TRUE(synth.graph.setFixed(0).ok());
+  const double ate_odometry = translationRmse(synth.graph, synth);
+  PoseGraphConfig rushed;
+  rushed.max_solver_time_s = 0.001;
+  auto cut = synth.graph.optimize(rushed);
+  ASSERT_TRUE(cut.ok()) << cut.error();
+  ASSERT_TRUE(cut->out_of_time) << "the graph solved in 1 ms: make it larger";
+  EXPECT_EQ(cut->loops_rejected, 0) << "loops judged by an unfinished solve";
+  EXPECT_TRUE(synth.graph.disabledEdges().empty());
+  EXPECT_LE(translationRmse(synth.graph, synth), ate_odometry) << "the partial solve's poses made it worse";
+  // What a check there would have judged: many true loops far above the threshold.
+  int inconsistent = 0;
+  for (int64_t id : synth.loop_edge_ids)
+    inconsistent += *synth.graph.edgeChi2(id) > PoseGraphConfig{}.outlier_chi2 ? 1 : 0;
+  std::printf("[ measured ] after a 1 ms solve %d of %zu true loops are above the outlier threshold\n",
+              inconsistent, synth.loop_edge_ids.size());
+  EXPECT_GT(inconsistent, 10) << "the unfinished solve was nearly done: the test shows nothing";
+  // Given its time, the same graph converges with (nearly) every true loop kept: the 99.9% threshold may
+  // take one of these 180.
+  auto full = synth.graph.optimize(PoseGraphConfig{});
+  ASSERT_TRUE(full.ok()) << full.error();
+  EXPECT_FALSE(full->out_of_time);
+  EXPECT_LE(full->loops_rejected, 2);
+  EXPECT_LT(translationRmse(synth.graph, synth), 0.1 * ate_odometry);
+  // False loops are still rejected by converged solves after an unfinished one.
+  SynthGraph with_false = makeSynthGraph(circle(1000, 10, 12, 100));
+  ASSERT_TRUE(with_false.graph.setFixed(0).ok());
+  ASSERT_TRUE(with_false.graph.optimize(rushed).ok());
+  auto judged = with_false.graph.optimize(PoseGraphConfig{});
+  ASSERT_TRUE(judged.ok()) << judged.error();
+  for (int64_t id : with_false.false_edge_ids)
+    EXPECT_TRUE(std::binary_search(judged->rejected_edge_ids.begin(), judged->rejected_edge_ids.end(), id))
+        << "false loop " << id << " kept";
 }
 
 }  // namespace

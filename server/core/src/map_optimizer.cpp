@@ -16,6 +16,7 @@ void OptimizerBatch::append(OptimizerBatch&& other) {
   std::move(other.keyframes.begin(), other.keyframes.end(), std::back_inserter(keyframes));
   for (auto& [id, m] : other.matches) matches.insert_or_assign(id, std::move(m));
   solve = solve || other.solve;
+  must_solve = must_solve || other.must_solve;
   global = global || other.global;
 }
 
@@ -72,7 +73,7 @@ void MapOptimizer::processPending() {
   }
   applyAdditions(b);
   OptimizedPoses solve;
-  const bool solved = b.solve && solveGraph(&solve);
+  const bool solved = b.solve && needsSolve(b) && solveGraph(&solve);
   const bool large_cycle = updateTracks();
   if (config_.ba.enabled) {
     std::vector<int64_t> ids;
@@ -174,6 +175,23 @@ bool MapOptimizer::solveGraph(OptimizedPoses* out) {
   refreshMaps();
   for (const PoseGraphNode& n : graph_.nodes()) landmarks_.setPose(n.id, map_of_[n.id], n.T_map_kf);
   return true;
+}
+
+bool MapOptimizer::needsSolve(const OptimizerBatch& b) {
+  const double limit = config_.graph.solve_above_chi2;
+  if (b.must_solve || limit <= 0.0) return true;
+  std::vector<int64_t> loops;
+  for (const PoseGraphEdge& e : b.edges) {
+    if (e.kind == EdgeKind::kOdometry) continue;
+    const std::optional<double> chi2 = graph_.edgeChi2(e.id);
+    if (!chi2 || *chi2 > limit) return true;  // (merges come with must_solve: their maps are one by now)
+    loops.push_back(e.id);
+  }
+  // Consistent with the estimate: a solve would barely move it and its check would keep these edges.
+  for (int64_t id : loops)
+    if (const auto it = waiting_.find(id); it != waiting_.end()) it->second.checked = true;
+  ++solves_skipped_;
+  return false;
 }
 
 bool MapOptimizer::isLargeCycle(const PoseGraphEdge& e) const {
@@ -314,6 +332,7 @@ void MapOptimizer::publish(uint64_t revision, bool solved, const OptimizedPoses&
   counters_.local_cpu_ms_median = local_cpu_ms_.median();
   counters_.local_cpu_ms_p90 = local_cpu_ms_.quantile(0.9);
   out->ba = counters_;
+  out->solves_skipped = solves_skipped_;
   {
     std::lock_guard<std::mutex> lock(mutex_);
     global_due_ = config_.ba.enabled && !changed_maps_.empty();

@@ -43,8 +43,12 @@ struct OptimizerBatch {
   std::vector<LandmarkKeyframe> keyframes;  ///< features of new keyframes, for bundle adjustment
   std::map<int64_t, EdgeMatches> matches;   ///< inlier pairs of new loop edges, by edge id
   bool solve = false;                       ///< loop edges added or chains joined: a pose-graph solve first
+  /// Maps merged, chains joined or a restore: solve whatever the loops' consistency (solve_above_chi2).
+  bool must_solve = false;
   bool global = false;  ///< a global BA of every map changed since its last one (waitIdle)
-  bool empty() const { return nodes.empty() && edges.empty() && keyframes.empty() && !solve && !global; }
+  bool empty() const {
+    return nodes.empty() && edges.empty() && keyframes.empty() && !solve && !must_solve && !global;
+  }
   void append(OptimizerBatch&& other);
 };
 
@@ -53,6 +57,7 @@ struct MapOptimization {
   OptimizedPoses graph;   ///< poses of every node, disabled edges, components; report of the last solve
   bool graph_solved = false;
   BundleAdjustmentStats ba;
+  int solves_skipped = 0;  ///< batches with loops that needed no solve (all within solve_above_chi2), so far
 };
 
 class MapOptimizer {
@@ -77,6 +82,9 @@ class MapOptimizer {
   void applyAdditions(const OptimizerBatch& b);
   void refreshMaps();  ///< map id (= first node of its component) and anchor of every node
   bool solveGraph(OptimizedPoses* out);
+  /// Whether the batch's loops need a whole-graph solve (PoseGraphConfig::solve_above_chi2); when not,
+  /// its loop edges count as judged (kept) without one.
+  bool needsSolve(const OptimizerBatch& b);
   /// Matches of kept edges into the tracks, of disabled edges out. Returns whether a large cycle closed.
   bool updateTracks();
   void adjustNewKeyframes(const std::vector<int64_t>& ids);
@@ -115,6 +123,7 @@ class MapOptimizer {
   std::map<int, int> added_since_global_;     ///< map id -> keyframes added since its last global BA
   std::set<int> changed_maps_;                ///< maps changed since their last global BA
   BundleAdjustmentStats counters_;
+  int solves_skipped_ = 0;
   SampleReservoir local_ms_, local_cpu_ms_;
   SerialWorker worker_;  ///< last: stopped before the state above goes away
 };

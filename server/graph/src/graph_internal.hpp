@@ -25,6 +25,7 @@ struct SolveOutcome {
   int iterations = 0;
   double initial_cost = 0.0, final_cost = 0.0;
   bool cancelled = false;
+  bool out_of_time = false;  ///< stopped by max_solver_time_s before converging (a load-dependent answer)
 };
 
 /// One Levenberg-Marquardt solve over the enabled edges; nodes with fixed[i] are held constant.

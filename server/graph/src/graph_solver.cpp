@@ -158,6 +158,9 @@ Result<SolveOutcome> solveOnce(const std::vector<PoseGraphEdge>& edges, const st
   outcome.initial_cost = summary.initial_cost;
   outcome.final_cost = summary.final_cost;
   outcome.cancelled = summary.termination_type == ceres::USER_FAILURE;
+  // NO_CONVERGENCE is the iteration limit (deterministic) or the time limit (depends on the machine's load).
+  outcome.out_of_time = summary.termination_type == ceres::NO_CONVERGENCE &&
+                        summary.num_successful_steps + summary.num_unsuccessful_steps < config.max_iterations;
   return outcome;
 }
 

@@ -122,6 +122,16 @@ int PoseGraph::applyOptimized(const std::map<int64_t, SE3>& T_map_kf,
   return corrected;
 }
 
+std::optional<double> PoseGraph::edgeChi2(int64_t id) const {
+  const auto it = edge_index_.find(id);
+  if (it == edge_index_.end()) return std::nullopt;
+  const PoseGraphEdge& e = edges_[it->second];
+  Pose7 from{}, to{};
+  packPose(nodes_[node_index_.at(e.from)].T_map_kf, from.data());
+  packPose(nodes_[node_index_.at(e.to)].T_map_kf, to.data());
+  return graph_detail::edgeChi2(e, sqrt_information_[it->second], from, to);
+}
+
 namespace {
 std::vector<EdgeEnds> resolveEnds(const std::vector<PoseGraphEdge>& edges,
                                   const std::unordered_map<int64_t, size_t>& node_index) {
@@ -190,7 +200,9 @@ Result<OptimizeReport> PoseGraph::optimize(const PoseGraphConfig& config, const 
     report.iterations += solved->iterations;
     report.final_cost = solved->final_cost;
     report.cancelled = solved->cancelled;
-    if (report.cancelled || round == config.max_outlier_rounds) break;
+    report.out_of_time = report.out_of_time || solved->out_of_time;
+    // An unfinished solve is no basis for disabling loops: on a loaded machine it would reject true ones.
+    if (report.cancelled || solved->out_of_time || round == config.max_outlier_rounds) break;
     const std::vector<bool> next =
         graph_detail::consistentEdges(edges_, sqrt_information_, ends, params, enabled, config.outlier_chi2);
     if (next == enabled) break;

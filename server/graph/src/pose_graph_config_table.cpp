@@ -18,6 +18,9 @@ const ConfigTable<PoseGraphConfig>& poseGraphConfigTable() {
                "loop edges above this whitened chi2 (6 dof, 99.9%) are disabled after a solve")
           .add("max_outlier_rounds", &C::max_outlier_rounds, R::closed(0, 100),
                "re-solves after disabling or re-admitting loop edges; 0 turns the check off")
+          .add("solve_above_chi2", &C::solve_above_chi2, R::closed(0.0, 1e6),
+               "the server solves the whole graph after loops only when one has a whitened chi2 above this "
+               "at the current poses (or maps merged); 0: after every loop")
           .add("num_threads", &C::num_threads, R::closed(1, 256), "Ceres threads");
   return table;
 }

@@ -28,6 +28,12 @@ struct PoseGraphConfig {
   double outlier_chi2 = 22.46;
   /// Re-solves after disabling (or re-admitting) loop edges; 0 turns the consistency check off.
   int max_outlier_rounds = 3;
+  /// The server's optimiser solves the whole graph after new loop edges only when one of them has a
+  /// whitened chi2 above this at the current poses (the estimate does not explain it yet: drift to correct,
+  /// or a false loop to reject) or maps merged or chains joined. A loop the estimate already satisfies is
+  /// kept without a solve, as a converged solve would keep it (bundle adjustment uses its matches). 0:
+  /// solve after every loop. 12.59 = the 6-dof 95% quantile.
+  double solve_above_chi2 = 12.59;
   /// Ceres threads; the service runs the optimiser on one core.
   int num_threads = 1;
   /// Analytic Jacobians (RelativePoseCost); false: Ceres autodiff of RelativePoseResidual (same residual).
@@ -71,6 +77,9 @@ struct OptimizeReport {
   std::vector<int64_t> rejected_edge_ids;
   int merged_submaps = 0;  ///< submaps moved onto an anchored one before solving
   bool cancelled = false;
+  /// A solve ran out of max_solver_time_s: its poses are kept (they lower the cost), but it judges no loop
+  /// edge (the disabled set stays as the last converged solve left it).
+  bool out_of_time = false;
 };
 
 class PoseGraph {
@@ -88,6 +97,8 @@ class PoseGraph {
   Status setEdgeMeasurement(int64_t id, const SE3& T_from_to);
   /// The edge with this id, or null.
   const PoseGraphEdge* edge(int64_t id) const;
+  /// Whitened chi2 (no robust loss) of an edge at the current poses; nullopt for an unknown id.
+  std::optional<double> edgeChi2(int64_t id) const;
 
   /// Optimises all nodes. Loop edges whose whitened chi2 stays above outlier_chi2 are disabled (and
   /// re-admitted once they fit again). Each connected component without a fixed node has its first node
