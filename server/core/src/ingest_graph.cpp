@@ -23,13 +23,11 @@ std::vector<LoopEdge> IngestPipeline::integrateLocked(const StoredKeyframe& stor
   addToGraphLocked(node, kf, prev);
   if (split) noteSplitLocked(node, kf);
   joinSplitSuccessorLocked(node);
-  addToBatchLocked(node, features);
-  LoopKeyframe lk;
-  lk.id = static_cast<int>(stored.node_id);
-  lk.robot_id = robot;
-  lk.map_id = node.kf.map_id;
-  lk.T_map_kf = node.kf.T_map_kf;
-  lk.features = features;
+  // One copy of the features, shared by the loop detector and the bundle adjustment's landmark map.
+  auto shared = std::make_shared<const FrameFeatures>(features);
+  addToBatchLocked(node, shared);
+  LoopKeyframe lk(static_cast<int>(stored.node_id), robot, node.kf.map_id, node.kf.T_map_kf,
+                  std::move(shared));
   if (!detect) {
     if (const Status s = detector_.restoreKeyframe(std::move(lk)); !s)
       log::error("server: restore: ", s.error());
@@ -97,7 +95,8 @@ void IngestPipeline::addToGraphLocked(const IndexedNode& node, const msg::Keyfra
   if (prev) addOdometryEdgeLocked(id, *prev, kf.T_prev_cur, odometryInformation(kf.information, config_));
 }
 
-void IngestPipeline::addToBatchLocked(const IndexedNode& node, const FrameFeatures& features) {
+void IngestPipeline::addToBatchLocked(const IndexedNode& node,
+                                      const std::shared_ptr<const FrameFeatures>& features) {
   const std::optional<CameraIntrinsics> camera = registry_.camera(node.kf.robot_id);
   if (!camera || !config_.ba.enabled) return;
   LandmarkKeyframe k;
@@ -107,7 +106,7 @@ void IngestPipeline::addToBatchLocked(const IndexedNode& node, const FrameFeatur
   k.width = camera->width;
   k.height = camera->height;
   k.T_map_kf = node.kf.T_map_kf;
-  k.features = std::make_shared<const FrameFeatures>(features);
+  k.features = features;
   batch_.keyframes.push_back(std::move(k));
 }
 

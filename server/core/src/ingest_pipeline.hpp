@@ -15,6 +15,7 @@
 #include <cstdint>
 #include <functional>
 #include <map>
+#include <memory>
 #include <mutex>
 #include <optional>
 #include <set>
@@ -157,7 +158,7 @@ class IngestPipeline {
   Status addLoopEdgeLocked(const LoopEdge& edge);
   void applyOptimizedLocked(const MapOptimization& result);
   /// The keyframe's features and camera for bundle adjustment, into batch_.
-  void addToBatchLocked(const IndexedNode& node, const FrameFeatures& features);
+  void addToBatchLocked(const IndexedNode& node, const std::shared_ptr<const FrameFeatures>& features);
   std::map<std::string, int64_t> currentSessionsLocked() const;
   std::vector<MapNodePose> mapPosesLocked() const;
 

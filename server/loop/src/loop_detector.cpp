@@ -73,10 +73,10 @@ LoopThresholds LoopDetector::thresholdsFor(const LoopKeyframe& kf, const LoopCan
 
 void LoopDetector::verifyCandidates(const LoopKeyframe& kf, LoopDetection* out) const {
   const PinholeCamera& camera = cameraOf(kf.robot_id);
-  const FeatureGrid grid(kf.features, camera.intrinsics().width, camera.intrinsics().height);
+  const FeatureGrid grid(*kf.features, camera.intrinsics().width, camera.intrinsics().height);
   for (const LoopCandidate& c : out->candidates) {
     const LoopKeyframe& other = keyframes_[slot_of_.at(c.keyframe_id)];
-    const LoopVerification v = verifyLoop(kf.id, kf.features, other.id, other.features, camera,
+    const LoopVerification v = verifyLoop(kf.id, *kf.features, other.id, *other.features, camera,
                                           config_.verify, thresholdsFor(kf, c, other), &grid);
     ++out->stats.rejected_by_reason[static_cast<int>(v.rejection)];
     if (v.edge) out->edges.push_back(*v.edge);
@@ -102,12 +102,12 @@ Result<LoopDetection> LoopDetector::addKeyframe(LoopKeyframe keyframe) {
   const auto t0 = std::chrono::steady_clock::now();
   if (slot_of_.count(keyframe.id) != 0)
     return Result<LoopDetection>::failure("duplicate keyframe id " + std::to_string(keyframe.id));
-  if (!consistent(keyframe.features))
+  if (!keyframe.features || !consistent(*keyframe.features))
     return Result<LoopDetection>::failure("keyframe " + std::to_string(keyframe.id) +
-                                          ": inconsistent features");
+                                          ": missing or inconsistent features");
   LoopDetection out;
   const int robot_sequence = robot_count_[keyframe.robot_id]++;
-  const WordHistogram words = hasher_.histogram(keyframe.features.descriptors);
+  const WordHistogram words = hasher_.histogram(keyframe.features->descriptors);
   const std::vector<RetrievalHit> hits = retrieve(keyframe, robot_sequence, words);
   index_.insert(keyframe.id, keyframe.robot_id, robot_sequence, words);
   out.stats.retrieval_ms = msSince(t0);
@@ -134,11 +134,11 @@ Result<LoopDetection> LoopDetector::addKeyframe(LoopKeyframe keyframe) {
 Status LoopDetector::restoreKeyframe(LoopKeyframe keyframe) {
   if (slot_of_.count(keyframe.id) != 0)
     return Status::failure("duplicate keyframe id " + std::to_string(keyframe.id));
-  if (!consistent(keyframe.features))
-    return Status::failure("keyframe " + std::to_string(keyframe.id) + ": inconsistent features");
+  if (!keyframe.features || !consistent(*keyframe.features))
+    return Status::failure("keyframe " + std::to_string(keyframe.id) + ": missing or inconsistent features");
   const int robot_sequence = robot_count_[keyframe.robot_id]++;
   index_.insert(keyframe.id, keyframe.robot_id, robot_sequence,
-                hasher_.histogram(keyframe.features.descriptors));
+                hasher_.histogram(keyframe.features->descriptors));
   slot_of_.emplace(keyframe.id, keyframes_.size());
   summaries_.push_back({keyframe.id, keyframe.robot_id, keyframe.map_id, keyframe.T_map_kf});
   keyframes_.push_back(std::move(keyframe));

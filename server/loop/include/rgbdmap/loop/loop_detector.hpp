@@ -4,6 +4,7 @@
 // accepted loop edges with statistics. Plain structs in and out: no transport, files or threads.
 #include <array>
 #include <map>
+#include <memory>
 #include <random>
 #include <string>
 #include <unordered_map>
@@ -31,13 +32,25 @@ struct LoopDetectorConfig {
   std::string validate() const;
 };
 
-/// A keyframe as the server stores it.
+/// A keyframe as the server stores it. The features are shared, not copied: the server's bundle
+/// adjustment holds the same ones (one copy per keyframe in RAM).
 struct LoopKeyframe {
+  LoopKeyframe() = default;
+  LoopKeyframe(int id_, int robot_id_, int map_id_, const SE3& T_map_kf_,
+               std::shared_ptr<const FrameFeatures> features_)
+      : id(id_), robot_id(robot_id_), map_id(map_id_), T_map_kf(T_map_kf_), features(std::move(features_)) {}
+  /// Takes a copy of the features (tests, benchmarks).
+  LoopKeyframe(int id_, int robot_id_, int map_id_, const SE3& T_map_kf_, FrameFeatures features_)
+      : LoopKeyframe(id_, robot_id_, map_id_, T_map_kf_,
+                     std::make_shared<const FrameFeatures>(std::move(features_))) {}
+
   int id = -1;  ///< unique over all robots
   int robot_id = 0;
   int map_id = 0;  ///< frame of T_map_kf (e.g. the robot's own map until maps are merged)
   SE3 T_map_kf = SE3::Identity();
-  FrameFeatures features;  ///< with depth and 3-D points (client OrbExtractor)
+  /// With depth and 3-D points (client OrbExtractor); never null in a stored keyframe (addKeyframe and
+  /// restoreKeyframe refuse null).
+  std::shared_ptr<const FrameFeatures> features;
 };
 
 struct LoopStats {

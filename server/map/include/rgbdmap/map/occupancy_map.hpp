@@ -174,7 +174,7 @@ class OccupancyMap {
   uint64_t rebuilds_ = 0;
   double last_rebuild_ms_ = 0.0;
   double last_rebuild_cpu_ms_ = 0.0;
-  SerialWorker rebuild_worker_;  ///< last: stopped before the state above goes away
+  SerialWorker rebuild_worker_{SerialWorkerOptions{"rgbdmap-rebuild", 0, 0.0, {}}};  ///< last: stopped first
 };
 
 }  // namespace rgbdmap

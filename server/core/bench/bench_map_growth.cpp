@@ -1,0 +1,383 @@
+// bench_map_growth (issue #15): grows one map keyframe by keyframe through a whole MapServer and prints, per
+// tenth of the run, what the server spends per keyframe on each of its threads, its pose-graph solves,
+// bundle adjustments and octree rebuilds, and its RSS; at the end the keyframes' ATE against the truth.
+//
+// The world grows: `--rooms-apart` synthetic rooms (SyntheticScene "loop", each its own seed: furniture,
+// textures) lie 20 m apart. The robot drives one lap of a room (`--per-lap` keyframes), then the next room,
+// and after every `--revisit-every` new rooms one more lap of an earlier room (room r/2), so loops close
+// across the whole run, not only within a room. Keyframes are rendered at their true pose (`--width` x
+// `--height`, default 320 x 240, to keep rendering off the server's budget), sent as a robot sends them
+// (lossless depth, JPEG colour, no features: the server extracts them) with odometry drawn around the truth
+// (1 cm and 0.3 deg per keyframe, 1 sigma per axis), over memq:// to a server with fdatasync on. One
+// keyframe is in flight at a time (the ingest worker sets the pace); at the end of each tenth the bench
+// waits until the server is idle (optimiser, octree and rebuilds included), so every tenth carries its own
+// work. Thread CPU comes from /proc/self/task (clock ticks, 10 ms); heap_MB is what malloc has handed out and
+// not taken back (mallinfo2, every arena), next to the RSS; srv_MB is heap_MB without the bench's rooms.
+//   build/bin/bench_map_growth [--keyframes 20000] [--per-lap 60] [--revisit-every 4] [--width 320]
+//                              [--height 240] [--no-occupancy] [--max-minutes M] [--map-dir DIR]
+// Exits 1 when a keyframe was not acknowledged or the run stopped at --max-minutes.
+#include <dirent.h>
+#include <malloc.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <condition_variable>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <memory>
+#include <mutex>
+#include <random>
+#include <set>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "rgbdmap/common/evaluation.hpp"
+#include "rgbdmap/common/image_codec.hpp"
+#include "rgbdmap/common/logging.hpp"
+#include "rgbdmap/common/synth.hpp"
+#include "rgbdmap/proto/channels.hpp"
+#include "rgbdmap/server/map_server.hpp"
+
+using namespace rgbdmap;
+
+namespace {
+
+struct Options {
+  int keyframes = 20000;
+  int per_lap = 60;
+  int revisit_every = 4;
+  int width = 320, height = 240;
+  bool occupancy = true;
+  double max_minutes = 0.0;
+  std::string map_dir;
+};
+
+bool parse(int argc, char** argv, Options* o) {
+  for (int i = 1; i < argc; ++i) {
+    const std::string a = argv[i];
+    const bool has = i + 1 < argc;
+    if (a == "--keyframes" && has) {
+      o->keyframes = std::atoi(argv[++i]);
+    } else if (a == "--per-lap" && has) {
+      o->per_lap = std::atoi(argv[++i]);
+    } else if (a == "--revisit-every" && has) {
+      o->revisit_every = std::atoi(argv[++i]);
+    } else if (a == "--width" && has) {
+      o->width = std::atoi(argv[++i]);
+    } else if (a == "--height" && has) {
+      o->height = std::atoi(argv[++i]);
+    } else if (a == "--max-minutes" && has) {
+      o->max_minutes = std::atof(argv[++i]);
+    } else if (a == "--map-dir" && has) {
+      o->map_dir = argv[++i];
+    } else if (a == "--no-occupancy") {
+      o->occupancy = false;
+    } else {
+      return false;
+    }
+  }
+  return o->keyframes >= 10 && o->per_lap >= 8 && o->revisit_every >= 1 && o->width >= 64 &&
+         o->height >= 48 && o->width <= 1280 && o->height <= 960 && o->max_minutes >= 0.0;
+}
+
+/// The rooms of the world, built on demand (a room is deterministic by its seed) and kept a few at a time.
+class World {
+ public:
+  World(int per_lap, int width, int height) : per_lap_(per_lap) {
+    const double s = width / 640.0;
+    camera_ = {525.0 * s,
+               525.0 * (height / 480.0),
+               (width - 1) / 2.0,
+               (height - 1) / 2.0,
+               width,
+               height,
+               {0.0, 0.0, 0.0, 0.0, 0.0},
+               5000.0};
+  }
+  const CameraIntrinsics& camera() const { return camera_; }
+  size_t roomsKept() const { return rooms_.size(); }
+  const SyntheticScene* room(int r) {
+    if (auto it = rooms_.find(r); it != rooms_.end()) return it->second.get();
+    if (rooms_.size() >= 4) rooms_.erase(rooms_.begin());  // the oldest ids: revisits go back to r/2
+    SynthConfig c;
+    c.scene = "loop";
+    c.frames = per_lap_;
+    c.seed = static_cast<uint64_t>(r) + 1;
+    c.camera = camera_;
+    auto scene = SyntheticScene::build(c);
+    if (!scene) {
+      std::fprintf(stderr, "bench_map_growth: room %d: %s\n", r, scene.error().c_str());
+      return nullptr;
+    }
+    return rooms_.emplace(r, std::make_unique<SyntheticScene>(std::move(*scene))).first->second.get();
+  }
+  /// Where room r lies in the world.
+  static SE3 T_world_room(int r) {
+    SE3 T = SE3::Identity();
+    T.translation() = Vec3(20.0 * r, 0.0, 0.0);
+    return T;
+  }
+
+ private:
+  int per_lap_;
+  CameraIntrinsics camera_;
+  std::map<int, std::unique_ptr<SyntheticScene>> rooms_;
+};
+
+/// Room of each lap: 0, 1, ..., with a lap of room r/2 after every `revisit_every` new rooms.
+std::vector<int> lapPlan(int laps, int revisit_every) {
+  std::vector<int> plan;
+  for (int r = 0; static_cast<int>(plan.size()) < laps; ++r) {
+    plan.push_back(r);
+    if (r > 0 && r % revisit_every == 0) plan.push_back(r / 2);
+  }
+  plan.resize(laps);
+  return plan;
+}
+
+/// CPU seconds of each of this process's threads, summed by thread name.
+std::map<std::string, double> threadCpuByName() {
+  std::map<std::string, double> cpu;
+  const double tick = static_cast<double>(sysconf(_SC_CLK_TCK));
+  DIR* dir = opendir("/proc/self/task");
+  if (!dir) return cpu;
+  while (dirent* e = readdir(dir)) {
+    if (e->d_name[0] == '.') continue;
+    const std::string base = std::string("/proc/self/task/") + e->d_name;
+    std::ifstream comm(base + "/comm"), stat(base + "/stat");
+    std::string name, line;
+    if (!std::getline(comm, name) || !std::getline(stat, line)) continue;
+    const size_t close = line.rfind(')');  // the name in stat may hold spaces
+    if (close == std::string::npos) continue;
+    std::istringstream fields(line.substr(close + 2));
+    std::string f;
+    double utime = 0.0, stime = 0.0;
+    for (int k = 3; k <= 15 && fields >> f; ++k) {  // field 3 is the state; 14 utime, 15 stime
+      if (k == 14) utime = std::atof(f.c_str());
+      if (k == 15) stime = std::atof(f.c_str());
+    }
+    cpu[name.rfind("rgbdmap-", 0) == 0 ? name : "other"] += (utime + stime) / tick;
+  }
+  closedir(dir);
+  return cpu;
+}
+
+double rssMb() {
+  std::ifstream status("/proc/self/status");
+  std::string line;
+  while (std::getline(status, line))
+    if (line.rfind("VmRSS:", 0) == 0) return std::atof(line.c_str() + 6) / 1024.0;
+  return 0.0;
+}
+
+/// Bytes the process's heap has handed out and not freed (every malloc arena and mmapped chunks): RSS
+/// minus this is freed memory the allocator keeps, code, stacks and the rendering's textures.
+double heapInUseMb() {
+  const struct mallinfo2 m = mallinfo2();
+  return static_cast<double>(m.uordblks + m.hblkhd) / (1024.0 * 1024.0);
+}
+
+SE3 noisyMotion(const SE3& T, std::mt19937& rng) {
+  std::normal_distribution<double> n(0.0, 1.0);
+  const double st = 0.01, sr = 0.3 * M_PI / 180.0;
+  Vec6 xi;
+  xi << st * n(rng), st * n(rng), st * n(rng), sr * n(rng), sr * n(rng), sr * n(rng);
+  return T * se3::exp(xi);
+}
+
+struct AckWaiter {
+  std::mutex mutex;
+  std::condition_variable cv;
+  std::set<int> acked;
+  bool waitFor(int id, double timeout_s) {
+    std::unique_lock<std::mutex> lock(mutex);
+    return cv.wait_for(lock, std::chrono::duration<double>(timeout_s), [&] { return acked.count(id) > 0; });
+  }
+};
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  Options o;
+  if (!parse(argc, argv, &o)) {
+    std::fprintf(stderr,
+                 "usage: bench_map_growth [--keyframes N>=10] [--per-lap K>=8] [--revisit-every R>=1] "
+                 "[--width W] [--height H] [--no-occupancy] [--max-minutes M] [--map-dir DIR]\n");
+    return 2;
+  }
+  cv::setNumThreads(1);
+  log::setLevel(log::Level::kWarn);
+  World world(o.per_lap, o.width, o.height);
+  // A room's textures take ~100 MB of the bench's own heap (up to 4 rooms are kept): measured once here,
+  // before the server starts, and taken off the heap to give the server's share (srv_MB).
+  const double heap_before_room = heapInUseMb();
+  if (!world.room(0)) return 1;
+  const double room_mb = heapInUseMb() - heap_before_room;
+  const std::vector<int> plan = lapPlan((o.keyframes + o.per_lap - 1) / o.per_lap, o.revisit_every);
+
+  auto transport = std::move(transport::makeTransport("memq://").value());
+  MapServerConfig config;
+  config.map_dir = o.map_dir.empty()
+                       ? (std::filesystem::temp_directory_path() / "rgbdmap_bench_map_growth").string()
+                       : o.map_dir;
+  std::filesystem::remove_all(config.map_dir);
+  config.robots = {"robot0"};
+  config.store_sync = true;
+  config.graph.num_threads = 1;
+  config.occupancy_enabled = o.occupancy;
+  MapServer server(config, *transport, msg::KeyStore::openMode());
+  if (!server.start() || !transport->start()) return 1;
+
+  AckWaiter acks;
+  msg::KeyStore open = msg::KeyStore::openMode();
+  msg::ReplayGuard guard;
+  (void)transport->subscribe(*msg::channelFor(msg::MessageType::kKeyframeAck, "robot0"),
+                             [&](const std::string&, const uint8_t* data, size_t size) {
+                               auto e = msg::openEnvelope(data, size, open, &guard);
+                               if (!e) return;
+                               auto ack = msg::decodeMessage<msg::KeyframeAck>(*e);
+                               if (!ack) return;
+                               std::lock_guard<std::mutex> lock(acks.mutex);
+                               acks.acked.insert(ack->keyframe_id);
+                               acks.cv.notify_all();
+                             });
+  msg::Signer signer("robot0", {});
+  msg::Hello hello;
+  hello.robot_id = "robot0";
+  hello.camera = world.camera();
+  (void)transport->publish(*msg::channelFor(msg::MessageType::kHello, "robot0"),
+                           signer.seal(hello, 1).value());
+
+  std::printf(
+      "bench_map_growth: %d keyframes, %d per lap, %zu laps over %d rooms (a revisit after every %d), "
+      "%dx%d, octree %s, store fdatasync on\n",
+      o.keyframes, o.per_lap, plan.size(), *std::max_element(plan.begin(), plan.end()) + 1, o.revisit_every,
+      o.width, o.height, o.occupancy ? "on" : "off");
+  std::printf("%5s %7s %6s | %s | %6s %8s %6s %8s %5s %8s | %7s %7s %7s %6s\n", "tenth", "kf", "wall_s",
+              "CPU ms per keyframe: ingest decode  optim    map rebuild  other", "solves", "solve_ms",
+              "globBA", "gBA_ms", "rebld", "rebld_ms", "RSS_MB", "heap_MB", "srv_MB", "loops");
+  std::fflush(stdout);
+
+  std::mt19937 rng(17);
+  Trajectory truth, odometry;
+  SE3 T_odom = SE3::Identity(), T_world_prev = SE3::Identity();
+  const auto t_start = std::chrono::steady_clock::now();
+  auto t_tenth = t_start;
+  std::map<std::string, double> cpu_before = threadCpuByName();
+  MapServerStats before = server.stats();
+  int sent = 0, unacked = 0;
+  bool out_of_time = false;
+  const int tenth = std::max(1, o.keyframes / 10);
+  for (size_t lap = 0; lap < plan.size() && sent < o.keyframes && !out_of_time; ++lap) {
+    const SyntheticScene* room = world.room(plan[lap]);
+    if (!room) return 1;
+    for (int i = 0; i < o.per_lap && sent < o.keyframes; ++i) {
+      const RgbdFrame frame = room->renderFrame(i);
+      const SE3 T_world_cam = World::T_world_room(plan[lap]) * room->trajectory()[i].T_world_cam;
+      msg::Keyframe kf;
+      kf.robot_id = "robot0";
+      kf.keyframe_id = sent;
+      kf.timestamp = 1000.0 + sent;  // one keyframe per second
+      if (sent > 0) {
+        kf.previous_keyframe_id = sent - 1;
+        kf.T_prev_cur = noisyMotion(T_world_prev.inverse() * T_world_cam, rng);
+        kf.information.setZero();
+        kf.information.diagonal() << Vec3::Constant(1e4), Vec3::Constant(1.0 / std::pow(0.3 * M_PI / 180, 2));
+        T_odom = T_odom * kf.T_prev_cur;
+      }
+      kf.T_odom_cam = T_odom;
+      auto images = encodeImages(frame);
+      if (!images) {
+        std::fprintf(stderr, "bench_map_growth: encode: %s\n", images.error().c_str());
+        return 1;
+      }
+      kf.images = std::move(*images);
+      truth.push_back({kf.timestamp, T_world_cam});
+      odometry.push_back({kf.timestamp, T_odom});
+      T_world_prev = T_world_cam;
+      (void)transport->publish(*msg::channelFor(msg::MessageType::kKeyframe, "robot0"),
+                               signer.seal(kf, 1).value());
+      if (!acks.waitFor(sent, 120.0)) ++unacked;
+      ++sent;
+      const double minutes =
+          std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count() / 60;
+      if (o.max_minutes > 0 && minutes > o.max_minutes) out_of_time = true;
+      if (sent % tenth != 0 && sent != o.keyframes && !out_of_time) continue;
+      server.waitIdle(1800.0);
+      const auto now = std::chrono::steady_clock::now();
+      const std::map<std::string, double> cpu = threadCpuByName();
+      const MapServerStats s = server.stats();
+      const int n = s.keyframes - before.keyframes;
+      const auto per = [&](const std::string& name) {
+        const auto a = cpu.find(name);
+        const auto b = cpu_before.find(name);
+        const double d = (a == cpu.end() ? 0.0 : a->second) - (b == cpu_before.end() ? 0.0 : b->second);
+        return n > 0 ? 1e3 * d / n : 0.0;
+      };
+      std::printf(
+          "%5d %7d %6.0f | %28.1f %6.1f %6.1f %6.1f %7.1f %6.1f | %6d %8.0f %6lld %8.0f %5llu %8.0f | %7.0f "
+          "%7.0f %7.0f %6d\n",
+          sent / tenth, s.keyframes, std::chrono::duration<double>(now - t_tenth).count(),
+          per("rgbdmap-ingest"), per("rgbdmap-decode"), per("rgbdmap-optim"), per("rgbdmap-map"),
+          per("rgbdmap-rebuild"), per("other") + per("rgbdmap-status") + per("rgbdmap-store"),
+          s.graph_solves - before.graph_solves, s.last_optimize_ms,
+          static_cast<long long>(s.ba.global_runs - before.ba.global_runs), s.ba.global_ms_last,
+          static_cast<unsigned long long>(s.map_rebuilds - before.map_rebuilds), s.map_last_rebuild_ms,
+          rssMb(), heapInUseMb(), heapInUseMb() - room_mb * static_cast<double>(world.roomsKept()),
+          s.loops_accepted);
+      std::fflush(stdout);
+      cpu_before = cpu;
+      before = s;
+      t_tenth = now;
+      if (out_of_time) break;
+    }
+  }
+  Trajectory estimate;
+  for (const ServerKeyframe& k : server.keyframes()) estimate.push_back({k.timestamp, k.T_map_kf});
+  const auto ate = computeAte(truth, estimate);
+  const auto ate_odometry = computeAte(truth, odometry);
+  // The jumps between rooms are blind (no overlap, one noisy odometry step of up to hundreds of metres), so
+  // the global ATE grows with the number of rooms whatever the server does. What the server's optimisation
+  // decides is each lap's shape: the ATE of each lap aligned on its own, over the first and the last tenth
+  // of the laps, shows whether the map's accuracy holds as it grows.
+  const auto lapAte = [&](size_t first, size_t last) {
+    double sum = 0.0;
+    int n = 0;
+    for (size_t lap = first; lap < last; ++lap) {
+      Trajectory t, e;
+      for (size_t i = lap * o.per_lap; i < std::min(truth.size(), (lap + 1) * o.per_lap); ++i)
+        t.push_back(truth[i]);
+      if (t.size() < 8) continue;
+      for (const auto& p : estimate)
+        if (p.timestamp >= t.front().timestamp && p.timestamp <= t.back().timestamp) e.push_back(p);
+      if (e.size() < 8) continue;
+      const auto a = computeAte(t, e);
+      if (!a) continue;
+      sum += a->rmse;
+      ++n;
+    }
+    return n > 0 ? sum / n : -1.0;
+  };
+  const size_t laps_run = (truth.size() + o.per_lap - 1) / o.per_lap;
+  const size_t lap_tenth = std::max<size_t>(1, laps_run / 10);
+  std::printf(
+      "per-lap ATE (each lap aligned on its own), mean: first tenth %.4f m, last tenth %.4f m, all %.4f m\n",
+      lapAte(0, lap_tenth), lapAte(laps_run - std::min(laps_run, lap_tenth), laps_run), lapAte(0, laps_run));
+  const MapServerStats s = server.stats();
+  std::printf(
+      "end: %d keyframes sent, %d stored, %d not acknowledged; loops %d (disabled %d), solves %d (%d kept "
+      "without one), global BA %lld; ATE %s m (odometry %s m)%s\n",
+      sent, s.keyframes, unacked, s.loops_accepted, s.loops_disabled, s.graph_solves, s.graph_solves_skipped,
+      static_cast<long long>(s.ba.global_runs), ate ? std::to_string(ate->rmse).c_str() : ate.error().c_str(),
+      ate_odometry ? std::to_string(ate_odometry->rmse).c_str() : ate_odometry.error().c_str(),
+      out_of_time ? "; stopped at --max-minutes" : "");
+  transport->stop();
+  server.stop();
+  if (o.map_dir.empty()) std::filesystem::remove_all(config.map_dir);
+  return unacked == 0 && !out_of_time ? 0 : 1;
+}
