@@ -117,6 +117,92 @@ TEST(OccupancyMap, RebuildAfterPoseCorrectionMovesTheWall) {
   EXPECT_GT(map.stats().last_rebuild_ms, 0.0);
 }
 
+/// Every leaf of a and b, expanded to the finest level, with exactly the same log-odds; returns the leaves.
+size_t expectSameLeaves(const octomap::OcTree& a, const octomap::OcTree& b) {
+  size_t n = 0, differ = 0, missing = 0;
+  const auto walk = [&](const octomap::OcTree& x, const octomap::OcTree& y, bool count) {
+    for (auto it = x.begin_leafs(), end = x.end_leafs(); it != end; ++it) {
+      const unsigned side = 1u << (16 - it.getDepth());
+      const octomap::OcTreeKey base = it.getIndexKey();
+      for (unsigned i = 0; i < side; ++i)
+        for (unsigned j = 0; j < side; ++j)
+          for (unsigned k = 0; k < side; ++k) {
+            const octomap::OcTreeKey key(base[0] + i, base[1] + j, base[2] + k);
+            const octomap::OcTreeNode* other = y.search(key);
+            if (count) ++n;
+            if (!other)
+              ++missing;
+            else if (other->getLogOdds() != it->getLogOdds())
+              ++differ;
+          }
+    }
+  };
+  walk(a, b, true);
+  walk(b, a, false);
+  EXPECT_EQ(missing, 0u) << "leaves known in one tree only";
+  EXPECT_EQ(differ, 0u) << "leaves with different log-odds";
+  return n;
+}
+
+TEST(OccupancyMap, APartialRebuildRecomputesOnlyWhereKeyframesMovedAndEqualsAWholeRebuild) {
+  const OccupancyMapConfig config = testConfig();
+  const auto& kf = makeSynthKeyframes("loop", 16);
+  // The room twice, 20 m apart: keyframes 0-15 and 100-115 (the second copy).
+  const SE3 far(Eigen::Translation3d(20.0, 0.0, 0.0));
+  std::vector<std::pair<KeyframeCloud, SE3>> all;
+  for (size_t i = 0; i < kf.clouds.size(); ++i) all.push_back({kf.clouds[i], kf.T_world_cam[i]});
+  for (size_t i = 0; i < kf.clouds.size(); ++i) {
+    KeyframeCloud c = kf.clouds[i];
+    c.keyframe_id = 100 + static_cast<int64_t>(i);
+    all.push_back({std::move(c), far * kf.T_world_cam[i]});
+  }
+  OccupancyMap map(config);
+  for (const auto& [cloud, T] : all) ASSERT_TRUE(map.insert(cloud, 0, T).ok());
+
+  // A loop correction of the second copy's last three keyframes (0.2 m and 3 deg) while every other
+  // keyframe moves 1 cm, below the thresholds: those stay where they are integrated.
+  const SE3 correction = Eigen::Translation3d(0.1, 0.17, 0.0) * Eigen::AngleAxisd(0.05, Vec3::UnitZ());
+  std::map<int64_t, std::pair<int, SE3>> poses;
+  std::vector<SE3> expected;  // where each keyframe is integrated after the rebuild
+  for (const auto& [cloud, T] : all) {
+    const bool moved = cloud.keyframe_id >= 113;
+    poses[cloud.keyframe_id] = {
+        0, moved ? SE3(far * correction * far.inverse() * T) : SE3(Eigen::Translation3d(0.0, 0.01, 0.0) * T)};
+    expected.push_back(moved ? poses[cloud.keyframe_id].second : T);
+  }
+  const uint64_t revision = map.revision(0);
+  EXPECT_TRUE(map.updatePoses(poses));
+  ASSERT_TRUE(map.waitIdle(60.0));
+  const OccupancyMapStats s = map.stats();
+  EXPECT_EQ(s.rebuilds, 1u);
+  EXPECT_EQ(s.partial_rebuilds, 1u);
+  // The three moved keyframes are cast twice (old and new poses) plus at most the second copy's other 13:
+  // nothing of the first room, 20 m away.
+  EXPECT_GE(s.last_rebuild_keyframes, 6u);
+  EXPECT_LE(s.last_rebuild_keyframes, 19u);
+  EXPECT_GT(map.revision(0), revision);
+
+  // The same tree as integrating every cloud afresh where the map has it now.
+  OccupancyMap reference(config);
+  for (size_t i = 0; i < all.size(); ++i) ASSERT_TRUE(reference.insert(all[i].first, 0, expected[i]).ok());
+  size_t leaves = 0;
+  map.read(0, [&](const octomap::OcTree& t) {
+    reference.read(0, [&](const octomap::OcTree& r) { leaves = expectSameLeaves(t, r); });
+  });
+  EXPECT_GT(leaves, 100000u);
+  EXPECT_EQ(countLeaves(map, 0), countLeaves(reference, 0)) << "pruned alike";
+
+  // Moving more than partial_rebuild_max_fraction of the keyframes rebuilds the whole tree.
+  std::map<int64_t, std::pair<int, SE3>> all_moved;
+  for (size_t i = 0; i < all.size(); ++i)
+    all_moved[all[i].first.keyframe_id] = {0, Eigen::Translation3d(0.2, 0.0, 0.0) * expected[i]};
+  EXPECT_TRUE(map.updatePoses(all_moved));
+  ASSERT_TRUE(map.waitIdle(60.0));
+  EXPECT_EQ(map.stats().rebuilds, 2u);
+  EXPECT_EQ(map.stats().partial_rebuilds, 1u);
+  EXPECT_EQ(map.stats().last_rebuild_keyframes, all.size());
+}
+
 TEST(OccupancyMap, ReadersNeverSeeAHalfBuiltTree) {
   const OccupancyMapConfig config = testConfig();
   const auto& kf = makeSynthKeyframes("sweep", 12);

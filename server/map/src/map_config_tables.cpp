@@ -21,6 +21,9 @@ const ConfigTable<OccupancyMapConfig>& occupancyMapConfigTable() {
                "an optimisation moving a keyframe more than this (or rotating it more than "
                "rebuild_rotation_rad) rebuilds its map in the background from the kept keyframe clouds")
           .add("rebuild_rotation_rad", &C::rebuild_rotation_rad, R::closed(0.0, 3.15), "")
+          .add("partial_rebuild_max_fraction", &C::partial_rebuild_max_fraction, R::closed(0.0, 1.0),
+               "when at most this fraction of a map's keyframes moved, a rebuild recomputes only the "
+               "octree cells their rays touch (same result); 0: always the whole tree")
           .add("pixel_stride", &C::pixel_stride, R::closed(0, 64),
                "depth pixel sampling step; 0: automatic (3 at 0.05 m, 1 at 0.02 m for fx 517)")
           .add("cloud_voxel_fraction", &C::cloud_voxel_fraction, R::closed(0.0, 1.0),

@@ -41,6 +41,8 @@ Status OccupancyMap::insert(KeyframeCloud cloud, int map_id, const SE3& T_map_ca
     e.map_id = map_id;
     e.T_map_cam = T_map_cam;
     e.order = next_order_++;
+    e.box_cam.extend(Eigen::Vector3f::Zero());
+    for (const Eigen::Vector3f& p : e.cloud->points_cam) e.box_cam.extend(p);
     std::shared_ptr<Slot>& s = slots_[map_id];
     if (!s) {
       s = std::make_shared<Slot>(map_id);
@@ -206,6 +208,8 @@ OccupancyMapStats OccupancyMap::stats() const {
     s.keyframes = entries_.size();
     for (const auto& [id, e] : entries_) s.clouds_memory_bytes += e.cloud->memoryBytes();
     s.rebuilds = rebuilds_;
+    s.partial_rebuilds = partial_rebuilds_;
+    s.last_rebuild_keyframes = last_rebuild_keyframes_;
     s.last_rebuild_ms = last_rebuild_ms_;
     s.last_rebuild_cpu_ms = last_rebuild_cpu_ms_;
     s.pending_rebuilds = dirty_.size() + (busy_ ? 1 : 0);

@@ -19,6 +19,7 @@
 #include <vector>
 
 #include <Eigen/Core>
+#include <Eigen/Geometry>
 #include <opencv2/core.hpp>
 
 #include "rgbdmap/common/camera.hpp"
@@ -42,6 +43,11 @@ struct OccupancyMapConfig {
   double rebuild_translation_m =
       0.03;  ///< a keyframe moved more than this (or rotation below) triggers a rebuild
   double rebuild_rotation_rad = 0.02;
+  /// A rebuild re-integrates only what moved when the keyframes that moved (or joined or left the map) are at
+  /// most this fraction of the map's keyframes: the octree cells their rays touch, at the old and the new
+  /// poses, are recomputed from every keyframe whose rays reach them (the result equals a whole rebuild).
+  /// Above it, or 0, the whole tree is rebuilt from every kept cloud.
+  double partial_rebuild_max_fraction = 0.5;
   /// Pixel sampling step in both image directions (1 = every pixel). 0 = automatic: the largest step whose
   /// footprint at max_range_m stays within one cloud voxel (stride * max_range / fx <= cloud voxel), i.e.
   /// 3 at 0.05 m and 1 at 0.02 m for a 517 px focal length; reading more pixels adds no voxels.
@@ -93,12 +99,14 @@ struct OccupancyMapStats {
   int maps = 0;
   size_t keyframes = 0;
   size_t leaf_nodes = 0, occupied_leaves = 0, free_leaves = 0;
-  size_t tree_memory_bytes = 0;      ///< octomap::OcTree::memoryUsage() summed over the trees
-  size_t clouds_memory_bytes = 0;    ///< kept keyframe clouds
-  uint64_t rebuilds = 0;             ///< trees rebuilt and swapped in
-  double last_rebuild_ms = 0.0;      ///< wall time of the last rebuild (build + catch-up)
-  double last_rebuild_cpu_ms = 0.0;  ///< the worker thread's CPU time for it (wall time minus waiting)
-  size_t pending_rebuilds = 0;       ///< map ids waiting for (or in) a rebuild
+  size_t tree_memory_bytes = 0;       ///< octomap::OcTree::memoryUsage() summed over the trees
+  size_t clouds_memory_bytes = 0;     ///< kept keyframe clouds
+  uint64_t rebuilds = 0;              ///< trees rebuilt and swapped in, or updated where keyframes moved
+  uint64_t partial_rebuilds = 0;      ///< of them, updated only where keyframes moved
+  size_t last_rebuild_keyframes = 0;  ///< clouds the last rebuild integrated (cast), moved ones twice
+  double last_rebuild_ms = 0.0;       ///< wall time of the last rebuild (build + catch-up)
+  double last_rebuild_cpu_ms = 0.0;   ///< the worker thread's CPU time for it (wall time minus waiting)
+  size_t pending_rebuilds = 0;        ///< map ids waiting for (or in) a rebuild
 };
 
 /// A partial or full octree for a map stream (see OccupancyMap::streamSince and map_io.hpp).
@@ -153,7 +161,9 @@ class OccupancyMap {
     std::shared_ptr<const KeyframeCloud> cloud;
     int map_id = 0;
     SE3 T_map_cam = SE3::Identity();
-    uint64_t order = 0;     ///< insertion order (rebuilds integrate in it)
+    uint64_t order = 0;  ///< insertion order (rebuilds integrate in it)
+    Eigen::AlignedBox3f
+        box_cam;            ///< the cloud's points and the camera centre (bounds every ray), camera frame
     bool inserting = true;  ///< registered, its insert() has not integrated it yet
   };
   void integrateInserted(int64_t keyframe_id, const std::shared_ptr<Slot>& slot);
@@ -161,6 +171,9 @@ class OccupancyMap {
   void markDirtyLocked(int map_id);
   void rebuildNext();  ///< a task on rebuild_worker_: one per map id that became dirty
   void rebuild(int map_id);
+  /// Updates map_id's tree only where keyframes moved (see partial_rebuild_max_fraction); false when that
+  /// does not apply (too many moved, no tree yet) and the caller rebuilds the whole tree.
+  bool rebuildPartly(int map_id);
 
   const OccupancyMapConfig config_;
   mutable std::mutex mutex_;  ///< entries_, slots_, slots' integrated poses, dirty_, counters
@@ -172,6 +185,8 @@ class OccupancyMap {
   uint64_t next_order_ = 0;
   uint64_t next_revision_ = 1;
   uint64_t rebuilds_ = 0;
+  uint64_t partial_rebuilds_ = 0;
+  size_t last_rebuild_keyframes_ = 0;
   double last_rebuild_ms_ = 0.0;
   double last_rebuild_cpu_ms_ = 0.0;
   SerialWorker rebuild_worker_{SerialWorkerOptions{"rgbdmap-rebuild", 0, 0.0, {}}};  ///< last: stopped first
