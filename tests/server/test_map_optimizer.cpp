@@ -8,6 +8,7 @@
 #include <chrono>
 #include <condition_variable>
 #include <cstdio>
+#include <functional>
 #include <mutex>
 #include <random>
 
@@ -68,9 +69,11 @@ struct Outcome {
 
 /// Feeds the scene keyframe by keyframe (odometry with drift, loops to the 3 previous keyframes with their
 /// true matches), optionally a false loop, then asks for a global BA; returns the keyframe position error.
-Outcome runScene(const BaSynthScene& s, bool ba, bool false_loop) {
+Outcome runScene(const BaSynthScene& s, bool ba, bool false_loop,
+                 const std::function<void(MapOptimizerConfig*)>& adjust = {}, bool one_at_a_time = false) {
   MapOptimizerConfig config;
   config.ba.enabled = ba;
+  if (adjust) adjust(&config);
   Collector results;
   MapOptimizer optimizer(config, [&](const std::shared_ptr<const MapOptimization>& r) { results(r); });
   std::mt19937 rng(3);
@@ -103,6 +106,7 @@ Outcome runScene(const BaSynthScene& s, bool ba, bool false_loop) {
       b.solve = true;
     }
     revision = optimizer.submit(std::move(b));
+    if (one_at_a_time) results.waitFor(revision);
   }
   OptimizerBatch global;
   global.global = true;
@@ -141,6 +145,32 @@ TEST(MapOptimizer, BundleAdjustmentBeatsThePoseGraphAlone) {
   EXPECT_GT(ba.local_runs, 0);
   EXPECT_GT(ba.global_runs, 0);
   EXPECT_EQ(graph_only.result->ba.landmarks.landmarks, 0);
+}
+
+TEST(MapOptimizer, GlobalBundleAdjustmentsAfterLargeCyclesWaitForTheMapToGrow) {
+  const BaSynthScene s = scene();
+  // Every loop (2 and 3 keyframes back) counts as a large cycle here; one batch at a time, so no batches
+  // coalesce. Without the growth rule each batch with a loop gets a global BA; with it, one only after the
+  // map grew by half since the last (k = 2, 3, 5, 8, 12, 18, 27 at most) plus the final requested one.
+  const auto span1 = [](MapOptimizerConfig* c) {
+    c->ba.global_after_loop_span = 1;
+    c->ba.global_min_growth_fraction = 0.0;
+  };
+  const auto span1_grow = [](MapOptimizerConfig* c) {
+    c->ba.global_after_loop_span = 1;
+    c->ba.global_min_growth_fraction = 0.5;
+  };
+  const Outcome every = runScene(s, true, false, span1, true);
+  const Outcome grown = runScene(s, true, false, span1_grow, true);
+  ASSERT_TRUE(every.result && grown.result);
+  std::printf(
+      "[ measured ] global BAs: %lld after every large cycle, %lld with the growth rule; rms %.5f / %.5f m\n",
+      static_cast<long long>(every.result->ba.global_runs),
+      static_cast<long long>(grown.result->ba.global_runs), every.rms_m, grown.rms_m);
+  EXPECT_GE(every.result->ba.global_runs, kKeyframes - 4);
+  EXPECT_LE(grown.result->ba.global_runs, 9);
+  EXPECT_GE(grown.result->ba.global_runs, 2);
+  EXPECT_LT(grown.rms_m, 0.004);  // the final global BA gives the same accuracy
 }
 
 TEST(MapOptimizer, AFalseLoopNeverEntersTheTracks) {

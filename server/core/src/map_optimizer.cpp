@@ -74,16 +74,21 @@ void MapOptimizer::processPending() {
   applyAdditions(b);
   OptimizedPoses solve;
   const bool solved = b.solve && needsSolve(b) && solveGraph(&solve);
-  const bool large_cycle = updateTracks();
+  bool chains_joined = false;
+  const bool large_cycle = updateTracks(&chains_joined);
   if (config_.ba.enabled) {
     std::vector<int64_t> ids;
     for (const LandmarkKeyframe& k : b.keyframes) ids.push_back(k.id);
     adjustNewKeyframes(ids);
     std::set<int> maps;
     for (const auto& [map, added] : added_since_global_)
-      if (config_.ba.global_every_keyframes > 0 && added >= config_.ba.global_every_keyframes)
+      if (config_.ba.global_every_keyframes > 0 && added >= config_.ba.global_every_keyframes &&
+          grownEnough(map))
         maps.insert(map);
-    if (b.global || large_cycle) maps.insert(changed_maps_.begin(), changed_maps_.end());
+    if (b.global || chains_joined) maps.insert(changed_maps_.begin(), changed_maps_.end());
+    if (large_cycle)
+      for (int map : changed_maps_)
+        if (grownEnough(map)) maps.insert(map);
     adjustGlobally(maps);
   }
   if (cancel_) return;
@@ -200,7 +205,8 @@ bool MapOptimizer::isLargeCycle(const PoseGraphEdge& e) const {
   return std::abs(e.from - e.to) > config_.ba.global_after_loop_span;
 }
 
-bool MapOptimizer::updateTracks() {
+bool MapOptimizer::updateTracks(bool* chains_joined) {
+  *chains_joined = false;
   if (!config_.ba.enabled) return false;
   const std::vector<int64_t>& disabled = graph_.disabledEdges();
   for (int64_t id : disabled) {
@@ -223,6 +229,7 @@ bool MapOptimizer::updateTracks() {
     landmarks_.addMatches(it->second.matches);
     changed_maps_.insert(map_of_[e->from]);
     large = large || isLargeCycle(*e);
+    *chains_joined = *chains_joined || chain_of_.at(e->from) != chain_of_.at(e->to);
     in_tracks_[it->first] = std::move(it->second.matches);
     it = waiting_.erase(it);
     ++counters_.edges_in_tracks;
@@ -266,6 +273,15 @@ std::vector<int64_t> MapOptimizer::odometryNeighbours(int64_t id) const {
     if (const PoseGraphEdge* e = graph_.edge(e_id); e && e->kind == EdgeKind::kOdometry)
       out.push_back(e->from == id ? e->to : e->from);
   return out;
+}
+
+bool MapOptimizer::grownEnough(int map) const {
+  if (!(config_.ba.global_min_growth_fraction > 0.0)) return true;
+  size_t keyframes = 0;
+  for (const auto& [id, m] : map_of_) keyframes += m == map;
+  const auto it = added_since_global_.find(map);
+  const int added = it == added_since_global_.end() ? 0 : it->second;
+  return added >= config_.ba.global_min_growth_fraction * static_cast<double>(keyframes);
 }
 
 void MapOptimizer::adjustGlobally(const std::set<int>& maps) {

@@ -85,8 +85,11 @@ class MapOptimizer {
   /// Whether the batch's loops need a whole-graph solve (PoseGraphConfig::solve_above_chi2); when not,
   /// its loop edges count as judged (kept) without one.
   bool needsSolve(const OptimizerBatch& b);
-  /// Matches of kept edges into the tracks, of disabled edges out. Returns whether a large cycle closed.
-  bool updateTracks();
+  /// Matches of kept edges into the tracks, of disabled edges out. Returns whether a large cycle closed;
+  /// *chains_joined: whether an edge between two chains (a merge, a split rejoined) came into the tracks.
+  bool updateTracks(bool* chains_joined);
+  /// Whether the map grew by global_min_growth_fraction of its keyframes since its last global BA.
+  bool grownEnough(int map) const;
   void adjustNewKeyframes(const std::vector<int64_t>& ids);
   void adjustGlobally(const std::set<int>& maps);
   void applyBundle(const BundleResult& r);

@@ -91,6 +91,10 @@ const ConfigTable<BundleAdjustmentConfig>& bundleAdjustmentConfigTable() {
                "global BA")
           .add("global_every_keyframes", &B::global_every_keyframes, R::closed(0, 1000000),
                "a global BA after this many new keyframes of a map (0: not for growth alone)")
+          .add("global_min_growth_fraction", &B::global_min_growth_fraction, R::closed(0.0, 10.0),
+               "a global BA for growth or after a large cycle waits until the map has grown by this "
+               "fraction of its keyframes since its last one (cost per keyframe flat in map size; 0: no "
+               "wait)")
           .add("global_when_idle_s", &B::global_when_idle_s, R::closed(0.0, 3600.0),
                "a global BA of a changed map once no keyframe came for this long (0: only on request)")
           .nest("", &B::landmarks, landmarkMapConfigTable());

@@ -27,6 +27,12 @@ struct BundleAdjustmentConfig {
   int global_after_loop_span = 30;
   /// A map with this many keyframes added since its last global BA gets one (0: never for growth alone).
   int global_every_keyframes = 50;
+  /// A global BA for growth or after a large cycle waits until the map has grown by this fraction of its
+  /// keyframes since its last one, so its cost (linear in the map, up to the landmark map's observation cap)
+  /// stays constant per keyframe as the map grows. Joined chains (a merge), an explicit request (waitIdle)
+  /// and a quiet map are not held back.
+  /// 0: no wait.
+  double global_min_growth_fraction = 0.1;
   /// A map changed since its last global BA gets one once no keyframe came for this long (0: only when
   /// asked, e.g. by waitIdle).
   double global_when_idle_s = 2.0;
