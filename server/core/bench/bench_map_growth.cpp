@@ -36,6 +36,7 @@
 #include <string>
 #include <vector>
 
+#include "bench_acks.hpp"
 #include "rgbdmap/common/evaluation.hpp"
 #include "rgbdmap/common/image_codec.hpp"
 #include "rgbdmap/common/logging.hpp"
@@ -190,16 +191,6 @@ SE3 noisyMotion(const SE3& T, std::mt19937& rng) {
   return T * se3::exp(xi);
 }
 
-struct AckWaiter {
-  std::mutex mutex;
-  std::condition_variable cv;
-  std::set<int> acked;
-  bool waitFor(int id, double timeout_s) {
-    std::unique_lock<std::mutex> lock(mutex);
-    return cv.wait_for(lock, std::chrono::duration<double>(timeout_s), [&] { return acked.count(id) > 0; });
-  }
-};
-
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -233,19 +224,7 @@ int main(int argc, char** argv) {
   MapServer server(config, *transport, msg::KeyStore::openMode());
   if (!server.start() || !transport->start()) return 1;
 
-  AckWaiter acks;
-  msg::KeyStore open = msg::KeyStore::openMode();
-  msg::ReplayGuard guard;
-  (void)transport->subscribe(*msg::channelFor(msg::MessageType::kKeyframeAck, "robot0"),
-                             [&](const std::string&, const uint8_t* data, size_t size) {
-                               auto e = msg::openEnvelope(data, size, open, &guard);
-                               if (!e) return;
-                               auto ack = msg::decodeMessage<msg::KeyframeAck>(*e);
-                               if (!ack) return;
-                               std::lock_guard<std::mutex> lock(acks.mutex);
-                               acks.acked.insert(ack->keyframe_id);
-                               acks.cv.notify_all();
-                             });
+  bench::AckWaiter acks(*transport);
   msg::Signer signer("robot0", {});
   msg::Hello hello;
   hello.robot_id = "robot0";

@@ -15,6 +15,7 @@
 
 #include <opencv2/core.hpp>
 
+#include "bench_acks.hpp"
 #include "rgbdmap/client/odometry.hpp"
 #include "rgbdmap/common/synth.hpp"
 #include "rgbdmap/common/tum_dataset.hpp"
@@ -88,21 +89,7 @@ int main(int argc, char** argv) {
   MapServer server(config, *transport, msg::KeyStore::openMode());
   if (!server.start() || !transport->start()) return 1;
 
-  std::mutex mutex;
-  std::condition_variable cv;
-  std::set<int> acked;
-  msg::KeyStore open = msg::KeyStore::openMode();
-  msg::ReplayGuard guard;
-  (void)transport->subscribe(*msg::channelFor(msg::MessageType::kKeyframeAck, "robot0"),
-                             [&](const std::string&, const uint8_t* data, size_t size) {
-                               auto e = msg::openEnvelope(data, size, open, &guard);
-                               if (!e) return;
-                               auto ack = msg::decodeMessage<msg::KeyframeAck>(*e);
-                               if (!ack) return;
-                               std::lock_guard<std::mutex> lock(mutex);
-                               acked.insert(ack->keyframe_id);
-                               cv.notify_all();
-                             });
+  bench::AckWaiter acks(*transport);
   msg::Signer signer("robot0", {});
   msg::Hello hello;
   hello.robot_id = "robot0";
@@ -113,9 +100,7 @@ int main(int argc, char** argv) {
   for (const msg::Keyframe& kf : seq.keyframes) {
     (void)transport->publish(*msg::channelFor(msg::MessageType::kKeyframe, "robot0"),
                              signer.seal(kf, 1).value());
-    std::unique_lock<std::mutex> lock(mutex);
-    cv.wait_for(lock, std::chrono::seconds(30), [&] { return acked.count(kf.keyframe_id) > 0; });
-    lock.unlock();
+    (void)acks.waitFor(kf.keyframe_id, 30.0);
     server.waitIdle(30.0);  // one keyframe at a time (its octree insertion too): no queueing in the numbers
   }
   const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();

@@ -225,6 +225,23 @@ void BM_MapSizes(benchmark::State& state) {
   state.counters["partial_leaves"] = double(partial.changed_leaves);
 }
 
+/// One stream of what the last keyframe changed (the map worker's call, per robot and stream period), and
+/// one of the whole tree (a consumer that has nothing yet, or after a rebuild).
+void BM_Stream(benchmark::State& state) {
+  const OccupancyMapConfig config = configAt(state.range(0) / 100.0);
+  const std::vector<KeyframeCloud> clouds = makeClouds(config);
+  const Keyframes& k = keyframes();
+  OccupancyMap map(config);
+  for (size_t i = 0; i + 1 < clouds.size(); ++i) map.insert(clouds[i], 0, k.T_map_cam[i]);
+  const uint64_t before_last = map.revision(0);
+  map.insert(clouds.back(), 0, k.T_map_cam.back());
+  const bool whole = state.range(1) != 0;
+  MapStreamChunk chunk;
+  for (auto _ : state) chunk = *map.streamSince(0, whole ? 0 : before_last);
+  state.counters["bytes"] = double(chunk.bytes.size());
+  state.counters["full"] = chunk.full ? 1.0 : 0.0;
+}
+
 }  // namespace
 
 BENCHMARK(BM_MakeKeyframeCloud)->Arg(5)->Arg(2)->Unit(benchmark::kMillisecond);
@@ -233,4 +250,5 @@ BENCHMARK(BM_InsertOctomapDiscretized)->Arg(5)->Arg(2)->Unit(benchmark::kMillise
 BENCHMARK(BM_RebuildWholeMap)->Arg(5)->Arg(2)->Unit(benchmark::kMillisecond)->Iterations(1)->UseRealTime();
 BENCHMARK(BM_Slice8mAt5cm)->Arg(5)->Arg(2)->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_MapSizes)->Arg(5)->Arg(2)->Unit(benchmark::kMillisecond)->Iterations(1);
+BENCHMARK(BM_Stream)->Args({5, 0})->Args({5, 1})->Unit(benchmark::kMillisecond);
 BENCHMARK_MAIN();

@@ -1,5 +1,6 @@
 // Map stream bytes: a full tree, or only the leaves changed since the consumer's revision; and the
 // receiver's side (applying either to its copy), plus the summary `rgbdmap view-map` prints.
+#include <optional>
 #include <shared_mutex>
 
 #include "occupancy_map_slot.hpp"
@@ -23,24 +24,38 @@ Result<MapStreamChunk> OccupancyMap::streamSince(int map_id, uint64_t since) con
   MapStreamChunk chunk;
   chunk.map_id = map_id;
   chunk.revision = slot->revision;
+  // The changed leaves first, when the journal covers `since`: the full tree writes two bytes per inner
+  // node, so it is at least (nodes - 1) / 4 bytes (nodes = inner + leaves <= 8 * inner + 1); a partial
+  // below that is the smaller one without writing the whole tree (O(map), for every robot, every period).
+  std::optional<std::vector<uint8_t>> partial_bytes;
+  size_t changed = 0;
+  if (since != 0 && since >= slot->journal_base && since <= slot->revision) {
+    octomap::OcTree partial(slot->tree->getResolution());
+    const auto& journal = slot->journal;
+    for (auto it = journal.by_revision.upper_bound(since); it != journal.by_revision.end(); ++it)
+      for (const octomap::OcTreeKey& key : it->second) {
+        if (journal.latest.at(key) != it->first) continue;  // listed again under a later revision
+        if (const octomap::OcTreeNode* node = slot->tree->search(key)) {
+          partial.setNodeValue(key, node->getLogOdds(), true);
+          ++changed;
+        }
+      }
+    if (Result<std::vector<uint8_t>> bytes = serializeTree(partial)) partial_bytes = std::move(*bytes);
+    const size_t nodes = slot->tree->size();
+    if (partial_bytes && partial_bytes->size() < (nodes > 0 ? (nodes - 1) / 4 : 0)) {
+      chunk.full = false;
+      chunk.changed_leaves = changed;
+      chunk.bytes = std::move(*partial_bytes);
+      return chunk;
+    }
+  }
   Result<std::vector<uint8_t>> full = serializeTree(*slot->tree);
   if (!full) return R::failure(full.error());
   chunk.bytes = std::move(*full);
-  if (since == 0 || since < slot->journal_base || since > slot->revision) return chunk;
-  octomap::OcTree partial(slot->tree->getResolution());
-  size_t changed = 0;
-  for (const auto& [key, revision] : slot->journal) {
-    if (revision <= since) continue;
-    if (const octomap::OcTreeNode* node = slot->tree->search(key)) {
-      partial.setNodeValue(key, node->getLogOdds(), true);
-      ++changed;
-    }
-  }
-  Result<std::vector<uint8_t>> bytes = serializeTree(partial);
-  if (bytes && bytes->size() < chunk.bytes.size()) {
+  if (partial_bytes && partial_bytes->size() < chunk.bytes.size()) {
     chunk.full = false;
     chunk.changed_leaves = changed;
-    chunk.bytes = std::move(*bytes);
+    chunk.bytes = std::move(*partial_bytes);
   }
   return chunk;
 }

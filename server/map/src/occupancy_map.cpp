@@ -83,9 +83,10 @@ void OccupancyMap::integrateInserted(int64_t keyframe_id, const std::shared_ptr<
     std::unique_lock<std::shared_mutex> tree_lock(slot->tree_mutex);
     detail::applyScanUpdate(slot->tree.get(), update);
     for (auto it = slot->tree->changedKeysBegin(); it != slot->tree->changedKeysEnd(); ++it)
-      slot->journal[it->first] = revision;
+      slot->journal.record(it->first, revision);
     slot->tree->resetChangeDetection();
-    if (slot->journal.size() > config_.stream_journal_max_keys) {
+    if (slot->journal.size() > config_.stream_journal_max_keys ||
+        slot->journal.entries > 2 * config_.stream_journal_max_keys) {
       slot->journal.clear();
       slot->journal_base = revision;
     }

@@ -5,6 +5,7 @@
 #include <mutex>
 #include <shared_mutex>
 #include <unordered_map>
+#include <vector>
 
 #include <octomap/OcTree.h>
 
@@ -22,9 +23,27 @@ struct OccupancyMap::Slot {
   mutable std::shared_mutex tree_mutex;   ///< readers shared; applying an update or a swap exclusive
   std::unique_ptr<octomap::OcTree> tree;  ///< nullptr until the first rebuild of a map created by a merge
   uint64_t revision = 0;
-  /// Changed leaves (new, or occupied <-> free) since journal_base with the revision that changed them;
-  /// cleared on a swap or when it outgrows the config's cap.
-  std::unordered_map<octomap::OcTreeKey, uint64_t, octomap::OcTreeKey::KeyHash> journal;
+  /// Changed leaves (new, or occupied <-> free) since journal_base with the revision that changed them,
+  /// also listed by revision so a stream reads only what changed after its consumer's revision (not the
+  /// whole journal); cleared on a swap or when it outgrows the config's cap.
+  struct Journal {
+    std::unordered_map<octomap::OcTreeKey, uint64_t, octomap::OcTreeKey::KeyHash> latest;
+    std::map<uint64_t, std::vector<octomap::OcTreeKey>>
+        by_revision;     ///< a key under each revision that changed it
+    size_t entries = 0;  ///< keys listed in by_revision
+    void record(const octomap::OcTreeKey& key, uint64_t revision) {
+      latest[key] = revision;
+      by_revision[revision].push_back(key);
+      ++entries;
+    }
+    void clear() {
+      latest.clear();
+      by_revision.clear();
+      entries = 0;
+    }
+    size_t size() const { return latest.size(); }
+  };
+  Journal journal;
   uint64_t journal_base = 0;
   /// Keyframe id -> pose it is integrated at in `tree` (guarded by OccupancyMap::mutex_).
   std::map<int64_t, SE3> integrated;

@@ -298,16 +298,21 @@ bool OccupancyMap::rebuildPartly(int map_id) {
     else
       slot->integrated.erase(id);
   }
-  ++rebuilds_;
   ++partial_rebuilds_;
-  last_rebuild_keyframes_ = cast;
+  finishRebuildLocked(map_id, cast, t0, cpu0);
+  return true;
+}
+
+void OccupancyMap::finishRebuildLocked(int map_id, size_t keyframes_cast,
+                                       std::chrono::steady_clock::time_point t0, double cpu0) {
+  ++rebuilds_;
+  last_rebuild_keyframes_ = keyframes_cast;
   last_rebuild_ms_ = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
   last_rebuild_cpu_ms_ = threadCpuMs() - cpu0;
   if (isDirtyLocked(map_id))
     markDirtyLocked(map_id);  // moved again meanwhile: one more rebuild (coalesced)
   else
     dirty_.erase(map_id);
-  return true;
 }
 
 void OccupancyMap::rebuildNext() {
@@ -383,15 +388,9 @@ void OccupancyMap::rebuild(int map_id) {
     slot->journal_base = revision;
   }
   std::lock_guard<std::mutex> lock(mutex_);
-  last_rebuild_keyframes_ = integrated.size();
+  const size_t cast = integrated.size();
   slot->integrated = std::move(integrated);
-  ++rebuilds_;
-  last_rebuild_ms_ = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
-  last_rebuild_cpu_ms_ = threadCpuMs() - cpu0;
-  if (isDirtyLocked(map_id))
-    markDirtyLocked(map_id);  // moved again meanwhile: one more rebuild (coalesced)
-  else
-    dirty_.erase(map_id);
+  finishRebuildLocked(map_id, cast, t0, cpu0);
 }
 
 }  // namespace rgbdmap

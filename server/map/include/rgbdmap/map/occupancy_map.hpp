@@ -5,6 +5,7 @@
 // Algorithms only: plain structs in and out, no transport, no files (map_io.hpp does bytes and files).
 #include <array>
 #include <atomic>
+#include <chrono>
 #include <condition_variable>
 #include <cstddef>
 #include <cstdint>
@@ -174,6 +175,9 @@ class OccupancyMap {
   /// Updates map_id's tree only where keyframes moved (see partial_rebuild_max_fraction); false when that
   /// does not apply (too many moved, no tree yet) and the caller rebuilds the whole tree.
   bool rebuildPartly(int map_id);
+  /// Counters and timing of a finished rebuild; marks the map dirty again if it moved meanwhile.
+  void finishRebuildLocked(int map_id, size_t keyframes_cast, std::chrono::steady_clock::time_point t0,
+                           double cpu0);
 
   const OccupancyMapConfig config_;
   mutable std::mutex mutex_;  ///< entries_, slots_, slots' integrated poses, dirty_, counters
