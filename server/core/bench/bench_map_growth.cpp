@@ -36,7 +36,7 @@
 #include <string>
 #include <vector>
 
-#include "bench_acks.hpp"
+#include "bench_common.hpp"
 #include "rgbdmap/common/evaluation.hpp"
 #include "rgbdmap/common/image_codec.hpp"
 #include "rgbdmap/common/logging.hpp"
@@ -212,25 +212,17 @@ int main(int argc, char** argv) {
   const std::vector<int> plan = lapPlan((o.keyframes + o.per_lap - 1) / o.per_lap, o.revisit_every);
 
   auto transport = std::move(transport::makeTransport("memq://").value());
-  MapServerConfig config;
-  config.map_dir = o.map_dir.empty()
-                       ? (std::filesystem::temp_directory_path() / "rgbdmap_bench_map_growth").string()
-                       : o.map_dir;
+  MapServerConfig config = bench::serverConfig(
+      o.map_dir.empty() ? (std::filesystem::temp_directory_path() / "rgbdmap_bench_map_growth").string()
+                        : o.map_dir,
+      o.occupancy);
   std::filesystem::remove_all(config.map_dir);
-  config.robots = {"robot0"};
-  config.store_sync = true;
-  config.graph.num_threads = 1;
-  config.occupancy_enabled = o.occupancy;
   MapServer server(config, *transport, msg::KeyStore::openMode());
   if (!server.start() || !transport->start()) return 1;
 
   bench::AckWaiter acks(*transport);
   msg::Signer signer("robot0", {});
-  msg::Hello hello;
-  hello.robot_id = "robot0";
-  hello.camera = world.camera();
-  (void)transport->publish(*msg::channelFor(msg::MessageType::kHello, "robot0"),
-                           signer.seal(hello, 1).value());
+  bench::sayHello(*transport, signer, world.camera());
 
   std::printf(
       "bench_map_growth: %d keyframes, %d per lap, %zu laps over %d rooms (a revisit after every %d), "

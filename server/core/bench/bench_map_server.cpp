@@ -15,7 +15,7 @@
 
 #include <opencv2/core.hpp>
 
-#include "bench_acks.hpp"
+#include "bench_common.hpp"
 #include "rgbdmap/client/odometry.hpp"
 #include "rgbdmap/common/synth.hpp"
 #include "rgbdmap/common/tum_dataset.hpp"
@@ -79,23 +79,15 @@ int main(int argc, char** argv) {
   log::setLevel(log::Level::kWarn);
   const Sequence seq = prepare(robot_features);
   auto transport = std::move(transport::makeTransport("memq://").value());
-  MapServerConfig config;
-  config.map_dir = (std::filesystem::temp_directory_path() / "rgbdmap_bench_map_server").string();
+  MapServerConfig config = bench::serverConfig(
+      (std::filesystem::temp_directory_path() / "rgbdmap_bench_map_server").string(), occupancy);
   std::filesystem::remove_all(config.map_dir);
-  config.robots = {"robot0"};
-  config.store_sync = true;
-  config.graph.num_threads = 1;
-  config.occupancy_enabled = occupancy;
   MapServer server(config, *transport, msg::KeyStore::openMode());
   if (!server.start() || !transport->start()) return 1;
 
   bench::AckWaiter acks(*transport);
   msg::Signer signer("robot0", {});
-  msg::Hello hello;
-  hello.robot_id = "robot0";
-  hello.camera = seq.camera;
-  (void)transport->publish(*msg::channelFor(msg::MessageType::kHello, "robot0"),
-                           signer.seal(hello, 1).value());
+  bench::sayHello(*transport, signer, seq.camera);
   const auto t0 = std::chrono::steady_clock::now();
   for (const msg::Keyframe& kf : seq.keyframes) {
     (void)transport->publish(*msg::channelFor(msg::MessageType::kKeyframe, "robot0"),

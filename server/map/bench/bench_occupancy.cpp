@@ -10,6 +10,7 @@
 #include <chrono>
 #include <cstdio>
 #include <ctime>
+#include <memory>
 
 #include "rgbdmap/common/association.hpp"
 #include "rgbdmap/common/synth.hpp"
@@ -196,16 +197,24 @@ void BM_Slice8mAt5cm(benchmark::State& state) {
   state.counters["known_cells"] = double(known);
 }
 
+/// Every keyframe inserted into one map; *before_last: its revision before the last keyframe.
+std::unique_ptr<OccupancyMap> wholeMap(const OccupancyMapConfig& config, uint64_t* before_last) {
+  const std::vector<KeyframeCloud> clouds = makeClouds(config);
+  const Keyframes& k = keyframes();
+  auto map = std::make_unique<OccupancyMap>(config);
+  for (size_t i = 0; i + 1 < clouds.size(); ++i) map->insert(clouds[i], 0, k.T_map_cam[i]);
+  *before_last = map->revision(0);
+  map->insert(clouds.back(), 0, k.T_map_cam.back());
+  return map;
+}
+
 /// Sizes: tree memory, .bt bytes (raw and zstd), kept clouds, the raw point cloud of the same keyframes
 /// (every valid depth pixel as xyz float + rgb = 15 bytes), and a partial stream of the last keyframe.
 void BM_MapSizes(benchmark::State& state) {
   const OccupancyMapConfig config = configAt(state.range(0) / 100.0);
-  const std::vector<KeyframeCloud> clouds = makeClouds(config);
-  const Keyframes& k = keyframes();
-  OccupancyMap map(config);
-  for (size_t i = 0; i + 1 < clouds.size(); ++i) map.insert(clouds[i], 0, k.T_map_cam[i]);
-  const uint64_t before_last = map.revision(0);
-  map.insert(clouds.back(), 0, k.T_map_cam.back());
+  uint64_t before_last = 0;
+  const std::unique_ptr<OccupancyMap> owned = wholeMap(config, &before_last);
+  OccupancyMap& map = *owned;
   MapStreamChunk full, partial;
   msg::MapUpdate update;
   for (auto _ : state) {
@@ -218,7 +227,7 @@ void BM_MapSizes(benchmark::State& state) {
   state.counters["bt_B"] = double(full.bytes.size());
   state.counters["bt_zstd_B"] = double(update.data.size());
   state.counters["kept_clouds_B"] = double(s.clouds_memory_bytes);
-  state.counters["raw_cloud_B"] = double(k.raw_points * 15);
+  state.counters["raw_cloud_B"] = double(keyframes().raw_points * 15);
   state.counters["partial_last_kf_B"] = partial.full ? -1.0 : double(partial.bytes.size());
   fillMapUpdate(partial, config.resolution_m, &update);
   state.counters["partial_zstd_B"] = double(update.data.size());
@@ -229,12 +238,9 @@ void BM_MapSizes(benchmark::State& state) {
 /// one of the whole tree (a consumer that has nothing yet, or after a rebuild).
 void BM_Stream(benchmark::State& state) {
   const OccupancyMapConfig config = configAt(state.range(0) / 100.0);
-  const std::vector<KeyframeCloud> clouds = makeClouds(config);
-  const Keyframes& k = keyframes();
-  OccupancyMap map(config);
-  for (size_t i = 0; i + 1 < clouds.size(); ++i) map.insert(clouds[i], 0, k.T_map_cam[i]);
-  const uint64_t before_last = map.revision(0);
-  map.insert(clouds.back(), 0, k.T_map_cam.back());
+  uint64_t before_last = 0;
+  const std::unique_ptr<OccupancyMap> owned = wholeMap(config, &before_last);
+  OccupancyMap& map = *owned;
   const bool whole = state.range(1) != 0;
   MapStreamChunk chunk;
   for (auto _ : state) chunk = *map.streamSince(0, whole ? 0 : before_last);

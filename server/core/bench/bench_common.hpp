@@ -1,16 +1,37 @@
 #pragma once
-// The server benches' stand-in for a robot's link: which keyframes of robot0 the server acknowledged.
+// What the server benches share: the server they run (one robot, robot0, open mode, fdatasync on, one
+// solver thread), robot0's Hello and a stand-in for its link (which keyframes the server acknowledged).
 #include <chrono>
 #include <condition_variable>
 #include <mutex>
 #include <set>
 #include <string>
 
+#include "rgbdmap/common/camera.hpp"
 #include "rgbdmap/proto/channels.hpp"
 #include "rgbdmap/proto/envelope.hpp"
+#include "rgbdmap/server/map_server.hpp"
 #include "rgbdmap/transport/transport.hpp"
 
 namespace rgbdmap::bench {
+
+inline MapServerConfig serverConfig(const std::string& map_dir, bool occupancy) {
+  MapServerConfig config;
+  config.map_dir = map_dir;
+  config.robots = {"robot0"};
+  config.store_sync = true;
+  config.graph.num_threads = 1;
+  config.occupancy_enabled = occupancy;
+  return config;
+}
+
+inline void sayHello(transport::Transport& transport, msg::Signer& signer, const CameraIntrinsics& camera) {
+  msg::Hello hello;
+  hello.robot_id = "robot0";
+  hello.camera = camera;
+  (void)transport.publish(*msg::channelFor(msg::MessageType::kHello, "robot0"),
+                          signer.seal(hello, 1).value());
+}
 
 /// Subscribes robot0's keyframe acks (open mode: the benches' server runs without keys).
 class AckWaiter {
