@@ -6,7 +6,7 @@
 # clients are done, evaluates every trajectory and the server's merged keyframes, and prints a summary.
 #
 # Usage: bash deploy/run_multiprocess.sh [--transport lcm|dds] [--robots N] [--dataset DIR] [--out DIR]
-#          [--frames F] [--check MAX_ATE_M] [--no-netns] [--viewer PORT] [--realtime]
+#          [--frames F] [--check MAX_ATE_M] [--no-netns] [--viewer PORT] [--realtime] [--record-keyframes]
 #   --frames F     frames of the synthetic sequence (default 300), or the first F frames of --dataset
 #   --check M      exit 1 unless every keyframe was acknowledged, all robots end in one map, the merged
 #                  keyframe ATE is below M metres and the monitor printed a status (used by the CI test)
@@ -14,6 +14,8 @@
 #                  monitor, stopped after the server (use --no-netns to reach it from a browser on this
 #                  machine); RGBDMAP_VIEWER_PROBE, if set, is a command run in the background once it listens
 #   --realtime     the clients read the sequence at its frame rate (30 Hz) instead of --fast
+#   --record-keyframes  each client also records what it sent: robots/<R>/keyframes_<R>.rkf (a keyframe
+#                  stream for rgbdmap-replay, deploy/bench_fleet.sh)
 #   --no-netns     run on the host network (the default re-runs itself inside tests/transport/run_in_netns.sh,
 #                  a private namespace with only loopback, when that is permitted)
 # RGBDMAP_SERVER_YAML, if set, is appended to the generated server.yaml (other sections, e.g.
@@ -24,7 +26,7 @@
 set -euo pipefail
 repo="$(cd "$(dirname "$0")/.." && pwd)"
 bin="${RGBDMAP_BIN:-$repo/build/bin}"
-transport=lcm robots=2 dataset="" out="" frames="" check="" netns=1 viewer= pace=--fast
+transport=lcm robots=2 dataset="" out="" frames="" check="" netns=1 viewer= pace=--fast record=0
 while [ $# -gt 0 ]; do
   case "$1" in
     --transport) transport="$2"; shift 2 ;;
@@ -36,7 +38,8 @@ while [ $# -gt 0 ]; do
     --no-netns) netns=0; shift ;;
     --viewer) viewer="$2"; shift 2 ;;
     --realtime) pace=""; shift ;;
-    -h|--help) sed -n '2,25p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
+    --record-keyframes) record=1; shift ;;
+    -h|--help) sed -n '2,27p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
     *) echo "unknown argument: $1 (see --help)" >&2; exit 2 ;;
   esac
 done
@@ -60,6 +63,7 @@ if [ "$netns" = 1 ] && [ -z "${RGBDMAP_TRANSPORT_NETNS:-}" ]; then
     [ -n "$check" ] && args+=(--check "$check")
     [ -n "$viewer" ] && args+=(--viewer "$viewer")
     [ -z "$pace" ] && args+=(--realtime)
+    [ "$record" = 1 ] && args+=(--record-keyframes)
     exec bash "$repo/tests/transport/run_in_netns.sh" bash "$0" "${args[@]}"
   fi
   echo "note: 'unshare -n' not permitted; running on the host network (loopback-only settings)" >&2
@@ -142,8 +146,9 @@ client_wraps=()
 for i in $(seq 0 $((robots - 1))); do
   r="${ids[$i]}"; rng=$(range "$i")
   echo "   $r: frames $rng"
+  rec=(); [ "$record" = 1 ] && rec=(--record-keyframes "$out/robots/$r/keyframes_$r.rkf")
   timed "client_$r" "$bin/rgbdmap-client" --config "$out/client_$r.yaml" --dataset "$dataset" $pace \
-    --frames "$rng" --out "$out/robots/$r" >"$out/logs/client_$r.log" 2>&1
+    --frames "$rng" --out "$out/robots/$r" "${rec[@]}" >"$out/logs/client_$r.log" 2>&1
   client_wraps+=($!); pids+=($!)
 done
 # A second monitor that exits after the first status it sees (what the CI test checks).

@@ -19,6 +19,7 @@
 #include "rgbdmap/cli/source_setup.hpp"
 #include "rgbdmap/common/logging.hpp"
 #include "rgbdmap/link/delivery_report.hpp"
+#include "rgbdmap/link/keyframe_stream.hpp"
 #include "rgbdmap/link/robot_client_config.hpp"
 #include "rgbdmap/source/frame_recorder.hpp"
 
@@ -44,6 +45,8 @@ const char* kUsage =
     "                          always runs at its own: the newest frame wins, missed ones are counted)\n"
     "  --record DIR            also write every frame the odometry consumed as a TUM-layout folder with\n"
     "                          camera.yaml (replay it with --dataset DIR)\n"
+    "  --record-keyframes FILE also write every keyframe sent, as sent, into FILE (a keyframe stream for\n"
+    "                          rgbdmap-replay; written at the end)\n"
     "  --frames A:B            frames A (inclusive) to B (exclusive); A: or :B leave one end open\n"
     "  --out DIR               output folder (default: out)\n"
     "  --threads N             OpenCV threads (default 1)\n"
@@ -56,7 +59,7 @@ constexpr int kExitKeyframesNotAccepted = 3;
 
 struct ClientArgs {
   std::optional<SourceUrl> source;
-  std::string out = "out", record;
+  std::string out = "out", record, record_keyframes;
   int first_frame = 0, end_frame = -1, threads = 1;
   bool fast = false;
 };
@@ -80,6 +83,7 @@ ClientArgs parseArgs(cli::Args& args, std::vector<std::string>* errors) {
   a.source = sourceUrlArgument(args, errors, true);
   a.out = args.getOr("out", a.out);
   a.record = args.getOr("record", "");
+  a.record_keyframes = args.getOr("record-keyframes", "");
   a.fast = args.has("fast");
   const long long threads = args.getInt("threads").value_or(1);
   if (threads < 1 || threads > 256) errors->push_back("--threads must be in [1, 256]");
@@ -161,8 +165,8 @@ int run(int argc, char** argv) {
   }
   SignalThread signals;
   auto allowed = datasetOptionNames();
-  allowed.insert(allowed.end(), {"dataset", "source", "record", "robot-id", "transport", "fast", "frames",
-                                 "out", "threads"});
+  allowed.insert(allowed.end(), {"dataset", "source", "record", "record-keyframes", "robot-id", "transport",
+                                 "fast", "frames", "out", "threads"});
   args.checkAllowed(allowed);
   std::vector<std::string> errors;
   applyLogLevel(args, &errors);
@@ -195,6 +199,11 @@ int run(int argc, char** argv) {
   logConfiguration("configuration in effect",
                    concatConfigValues(robotClientConfigValues(config), setup.effective));
 
+  std::unique_ptr<KeyframeStreamWriter> keyframe_recording;
+  if (!a.record_keyframes.empty()) {
+    keyframe_recording = std::make_unique<KeyframeStreamWriter>(a.record_keyframes, makeHello(config.link));
+    config.link.keyframe_tap = [w = keyframe_recording.get()](const msg::Bytes& p) { w->append(p); };
+  }
   RobotLink link(**transport, config.link);
   StopRequest stop;
   if (Status s = link.start(); !s) return log::error(s.error()), 1;
@@ -214,6 +223,13 @@ int run(int argc, char** argv) {
   if (recording) {
     if (Status s = recording->finish(); !s) return log::error(s.error()), 1;
     log::info("recorded ", recording->recorded(), " frames into ", a.record);
+  }
+  if (keyframe_recording) {
+    if (Status s = keyframe_recording->close(); !s) return log::error(s.error()), 1;
+    log::info("recorded ", keyframe_recording->keyframes(), " keyframes into ", a.record_keyframes,
+              keyframe_recording->dropped()
+                  ? " (" + std::to_string(keyframe_recording->dropped()) + " dropped past 1 GiB)"
+                  : std::string());
   }
   if (!result.source_error.empty()) log::error(result.source_error);
 

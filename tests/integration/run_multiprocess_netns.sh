@@ -5,7 +5,8 @@
 # that every keyframe was acknowledged (client_<R>.json), that both robots end in one merged map
 # (server_summary.json), that the server's optimised keyframes of both robots, aligned once to the ground
 # truth, have ATE below 2 cm (measured 2.8 mm), and that rgbdmap-monitor --once printed a status. Here we
-# also check the map directory's outputs, and (robot_restart.sh) a robot killed and restarted mid-run. Exit 77 (skip) where 'unshare -n' is not permitted.
+# also check the map directory's outputs, a fleet of light robots replaying robot0's recorded keyframes
+# (deploy/bench_fleet.sh), and (robot_restart.sh) a robot killed and restarted mid-run. Exit 77 (skip) where 'unshare -n' is not permitted.
 # Usage: run_multiprocess_netns.sh BIN_DIR
 set -u
 repo="$(cd "$(dirname "$0")/../.." && pwd)"
@@ -28,8 +29,9 @@ trap 'rm -rf "$tmp"' EXIT
 fail=0
 for transport in lcm dds; do
   echo "== $transport"
+  rec=(); [ "$transport" = lcm ] && rec=(--record-keyframes)
   if ! RGBDMAP_BIN="$bin" bash "$repo/deploy/run_multiprocess.sh" --transport "$transport" --robots 2 \
-      --dataset "$tmp/seq" --out "$tmp/$transport" --check 0.02; then
+      --dataset "$tmp/seq" --out "$tmp/$transport" --check 0.02 "${rec[@]}"; then
     fail=1
     for f in "$tmp/$transport"/logs/*; do echo "--- $f"; tail -n 15 "$f"; done
     continue
@@ -42,6 +44,23 @@ for transport in lcm dds; do
   [ "$n" -eq "$kf" ] && [ "$n" -ge 20 ] && echo "ok: $n keyframes in the server's files" \
     || { echo "FAIL: $transport: $n keyframes in files, summary says $kf"; fail=1; }
 done
+# rgbdmap-replay's command line, and a small fleet of light robots replaying what robot0 sent over LCM
+# (deploy/bench_fleet.sh --check: every keyframe acknowledged, each minute's p90 ack latency at most 5 s, one
+# merged map).
+rp="$bin/rgbdmap-replay"
+"$rp" --transport memq:// >/dev/null 2>&1; [ $? -eq 2 ] || { echo "FAIL: replay without --stream must exit 2"; fail=1; }
+printf 'RGBDKFS1\377\377' >"$tmp/bad.rkf"
+"$rp" --stream "$tmp/bad.rkf" --transport memq:// >"$tmp/bad.log" 2>&1; code=$?
+[ "$code" -eq 1 ] && grep -q "truncated size" "$tmp/bad.log" && echo "ok: a corrupt stream exits 1 with the reason" \
+  || { echo "FAIL: corrupt stream: exit $code"; cat "$tmp/bad.log"; fail=1; }
+stream="$tmp/lcm/robots/robot0/keyframes_robot0.rkf"
+if [ -s "$stream" ]; then
+  echo "== fleet: 3 replayed robots"
+  RGBDMAP_BIN="$bin" bash "$repo/deploy/bench_fleet.sh" --robots 3 --rate 4 --minutes 0.2 --stream "$stream" \
+    --out "$tmp/fleet" --check 5000 || { fail=1; for f in "$tmp/fleet"/logs/*; do echo "--- $f"; tail -n 15 "$f"; done; }
+else
+  echo "FAIL: robot0 recorded no keyframe stream"; fail=1
+fi
 # A robot killed and restarted mid-run, over LCM with the first run's configs and keys.
 if [ -s "$tmp/lcm/server.yaml" ]; then
   echo "== lcm, robot0 killed and restarted"

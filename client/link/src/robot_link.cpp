@@ -137,13 +137,19 @@ Status RobotLink::Impl::publishCommand(msg::VelocityCommand command) {
   return s;
 }
 
-Status RobotLink::Impl::sendHello() {
+msg::Hello makeHello(const RobotLinkOptions& options) {
   msg::Hello hello;
-  hello.robot_id = options_.robot_id;
-  hello.camera = options_.camera;
-  hello.T_base_camera = options_.T_base_camera;
-  hello.software_version = options_.software_version;
+  hello.robot_id = options.robot_id;
+  hello.header.sender = options.robot_id;  // seal() stamps the rest of the header
+  hello.camera = options.camera;
+  hello.T_base_camera = options.T_base_camera;
+  hello.software_version = options.software_version;
   hello.capabilities = {"keyframes", "pose_corrections", "occupancy_slice", "velocity_command"};
+  return hello;
+}
+
+Status RobotLink::Impl::sendHello() {
+  const msg::Hello hello = makeHello(options_);
   Status s = sealAndPublish(hello, hello_channel_);
   std::lock_guard<std::mutex> lock(mutex_);
   counts_.hellos_sent += s.ok() ? 1 : 0;
@@ -195,19 +201,27 @@ Status RobotLink::Impl::sendKeyframe(const Keyframe& keyframe, const RgbdFrame& 
   if (keyframe.id < 0) return Status::failure(what + ": negative id");
   Result<EncodedImages> images = encodeImages(frame, options_.codec);
   if (!images) return Status::failure(what + ": images: " + images.error());
-  const size_t depth_bytes = images->depth.size(), color_bytes = images->color.size();
   Result<msg::Keyframe> message =
       keyframeToMessage(keyframe, options_.robot_id, std::move(*images), options_.send_features);
   if (!message) return Status::failure(what + ": " + message.error());
+  return sendKeyframeMessage(std::move(*message));
+}
+
+Status RobotLink::Impl::sendKeyframeMessage(msg::Keyframe message) {
+  const int id = message.keyframe_id;
+  const std::string what = "keyframe " + std::to_string(id);
+  if (id < 0) return Status::failure(what + ": negative id");
+  const size_t depth_bytes = message.images.depth.size(), color_bytes = message.images.color.size();
   constexpr size_t kLcmKeypointBytes = 21;  // keypoint_t: 5 floats and an int8
-  const size_t feature_bytes = message->keypoints.size() * kLcmKeypointBytes + message->descriptors.size();
-  message->header.sender = options_.robot_id;  // seal() stamps the rest of the header
-  const Result<msg::Bytes> encoded = msg::encodePayload(*message);
+  const size_t feature_bytes = message.keypoints.size() * kLcmKeypointBytes + message.descriptors.size();
+  message.robot_id = options_.robot_id;
+  message.header.sender = options_.robot_id;  // seal() stamps the rest of the header
+  const Result<msg::Bytes> encoded = msg::encodePayload(message);
   if (!encoded) return Status::failure(what + ": " + encoded.error());
   const size_t message_bytes = encoded->size();
   std::unique_lock<std::mutex> lock(mutex_);
   if (!started_ || stopping_) return Status::failure(what + ": link not running");
-  if (sent_.count(keyframe.id)) return Status::failure(what + ": already sent");
+  if (sent_.count(id)) return Status::failure(what + ": already sent");
   const bool room = changed_.wait_for(lock, seconds(options_.send_timeout_s), [this] {
     return stopping_ || reliable_.pending() < options_.reliable.max_pending;
   });
@@ -215,17 +229,18 @@ Status RobotLink::Impl::sendKeyframe(const Keyframe& keyframe, const RgbdFrame& 
   if (!room)
     return Status::failure(what + ": send window still full after " +
                            std::to_string(options_.send_timeout_s) + " s");
-  SentKeyframe& entry = sent_[keyframe.id];
-  entry.segment = keyframe.segment;
-  entry.T_odom_cam = keyframe.T_odom_cam;
-  entry.message = std::make_unique<msg::Keyframe>(std::move(*message));
+  SentKeyframe& entry = sent_[id];
+  entry.segment = message.segment_id;
+  entry.T_odom_cam = message.T_odom_cam;
+  entry.message = std::make_unique<msg::Keyframe>(std::move(message));
   entry.first_sent = Clock::now();
   lock.unlock();  // submit() transmits on this thread (transmitKeyframe takes mutex_)
-  if (Status s = reliable_.submit(static_cast<uint64_t>(keyframe.id)); !s) {
+  if (Status s = reliable_.submit(static_cast<uint64_t>(id)); !s) {
     lock.lock();
-    sent_.erase(keyframe.id);
+    sent_.erase(id);
     return Status::failure(what + ": " + s.error());
   }
+  if (options_.keyframe_tap) options_.keyframe_tap(*encoded);
   lock.lock();
   ++counts_.keyframes_sent;
   counts_.keyframe_depth_bytes += depth_bytes;
@@ -345,6 +360,9 @@ Status RobotLink::start() { return impl_->start(); }
 void RobotLink::stop() { impl_->stop(); }
 Status RobotLink::sendKeyframe(const Keyframe& keyframe, const RgbdFrame& frame) {
   return impl_->sendKeyframe(keyframe, frame);
+}
+Status RobotLink::sendKeyframeMessage(msg::Keyframe message) {
+  return impl_->sendKeyframeMessage(std::move(message));
 }
 void RobotLink::setTrackingState(int last_keyframe_id, int segment, TrackingState state) {
   impl_->setTrackingState(last_keyframe_id, segment, state);

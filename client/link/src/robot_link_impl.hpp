@@ -36,6 +36,7 @@ class RobotLink::Impl : public std::enable_shared_from_this<RobotLink::Impl> {
   Status start();
   void stop();
   Status sendKeyframe(const Keyframe& keyframe, const RgbdFrame& frame);
+  Status sendKeyframeMessage(msg::Keyframe message);
   void setTrackingState(int last_keyframe_id, int segment, TrackingState state);
   Status publishCommand(msg::VelocityCommand command);
   Status publishPose(double timestamp, int segment, int reference_keyframe, TrackingState state,

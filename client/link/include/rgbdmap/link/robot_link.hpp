@@ -18,6 +18,7 @@
 // The transport may be shared by several links and a server; it must outlive the link. Handlers the link
 // registered stay registered (Transport has no unsubscribe) but do nothing once the link is stopped or gone.
 #include <cstdint>
+#include <functional>
 #include <map>
 #include <memory>
 #include <optional>
@@ -59,10 +60,16 @@ struct RobotLinkOptions {
   std::string software_version = "rgbdmap-client 0.1.0";  ///< sent in Hello
   /// RobotPose (the live pose, for visualisers) at most every this many seconds; 0 = never.
   double pose_period_s = 0.2;
+  /// Set: called with each keyframe's encoded (unsealed) msg::Keyframe payload once it is in the send
+  /// window, on the sending thread (rgbdmap-client --record-keyframes: KeyframeStreamWriter::append).
+  std::function<void(const msg::Bytes& payload)> keyframe_tap;
 
   /// Empty when valid, else every reason ("; "-separated).
   std::string validate() const;
 };
+
+/// The Hello a link with these options sends (also the first record of a recorded keyframe stream).
+msg::Hello makeHello(const RobotLinkOptions& options);
 
 /// `configured` if >= 0, else the default for the transport URL: 1100 for udpm:// (one chunk per Ethernet
 /// datagram), 0 otherwise (DDS retransmits lost fragments itself; memq:// loses nothing).
@@ -132,6 +139,9 @@ class RobotLink {  // thread-safe; handlers never block the transport's receive 
   /// Encodes the images, builds the message (keyframeToMessage), submits it reliably; blocks while the send
   /// window is full (up to send_timeout_s, less if stop() is called). Remembers T_odom_cam and segment.
   Status sendKeyframe(const Keyframe& keyframe, const RgbdFrame& frame);
+  /// Sends a keyframe message as it is (a recorded one: rgbdmap-replay), under this link's robot id. Its
+  /// id, segment, odometry edge and images are the caller's; the same checks and window as sendKeyframe.
+  Status sendKeyframeMessage(msg::Keyframe message);
   /// Publishes a VelocityCommand (robot_id set to this robot) on the robot's cmd_vel channel, signed like
   /// every message of this robot, for the robot's motor controller. The link does not take its own commands
   /// back as server commands (latestCommand stays the server's): their echo is recognised and dropped.
