@@ -247,8 +247,10 @@ int main(int argc, char** argv) {
   }
   log::info("ready on ", config.transport_url, " (SIGINT or SIGTERM stops and writes the outputs)");
   waitForStopSignal(stop_signals, status_every, server);
-  log::info("stopping");
-  server.waitIdle(5.0);
+  log::info("stopping: waiting up to ", config.server.stop_wait_s, " s for queued work");
+  if (!server.waitIdle(config.server.stop_wait_s))
+    log::warn("stopping: work still queued after ", config.server.stop_wait_s,
+              " s (server.stop_wait_s); the outputs show the map as processed so far");
   (*transport)->stop();
   server.stop();
   bool map_files = false;

@@ -1,6 +1,12 @@
 #include "rgbdmap/common/serial_worker.hpp"
 
 #include <pthread.h>
+#include <sys/resource.h>
+#include <sys/syscall.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cerrno>
 #include <utility>
 
 namespace rgbdmap {
@@ -95,6 +101,12 @@ bool SerialWorker::next(Task* task, Clock::time_point next_tick) {
 
 void SerialWorker::run() {
   if (!options_.name.empty()) pthread_setname_np(pthread_self(), options_.name.substr(0, 15).c_str());
+  if (options_.nice > 0) {  // best effort: a failure leaves the thread at the process's priority
+    const auto tid = static_cast<id_t>(syscall(SYS_gettid));
+    errno = 0;
+    const int current = getpriority(PRIO_PROCESS, tid);
+    if (errno == 0) (void)setpriority(PRIO_PROCESS, tid, std::min(19, current + options_.nice));
+  }
   const bool periodic = options_.period_s > 0.0 && options_.on_period;
   const auto period = std::chrono::duration_cast<Clock::duration>(
       std::chrono::duration<double>(periodic ? options_.period_s : 0.0));

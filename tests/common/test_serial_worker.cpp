@@ -2,6 +2,11 @@
 // No sleeps: tasks block on latches the test opens.
 #include <gtest/gtest.h>
 
+#include <sys/resource.h>
+#include <sys/syscall.h>
+#include <unistd.h>
+
+#include <algorithm>
 #include <atomic>
 #include <condition_variable>
 #include <mutex>
@@ -43,6 +48,22 @@ TEST(SerialWorker, RunsTasksInPostingOrder) {
   ASSERT_TRUE(worker.waitIdle(30.0));
   ASSERT_EQ(order.size(), 100u);
   for (int i = 0; i < 100; ++i) EXPECT_EQ(order[static_cast<size_t>(i)], i);
+}
+
+TEST(SerialWorker, ANicedWorkerRunsNicerThanTheProcessAndItsOwnCallerIsUnchanged) {
+  const auto tid = [] { return static_cast<id_t>(syscall(SYS_gettid)); };
+  const int process = getpriority(PRIO_PROCESS, tid());
+  for (const int nice : {0, 5}) {
+    SerialWorkerOptions o;
+    o.nice = nice;
+    SerialWorker worker(o);
+    int seen = -100;
+    worker.post([&] { seen = getpriority(PRIO_PROCESS, tid()); });
+    worker.start();
+    ASSERT_TRUE(worker.waitIdle(30.0));
+    EXPECT_EQ(seen, std::min(19, process + nice)) << nice;
+  }
+  EXPECT_EQ(getpriority(PRIO_PROCESS, tid()), process);
 }
 
 TEST(SerialWorker, TasksPostedFromATaskRunAfterIt) {

@@ -24,7 +24,8 @@ MapOptimizer::MapOptimizer(MapOptimizerConfig config, Callback callback)
     : config_(std::move(config)),
       callback_(std::move(callback)),
       landmarks_(config_.ba.landmarks),
-      worker_({"rgbdmap-optim", 0, config_.ba.global_when_idle_s > 0 ? 0.5 : 0.0, [this] { onIdle(); }}) {
+      worker_({"rgbdmap-optim", 0, config_.ba.global_when_idle_s > 0 ? 0.5 : 0.0, [this] { onIdle(); },
+               config_.nice}) {
   worker_.start();
 }
 

@@ -33,6 +33,7 @@ namespace rgbdmap {
 struct MapOptimizerConfig {
   PoseGraphConfig graph;
   BundleAdjustmentConfig ba;
+  int nice = 0;  ///< the worker thread's nice above the process (server.background_nice)
 };
 
 /// What the ingest worker hands over after a keyframe (or a restore).

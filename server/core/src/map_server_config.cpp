@@ -39,6 +39,11 @@ const ConfigTable<C>& ownTable() {
                "keyframe messages per robot and second (retransmissions included), a token bucket checked "
                "before decoding; beyond, left unacknowledged and counted as throttled; 0: off. A robot "
                "makes a few keyframes per second, the server ingests ~30 per second on two cores")
+          .add("server.background_nice", &C::background_nice, R::closed(0, 19),
+               "the optimiser and octree-rebuild threads run this much nicer than the server (Linux nice, "
+               "per thread): under overload decode, ingest (storage, acknowledgements) and the map worker "
+               "(slices) get the cores first, while optimisation and rebuilds batch their queued work; 0: "
+               "all threads equal")
           .add("server.robot_keyframe_burst", &C::robot_keyframe_burst, R::closed(1.0, 1e6),
                "the bucket's size: keyframes a robot may send at once, e.g. the retransmissions of its whole "
                "send window (client max_pending) when its link comes back after an outage")
@@ -72,7 +77,10 @@ const ConfigTable<C>& ownTable() {
                "at most one slice per robot per this period")
           .add("server.store_retry_s", &C::store_retry_s, R::closed(0.05, 3600.0),
                "a map store stopped by an I/O error (a full disk) is tried again this often (s); until it "
-               "recovers, keyframes are left unacknowledged and the robots resend them");
+               "recovers, keyframes are left unacknowledged and the robots resend them")
+          .add("server.stop_wait_s", &C::stop_wait_s, R::closed(0.0, 3600.0),
+               "rgbdmap-server on SIGINT/SIGTERM waits at most this long (s) for queued ingest, optimisation "
+               "and octree work before it writes its outputs, so they reflect every stored keyframe");
   return table;
 }
 

@@ -18,6 +18,11 @@ using Clock = std::chrono::steady_clock;
 
 double nowS() { return std::chrono::duration<double>(Clock::now().time_since_epoch()).count(); }
 
+OccupancyMapConfig withRebuildNice(OccupancyMapConfig config, int nice) {
+  config.rebuild_nice = nice;
+  return config;
+}
+
 /// The stream is checked every map_stream_delay_s (or every map_stream_period_s without a delay); 0: off.
 SerialWorkerOptions workerOptions(const MapServerConfig& config, std::function<void()> stream) {
   SerialWorkerOptions options;
@@ -35,7 +40,7 @@ MapWorker::MapWorker(const MapServerConfig& config, const MapStore& store, MapWo
     : config_(config),
       store_(store),
       publishers_(std::move(publishers)),
-      occupancy_(config.occupancy),
+      occupancy_(withRebuildNice(config.occupancy, config.background_nice)),
       worker_(workerOptions(config, [this] { onStreamTick(); })) {}
 
 MapWorker::~MapWorker() { stop(); }
@@ -187,25 +192,38 @@ void MapWorker::publishStreams() {
     for (const auto& [robot, node] : newest_)
       map_of[robot] = {nodes_.at(node).map_id, newest_keyframe_[robot]};
   }
+  // Robots in one map that were sent the same revision get the same bytes: made once per (map, since) and
+  // copied (16 robots of a fleet in one map: one serialisation per period instead of 16).
+  struct Made {
+    msg::MapUpdate update;
+    uint64_t revision = 0;
+  };
+  std::map<std::pair<int, uint64_t>, Made> made;
   for (const auto& [robot, ids] : map_of) {
     const int map_id = ids.first;
     StreamState& state = streams_[robot];
     const uint64_t since = state.map_id == map_id ? state.revision : 0;
     if (since != 0 && occupancy_.revision(map_id) == since) continue;  // nothing new
-    const auto chunk = occupancy_.streamSince(map_id, since);
-    if (!chunk) {
-      log::warn("map: stream for ", robot, ": ", chunk.error());
-      continue;
+    auto it = made.find({map_id, since});
+    if (it == made.end()) {
+      const auto chunk = occupancy_.streamSince(map_id, since);
+      if (!chunk) {
+        log::warn("map: stream for ", robot, ": ", chunk.error());
+        continue;
+      }
+      Made m;
+      m.revision = chunk->revision;
+      if (const Status s = fillMapUpdate(*chunk, config_.occupancy.resolution_m, &m.update); !s) {
+        log::warn("map: stream for ", robot, ": ", s.error());
+        continue;
+      }
+      it = made.emplace(std::make_pair(map_id, since), std::move(m)).first;
     }
-    msg::MapUpdate update;
-    if (const Status s = fillMapUpdate(*chunk, config_.occupancy.resolution_m, &update); !s) {
-      log::warn("map: stream for ", robot, ": ", s.error());
-      continue;
-    }
+    msg::MapUpdate update = it->second.update;
     update.robot_keyframe_id = ids.second;
     if (publishers_.map) publishers_.map(robot, update);
     state.map_id = map_id;
-    state.revision = chunk->revision;
+    state.revision = it->second.revision;
     std::lock_guard<std::mutex> lock(state_mutex_);
     ++map_updates_sent_;
     map_bytes_sent_ += update.data.size();

@@ -21,6 +21,9 @@ struct SerialWorkerOptions {
   size_t capacity = 0;    ///< tryPost() tasks that may wait; 0 = unbounded
   double period_s = 0.0;  ///< > 0 with on_period: on_period runs every period_s (first after one period)
   std::function<void()> on_period;
+  /// > 0: the thread runs this much nicer than the process (Linux: nice is per thread), so that under
+  /// overload the threads that are not niced get the cores first; the work here queues and batches instead.
+  int nice = 0;
 };
 
 class SerialWorker {

@@ -57,6 +57,10 @@ struct MapServerConfig {
   /// covers a whole client send window (client max_pending, 256) retransmitted at once after an outage.
   double robot_max_keyframes_per_s = 30.0;
   double robot_keyframe_burst = 256.0;
+  /// The optimiser and octree-rebuild threads run this much nicer than the server (Linux nice, per
+  /// thread): under overload decode, ingest (storage, acknowledgements) and the map worker (slices) get the
+  /// cores first, and optimisation and rebuilds batch what queued meanwhile. 0: all threads equal.
+  int background_nice = 5;
   /// Checked from the compressed images' headers before decoding: the camera a robot announced (width *
   /// height) and each compressed depth or colour image; beyond, the keyframe is refused.
   size_t max_image_pixels = 2048 * 2048;
@@ -93,6 +97,10 @@ struct MapServerConfig {
   /// A map store that stopped on an I/O error (a full disk) is tried again (MapStore::recover) this often;
   /// meanwhile keyframes are left unacknowledged (their robots resend them).
   double store_retry_s = 2.0;
+  /// rgbdmap-server on SIGINT/SIGTERM: at most this long for queued ingest, optimisation and octree work to
+  /// finish before the outputs are written, so they reflect every stored keyframe (a server that fell
+  /// behind, e.g. a fleet past its map limit, catches up here).
+  double stop_wait_s = 30.0;
 
   std::string validate() const;  ///< "" when valid, else every problem ("; "-separated)
 };

@@ -49,6 +49,9 @@ struct OccupancyMapConfig {
   /// poses, are recomputed from every keyframe whose rays reach them (the result equals a whole rebuild).
   /// Above it, or 0, the whole tree is rebuilt from every kept cloud.
   double partial_rebuild_max_fraction = 0.5;
+  /// The rebuild thread's nice above the process (set by the server from server.background_nice; not a
+  /// map: key).
+  int rebuild_nice = 0;
   /// Pixel sampling step in both image directions (1 = every pixel). 0 = automatic: the largest step whose
   /// footprint at max_range_m stays within one cloud voxel (stride * max_range / fx <= cloud voxel), i.e.
   /// 3 at 0.05 m and 1 at 0.02 m for a 517 px focal length; reading more pixels adds no voxels.
@@ -193,7 +196,8 @@ class OccupancyMap {
   size_t last_rebuild_keyframes_ = 0;
   double last_rebuild_ms_ = 0.0;
   double last_rebuild_cpu_ms_ = 0.0;
-  SerialWorker rebuild_worker_{SerialWorkerOptions{"rgbdmap-rebuild", 0, 0.0, {}}};  ///< last: stopped first
+  SerialWorker rebuild_worker_{
+      SerialWorkerOptions{"rgbdmap-rebuild", 0, 0.0, {}, config_.rebuild_nice}};  ///< last: stopped first
 };
 
 }  // namespace rgbdmap
