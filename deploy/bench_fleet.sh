@@ -9,21 +9,22 @@
 # minute of the run: the p90 over all robots; and the server's keyframes, maps, CPU and peak memory.
 #
 # Usage: bash deploy/bench_fleet.sh [--robots N] [--rate HZ] [--minutes M] [--transport lcm|dds]
-#          [--stream FILE] [--frames F] [--out DIR] [--check P90_MS]
+#          [--stream FILE] [--frames F] [--out DIR] [--check P90_MS] [--server KEY=VALUE ...]
 #   --robots N     light robots (default 16)
 #   --rate HZ      keyframes per second per robot (default 1)
 #   --minutes M    how long each robot sends (default 10; may be fractional)
 #   --stream FILE  the keyframe stream to replay; default: recorded first by one rgbdmap-client on a synthetic
 #                  loop of F frames (default 300) with deploy/run_multiprocess.sh --record-keyframes
+#   --server K=V   one more key of server.yaml's server: section, e.g. --server background_nice=0 (repeatable)
 #   --check MS     exit 1 unless every keyframe was acknowledged, every minute's p90 over all robots is at most
 #                  MS milliseconds and all robots end in one map
 # Outputs in --out (default out/bench_fleet): record/ (the recording run), keys/, server.yaml, map/, logs/,
-# replay/replay_<R>.json, time_server.txt, server_threads.txt (CPU s by thread), summary.txt (key=value). Numbers are printed, never asserted unless
-# --check is given.
+# replay/replay_<R>.json, time_server.txt, server_threads.txt (CPU s by thread), per_minute.txt, summary.txt
+# (key=value). Numbers are printed, never asserted unless --check is given.
 set -euo pipefail
 repo="$(cd "$(dirname "$0")/.." && pwd)"
 bin="${RGBDMAP_BIN:-$repo/build/bin}"
-robots=16 rate=1 minutes=10 transport=lcm stream="" frames=300 out="out/bench_fleet" check=""
+robots=16 rate=1 minutes=10 transport=lcm stream="" frames=300 out="out/bench_fleet" check="" server_keys=()
 while [ $# -gt 0 ]; do
   case "$1" in
     --robots) robots="$2"; shift 2 ;;
@@ -34,7 +35,9 @@ while [ $# -gt 0 ]; do
     --frames) frames="$2"; shift 2 ;;
     --out) out="$2"; shift 2 ;;
     --check) check="$2"; shift 2 ;;
-    -h|--help) sed -n '2,23p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
+    --server) [[ "$2" =~ ^[a-z_]+=[^[:space:]]+$ ]] || { echo "--server takes KEY=VALUE" >&2; exit 2; }
+      server_keys+=("$2"); shift 2 ;;
+    -h|--help) sed -n '2,24p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
     *) echo "unknown argument: $1 (see --help)" >&2; exit 2 ;;
   esac
 done
@@ -67,7 +70,8 @@ stream="$(cd "$(dirname "$stream")" && pwd)/$(basename "$stream")"
 if [ -z "${RGBDMAP_TRANSPORT_NETNS:-}" ]; then
   if command -v ip >/dev/null 2>&1 && unshare -n true 2>/dev/null; then
     exec bash "$repo/tests/transport/run_in_netns.sh" bash "$0" --robots "$robots" --rate "$rate" \
-      --minutes "$minutes" --transport "$transport" --stream "$stream" --out "$out" ${check:+--check "$check"}
+      --minutes "$minutes" --transport "$transport" --stream "$stream" --out "$out" ${check:+--check "$check"} \
+      $(for kv in "${server_keys[@]}"; do printf -- '--server %s ' "$kv"; done)
   fi
   echo "note: 'unshare -n' not permitted; running on the host network (loopback-only settings)" >&2
 fi
@@ -80,21 +84,10 @@ fi
 
 # --- keys and configs ---------------------------------------------------------------------------------------
 rm -rf "$out/keys" "$out/map" "$out/replay" "$out/logs"
-mkdir -p "$out/keys" "$out/logs" "$out/replay"
-chmod 700 "$out/keys"
-: >"$out/keys/server_keys.txt"
-ids=()
-for i in $(seq 0 $((robots - 1))); do
-  r="replay$i"; ids+=("$r")
-  key=$(od -An -tx1 -N32 /dev/urandom | tr -d ' \n')
-  echo "$key" >"$out/keys/$r.key"
-  echo "$r $key" >>"$out/keys/server_keys.txt"
-  printf 'robot:\n  id: %s\n  key_file: keys/%s.key\ntransport:\n  url: "%s"\n' "$r" "$r" "$url" >"$out/client_$r.yaml"
-done
-chmod 600 "$out/keys/"*
-robot_list=$(IFS=,; echo "${ids[*]}")
-printf 'server:\n  map_dir: %s\n  robots: "%s"\n  transport: "%s"\n  keys_file: %s\n' \
-  "$out/map" "$robot_list" "$url" "$out/keys/server_keys.txt" >"$out/server.yaml"
+mkdir -p "$out/logs" "$out/replay"
+. "$repo/deploy/lib/keys_and_configs.sh"
+write_keys_and_configs "$out" "$url" replay "$robots"
+for kv in "${server_keys[@]}"; do printf '  %s: %s\n' "${kv%%=*}" "${kv#*=}" >>"$out/server.yaml"; done
 [ -n "${RGBDMAP_SERVER_YAML:-}" ] && printf '%b\n' "$RGBDMAP_SERVER_YAML" >>"$out/server.yaml"
 
 # --- processes ----------------------------------------------------------------------------------------------

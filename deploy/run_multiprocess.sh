@@ -89,22 +89,10 @@ total=$(grep -vc '^#' "$dataset/rgb.txt")
 gt="$dataset/groundtruth.txt"
 
 # --- keys and configs ---------------------------------------------------------------------------------------
-mkdir -p "$out/keys" "$out/logs" "$out/robots"
+mkdir -p "$out/logs" "$out/robots"
 rm -rf "$out/map" "$out/maps_monitor"
-chmod 700 "$out/keys"
-: >"$out/keys/server_keys.txt"
-ids=()
-for i in $(seq 0 $((robots - 1))); do
-  r="robot$i"; ids+=("$r")
-  key=$(od -An -tx1 -N32 /dev/urandom | tr -d ' \n')
-  echo "$key" >"$out/keys/$r.key"
-  echo "$r $key" >>"$out/keys/server_keys.txt"
-  printf 'robot:\n  id: %s\n  key_file: keys/%s.key\ntransport:\n  url: "%s"\n' "$r" "$r" "$url" >"$out/client_$r.yaml"
-done
-chmod 600 "$out/keys/"*
-robot_list=$(IFS=,; echo "${ids[*]}")
-printf 'server:\n  map_dir: %s\n  robots: "%s"\n  transport: "%s"\n  keys_file: %s\n' \
-  "$out/map" "$robot_list" "$url" "$out/keys/server_keys.txt" >"$out/server.yaml"
+. "$repo/deploy/lib/keys_and_configs.sh"
+write_keys_and_configs "$out" "$url" robot "$robots"
 [ -n "${RGBDMAP_SERVER_YAML:-}" ] && printf '%b\n' "$RGBDMAP_SERVER_YAML" >>"$out/server.yaml"
 
 # Overlapping ranges: chunk = total/N, extended by 2/15 of a chunk (at least 10 frames) on each side.
