@@ -75,17 +75,12 @@ if [ -z "${RGBDMAP_TRANSPORT_NETNS:-}" ]; then
   fi
   echo "note: 'unshare -n' not permitted; running on the host network (loopback-only settings)" >&2
 fi
-if [ "$transport" = lcm ]; then
-  url='udpm://239.255.76.67:7667?ttl=0&recv_buf_size=8388608'
-else
-  url='dds://?domain=0'
-  export CYCLONEDDS_URI="file://$repo/deploy/dds/cyclonedds-loopback.xml"
-fi
+. "$repo/deploy/lib/local_fleet.sh"
+use_loopback_transport "$transport" "$repo"
 
 # --- keys and configs ---------------------------------------------------------------------------------------
 rm -rf "$out/keys" "$out/map" "$out/replay" "$out/logs"
 mkdir -p "$out/logs" "$out/replay"
-. "$repo/deploy/lib/keys_and_configs.sh"
 write_keys_and_configs "$out" "$url" replay "$robots"
 for kv in "${server_keys[@]}"; do printf '  %s: %s\n' "${kv%%=*}" "${kv#*=}" >>"$out/server.yaml"; done
 [ -n "${RGBDMAP_SERVER_YAML:-}" ] && printf '%b\n' "$RGBDMAP_SERVER_YAML" >>"$out/server.yaml"
@@ -109,7 +104,7 @@ server_pid=$(pgrep -P "$server_wrap" | head -1); server_pid=${server_pid:-$serve
 replay_pids=()
 for i in $(seq 0 $((robots - 1))); do
   r="${ids[$i]}"
-  # Starting keyframes spread over the stream (the replayer takes --start modulo the stream's size).
+  # Robot i starts at keyframe i*K/N of the stream's K (--phase i/N).
   "$bin/rgbdmap-replay" --config "$out/client_$r.yaml" --stream "$stream" --rate "$rate" --duration "$seconds" \
     --phase "$(awk -v i="$i" -v n="$robots" 'BEGIN {print i / n}')" --out "$out/replay" >"$out/logs/replay_$r.log" 2>&1 &
   replay_pids+=($!); pids+=($!)

@@ -69,12 +69,8 @@ if [ "$netns" = 1 ] && [ -z "${RGBDMAP_TRANSPORT_NETNS:-}" ]; then
   echo "note: 'unshare -n' not permitted; running on the host network (loopback-only settings)" >&2
 fi
 
-if [ "$transport" = lcm ]; then
-  url='udpm://239.255.76.67:7667?ttl=0&recv_buf_size=8388608'
-else
-  url='dds://?domain=0'
-  export CYCLONEDDS_URI="file://$repo/deploy/dds/cyclonedds-loopback.xml"
-fi
+. "$repo/deploy/lib/local_fleet.sh"
+use_loopback_transport "$transport" "$repo"
 
 # --- data -------------------------------------------------------------------------------------------------
 if [ -z "$dataset" ]; then
@@ -91,7 +87,6 @@ gt="$dataset/groundtruth.txt"
 # --- keys and configs ---------------------------------------------------------------------------------------
 mkdir -p "$out/logs" "$out/robots"
 rm -rf "$out/map" "$out/maps_monitor"
-. "$repo/deploy/lib/keys_and_configs.sh"
 write_keys_and_configs "$out" "$url" robot "$robots"
 [ -n "${RGBDMAP_SERVER_YAML:-}" ] && printf '%b\n' "$RGBDMAP_SERVER_YAML" >>"$out/server.yaml"
 

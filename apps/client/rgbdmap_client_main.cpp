@@ -1,14 +1,11 @@
 // rgbdmap-client: the robot program. Runs the visual odometry on a frame source (a TUM folder or a ROS bag at
 // its frame rate or --fast, a live camera at the camera's),
 // sends keyframes to the mapping server, applies its corrections, and writes the trajectory in the map frame.
-#include <pthread.h>
-#include <signal.h>
 
 #include <cstdio>
 #include <cstdlib>
 #include <exception>
 #include <filesystem>
-#include <thread>
 
 #include <opencv2/core.hpp>
 
@@ -16,6 +13,7 @@
 #include "rgbdmap/cli/cli.hpp"
 #include "rgbdmap/cli/odometry_setup.hpp"
 #include "rgbdmap/cli/progress.hpp"
+#include "rgbdmap/cli/signal_thread.hpp"
 #include "rgbdmap/cli/source_setup.hpp"
 #include "rgbdmap/common/logging.hpp"
 #include "rgbdmap/link/delivery_report.hpp"
@@ -124,46 +122,13 @@ Result<OpenedSource> loadClientConfig(cli::Args& args, const ClientArgs& a, Robo
   return opened;
 }
 
-/// SIGINT/SIGTERM are blocked in every thread and taken by one waiting thread: the first asks the run to
-/// stop (outputs are still written), a second one exits at once. SIGUSR1 ends the thread quietly.
-class SignalThread {
- public:
-  SignalThread() {
-    sigemptyset(&set_);
-    for (int s : {SIGINT, SIGTERM, SIGUSR1}) sigaddset(&set_, s);
-    pthread_sigmask(SIG_BLOCK, &set_, nullptr);  // before any other thread exists: they inherit it
-  }
-  void start(StopRequest* stop, RobotLink* link, FrameSource* source) {
-    thread_ = std::thread([this, stop, link, source] {
-      for (int count = 0;; ++count) {
-        int sig = 0;
-        if (sigwait(&set_, &sig) != 0 || sig == SIGUSR1) return;
-        if (count > 0) std::_Exit(130);
-        log::warn("signal ", sig, ": stopping (again to quit at once); outputs will still be written");
-        stop->request();
-        source->close();  // a live source's blocking read ends at once
-        link->stop();
-      }
-    });
-  }
-  ~SignalThread() {
-    if (!thread_.joinable()) return;
-    pthread_kill(thread_.native_handle(), SIGUSR1);
-    thread_.join();
-  }
-
- private:
-  sigset_t set_;
-  std::thread thread_;
-};
-
 int run(int argc, char** argv) {
   cli::Args args(argc, argv, {"fast", "help"});
   if (args.has("help")) {
     std::printf("%s%s%s", kUsage, sourceOptionsHelp(), datasetOptionsHelp());
     return 0;
   }
-  SignalThread signals;
+  cli::SignalThread signals;
   auto allowed = datasetOptionNames();
   allowed.insert(allowed.end(), {"dataset", "source", "record", "record-keyframes", "robot-id", "transport",
                                  "fast", "frames", "out", "threads"});
@@ -209,7 +174,12 @@ int run(int argc, char** argv) {
   if (Status s = link.start(); !s) return log::error(s.error()), 1;
   // After the link started: a signal that came earlier waits (blocked) and then stops the run, whose outputs
   // are still written (taken during start, it made the start fail: exit 1 and no outputs).
-  signals.start(&stop, &link, source.get());
+  signals.start([&stop, &link, src = source.get()](int sig) {
+    log::warn("signal ", sig, ": stopping (again to quit at once); outputs will still be written");
+    stop.request();
+    src->close();  // a live source's blocking read ends at once
+    link.stop();
+  });
   RobotRunOptions ro;
   ro.realtime = !a.fast;
   ro.final_wait_s = config.final_wait_s;

@@ -2,16 +2,13 @@
 // --record-keyframes) to the mapping server as robot R, at a set rate, in as many passes as a duration asks,
 // and reports every keyframe's acknowledgement latency. No camera and no odometry: many of these fit on a
 // machine that runs one odometry (issue #15; deploy/bench_fleet.sh runs 16).
-#include <pthread.h>
-#include <signal.h>
-
 #include <cstdio>
 #include <exception>
 #include <filesystem>
-#include <thread>
 
 #include "rgbdmap/cli/cli.hpp"
 #include "rgbdmap/cli/odometry_setup.hpp"
+#include "rgbdmap/cli/signal_thread.hpp"
 #include "rgbdmap/common/json_output.hpp"
 #include "rgbdmap/common/logging.hpp"
 #include "rgbdmap/link/keyframe_replay.hpp"
@@ -41,31 +38,6 @@ const char* kUsage =
     "  --out DIR          output folder (default: out)\n"
     "Exit status: 0 every keyframe acknowledged; 1 run-time error; 2 usage or configuration error;\n"
     "3 keyframes not acknowledged.\n";
-
-/// SIGINT/SIGTERM are taken by one waiting thread that asks the replay to stop (the report is still written).
-class StopOnSignal {
- public:
-  StopOnSignal() {
-    sigemptyset(&set_);
-    for (int s : {SIGINT, SIGTERM, SIGUSR1}) sigaddset(&set_, s);
-    pthread_sigmask(SIG_BLOCK, &set_, nullptr);  // before any other thread exists: they inherit it
-  }
-  void start(StopRequest* stop) {
-    thread_ = std::thread([this, stop] {
-      int sig = 0;
-      if (sigwait(&set_, &sig) == 0 && sig != SIGUSR1) stop->request();
-    });
-  }
-  ~StopOnSignal() {
-    if (!thread_.joinable()) return;
-    pthread_kill(thread_.native_handle(), SIGUSR1);
-    thread_.join();
-  }
-
- private:
-  sigset_t set_;
-  std::thread thread_;
-};
 
 Json report(const std::string& robot, const std::string& stream_path, const ReplayResult& r) {
   Json j;
@@ -98,7 +70,7 @@ Json report(const std::string& robot, const std::string& stream_path, const Repl
 int run(int argc, char** argv) {
   cli::Args args(argc, argv, {"help"});
   if (args.has("help")) return std::printf("%s", kUsage), 0;
-  StopOnSignal signals;
+  cli::SignalThread signals;
   args.checkAllowed({"stream", "config", "robot-id", "transport", "rate", "duration", "start", "phase", "out",
                      "log-level", "help"});
   std::vector<std::string> errors;
@@ -165,7 +137,10 @@ int run(int argc, char** argv) {
   RobotLink link(**transport, config.link);
   if (Status s = link.start(); !s) return log::error(s.error()), 1;
   StopRequest stop;
-  signals.start(&stop);
+  signals.start([&stop](int sig) {
+    log::warn("signal ", sig, ": stopping (again to quit at once); the report will still be written");
+    stop.request();
+  });
   ro.stop = &stop;
   ro.final_wait_s = config.final_wait_s;
   log::info("robot ", config.robot_id, " replays ", stream->keyframes.size(), " keyframes of ",

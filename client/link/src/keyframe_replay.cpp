@@ -7,17 +7,12 @@
 
 #include "rgbdmap/common/logging.hpp"
 #include "rgbdmap/common/sample_reservoir.hpp"
+#include "wall_clock.hpp"
 
 namespace rgbdmap {
 namespace {
 
 using Clock = std::chrono::steady_clock;
-
-int64_t wallMicros() {
-  return std::chrono::duration_cast<std::chrono::microseconds>(
-             std::chrono::system_clock::now().time_since_epoch())
-      .count();
-}
 
 }  // namespace
 
@@ -81,7 +76,7 @@ ReplayResult replayKeyframes(const KeyframeStream& stream, RobotLink& link, cons
       k.segment_id += static_cast<int>(pass) * (max_segment + 1);
       k.timestamp = stamp;
       const int id = k.keyframe_id, segment = k.segment_id;
-      const int64_t wall = wallMicros();
+      const int64_t wall = nowUtime();
       const double sent_s = std::chrono::duration<double>(Clock::now() - t0).count();
       ++sent;
       if (Status s = link.sendKeyframeMessage(std::move(k)); !s) {

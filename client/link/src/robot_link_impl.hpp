@@ -16,15 +16,9 @@
 #include "rgbdmap/common/sample_reservoir.hpp"
 #include "rgbdmap/link/robot_link.hpp"
 #include "rgbdmap/proto/envelope.hpp"
+#include "wall_clock.hpp"
 
 namespace rgbdmap {
-
-/// Wall-clock time in microseconds (envelope timestamps).
-inline int64_t nowUtime() {
-  return std::chrono::duration_cast<std::chrono::microseconds>(
-             std::chrono::system_clock::now().time_since_epoch())
-      .count();
-}
 
 class RobotLink::Impl : public std::enable_shared_from_this<RobotLink::Impl> {
  public:

@@ -194,11 +194,7 @@ void MapWorker::publishStreams() {
   }
   // Robots in one map that were sent the same revision get the same bytes: made once per (map, since) and
   // copied (16 robots of a fleet in one map: one serialisation per period instead of 16).
-  struct Made {
-    msg::MapUpdate update;
-    uint64_t revision = 0;
-  };
-  std::map<std::pair<int, uint64_t>, Made> made;
+  std::map<std::pair<int, uint64_t>, msg::MapUpdate> made;
   for (const auto& [robot, ids] : map_of) {
     const int map_id = ids.first;
     StreamState& state = streams_[robot];
@@ -211,19 +207,18 @@ void MapWorker::publishStreams() {
         log::warn("map: stream for ", robot, ": ", chunk.error());
         continue;
       }
-      Made m;
-      m.revision = chunk->revision;
-      if (const Status s = fillMapUpdate(*chunk, config_.occupancy.resolution_m, &m.update); !s) {
+      msg::MapUpdate m;
+      if (const Status s = fillMapUpdate(*chunk, config_.occupancy.resolution_m, &m); !s) {
         log::warn("map: stream for ", robot, ": ", s.error());
         continue;
       }
       it = made.emplace(std::make_pair(map_id, since), std::move(m)).first;
     }
-    msg::MapUpdate update = it->second.update;
+    msg::MapUpdate update = it->second;
     update.robot_keyframe_id = ids.second;
     if (publishers_.map) publishers_.map(robot, update);
     state.map_id = map_id;
-    state.revision = it->second.revision;
+    state.revision = static_cast<uint64_t>(update.map_revision);
     std::lock_guard<std::mutex> lock(state_mutex_);
     ++map_updates_sent_;
     map_bytes_sent_ += update.data.size();

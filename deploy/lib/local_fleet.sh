@@ -1,5 +1,17 @@
-# Sourced by deploy/run_multiprocess.sh and deploy/bench_fleet.sh: a fresh key per robot and the configs of a
-# server and its robots on one transport.
+# Sourced by deploy/run_multiprocess.sh and deploy/bench_fleet.sh: the loopback transport and a fresh key per
+# robot with the configs of a server and its robots.
+
+# use_loopback_transport lcm|dds REPO: sets `url` (LCM multicast with ttl 0, or DDS) and, for DDS, exports
+# CYCLONEDDS_URI as the loopback-only configuration (never Cyclone's default, which uses every interface).
+use_loopback_transport() {
+  if [ "$1" = lcm ]; then
+    url='udpm://239.255.76.67:7667?ttl=0&recv_buf_size=8388608'
+  else
+    url='dds://?domain=0'
+    export CYCLONEDDS_URI="file://$2/deploy/dds/cyclonedds-loopback.xml"
+  fi
+}
+
 # write_keys_and_configs OUT URL PREFIX N: robots PREFIX0..PREFIX(N-1); writes OUT/keys/<R>.key (mode 600),
 # OUT/keys/server_keys.txt, OUT/client_<R>.yaml and OUT/server.yaml (map_dir OUT/map); sets the array `ids`
 # and `robot_list` (comma-separated).
