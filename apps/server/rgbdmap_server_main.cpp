@@ -76,6 +76,7 @@ rgbdmap::Json summaryJson(const rgbdmap::MapServer& server) {
           {"optimizations", s.optimizations},
           {"graph_solves", s.graph_solves},
           {"graph_solves_skipped", s.graph_solves_skipped},
+          {"graph_merges_aligned", s.graph_merges_aligned},
           {"bundle_adjustment", rgbdmap::bundleAdjustmentJson(s.ba)},
           {"optimizations_for_heartbeats", s.optimizations_for_heartbeats},
           {"corrections_resent", s.corrections_resent},

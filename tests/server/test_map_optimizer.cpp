@@ -265,5 +265,97 @@ TEST(MapOptimizer, OnlyLoopsTheEstimateDoesNotSatisfyGetAWholeGraphSolve) {
   EXPECT_LT(gated.rms_m, every.rms_m + 0.005);
 }
 
+struct MergeRun {
+  std::shared_ptr<const MapOptimization> result;
+  int solves = 0;
+  double max_error_m = 0.0;  ///< the new chain's keyframes against the truth
+  std::vector<int64_t> wrong_edges;
+};
+
+/// A 400-keyframe circle (robot 0, exact edges, solved once), then a new chain of 10 keyframes that starts in
+/// a frame of its own (5 m and 90 degrees off) and meets the circle through inter-robot edges from its first
+/// keyframe; `wrong` of those edges are 1 m off.
+MergeRun mergeChain(int wrong) {
+  SynthGraphConfig c;
+  c.keyframes = 400;
+  c.keyframes_per_lap = 100;
+  c.loop_every = 2;
+  c.noise_scale = 0.0;
+  c.seed = 5;
+  const SynthGraph synth = makeSynthGraph(c);
+  MapOptimizerConfig config;
+  config.ba.enabled = false;
+  Collector results;
+  MergeRun run;
+  MapOptimizer optimizer(config, [&](const std::shared_ptr<const MapOptimization>& r) {
+    run.solves += r->graph_solved ? 1 : 0;
+    results(r);
+  });
+  OptimizerBatch first;
+  for (const PoseGraphNode& n : synth.graph.nodes())
+    first.nodes.push_back({n.id, n.robot, n.T_map_kf, n.id == 0});
+  first.edges = synth.graph.edges();
+  first.solve = true;
+  results.waitFor(optimizer.submit(std::move(first)));
+  const int solves_before = run.solves;
+
+  // The chain revisits keyframes 10..19 of the first lap; its own frame is T_off away from the map's.
+  const SE3 T_off = se3::exp((Vec6() << 5.0, -2.0, 0.3, 0.0, 0.0, M_PI / 2).finished());
+  int64_t edge_id = synth.next_edge_id + 1000;
+  OptimizerBatch b;
+  std::vector<std::pair<int64_t, SE3>> truth;
+  for (int k = 0; k < 10; ++k) {
+    const int64_t id = 10000 + k;
+    const SE3& T_true = synth.T_map_kf_true[10 + k];
+    truth.emplace_back(id, T_true);
+    b.nodes.push_back({id, 7, T_off * T_true, false});
+    if (k > 0) {
+      const SE3& T_prev = synth.T_map_kf_true[9 + k];
+      b.edges.push_back(
+          edge(edge_id++, id, id - 1, T_true.inverse() * T_prev, EdgeKind::kOdometry, 0.01, 0.01));
+    }
+  }
+  for (int j = 0; j < 3; ++j) {  // the chain's first keyframe sees keyframes 110, 210 and 310 (laps 2-4)
+    const int64_t to = synth.node_ids[110 + 100 * j];
+    SE3 T_from_to = synth.T_map_kf_true[10].inverse() * synth.T_map_kf_true[110 + 100 * j];
+    if (j < wrong) {
+      T_from_to = T_from_to * se3::exp((Vec6() << 1.0, 0.0, 0.0, 0.0, 0.0, 0.0).finished());
+      run.wrong_edges.push_back(edge_id);
+    }
+    b.edges.push_back(edge(edge_id++, 10000, to, T_from_to, EdgeKind::kInterRobot, 0.01, 0.01));
+  }
+  b.solve = true;
+  b.merge = true;
+  run.result = results.waitFor(optimizer.submit(std::move(b)));
+  run.solves -= solves_before;
+  if (!run.result) return run;
+  for (const auto& [id, T_true] : truth)
+    run.max_error_m = std::max(
+        run.max_error_m, (run.result->graph.T_map_kf.at(id).translation() - T_true.translation()).norm());
+  return run;
+}
+
+// Issue #15: a robot's new chain meeting a large map for the first time is moved onto it rigidly; when its
+// edges then agree with the map, no whole-graph solve follows. One edge that disagrees still gets a solve
+// (which disables it): the rigid move never decides alone.
+TEST(MapOptimizer, AChainMeetingALargeMapIsMovedRigidlyAndSolvedOnlyIfItsEdgesDisagree) {
+  const MergeRun clean = mergeChain(0);
+  const MergeRun wrong = mergeChain(1);
+  ASSERT_TRUE(clean.result && wrong.result);
+  std::printf(
+      "[ measured ] new chain onto a 400-keyframe map: %d solve(s), %d merge(s) aligned, max error %.2e m; "
+      "with one wrong edge of three: %d solve(s), %zu edge(s) disabled, max error %.2e m\n",
+      clean.solves, clean.result->merges_aligned, clean.max_error_m, wrong.solves,
+      wrong.result->graph.disabled_edges.size(), wrong.max_error_m);
+  EXPECT_EQ(clean.solves, 0) << "the merge alone explained the edges";
+  EXPECT_EQ(clean.result->merges_aligned, 1);
+  EXPECT_LT(clean.max_error_m, 1e-6);
+  ASSERT_EQ(clean.result->graph.components.size(), 1u) << "one map";
+  EXPECT_EQ(wrong.solves, 1);
+  EXPECT_EQ(wrong.result->graph.disabled_edges, wrong.wrong_edges);
+  EXPECT_LT(wrong.max_error_m, 1e-3);
+  EXPECT_EQ(wrong.result->graph.components.size(), 1u);
+}
+
 }  // namespace
 }  // namespace rgbdmap

@@ -247,8 +247,9 @@ int IngestPipeline::addDetectedLoopsLocked(const std::vector<LoopEdge>& edges, i
     to_store.push_back({edge.from_id, edge.to_id, edge.T_from_to, edge.information, edge.inliers,
                         edge.motion_measure, edge.inlier_pairs});
     ++added;
-    // Between two maps (as the last applied result has them): they merge, the optimiser must solve.
-    if (index_.node(edge.from_id).kf.map_id != index_.node(edge.to_id).kf.map_id) batch_.must_solve = true;
+    // Between two maps (as the last applied result has them): they merge; the optimiser moves the one met
+    // for the first time onto the other and solves if the edges still disagree.
+    if (index_.node(edge.from_id).kf.map_id != index_.node(edge.to_id).kf.map_id) batch_.merge = true;
     registry_.countLoop(index_.node(edge.from_id).kf.robot_id);
     if (index_.node(edge.to_id).robot != robot) registry_.countLoop(index_.node(edge.to_id).kf.robot_id);
   }

@@ -17,6 +17,7 @@ void OptimizerBatch::append(OptimizerBatch&& other) {
   for (auto& [id, m] : other.matches) matches.insert_or_assign(id, std::move(m));
   solve = solve || other.solve;
   must_solve = must_solve || other.must_solve;
+  merge = merge || other.merge;
   global = global || other.global;
 }
 
@@ -86,8 +87,10 @@ void MapOptimizer::processPending() {
       if (config_.ba.global_every_keyframes > 0 && added >= config_.ba.global_every_keyframes &&
           grownEnough(map))
         maps.insert(map);
-    if (b.global || chains_joined) maps.insert(changed_maps_.begin(), changed_maps_.end());
-    if (large_cycle)
+    if (b.global) maps.insert(changed_maps_.begin(), changed_maps_.end());
+    // Joined chains and large cycles wait for the map to grow by global_min_growth_fraction since its last
+    // global BA (keyframes merged in count as added): a robot's new chain joining a large map is local work.
+    if (large_cycle || chains_joined)
       for (int map : changed_maps_)
         if (grownEnough(map)) maps.insert(map);
     adjustGlobally(maps);
@@ -163,6 +166,7 @@ void MapOptimizer::refreshMaps() {
       auto [it, inserted] = map_of_.try_emplace(id, map);
       if (!inserted && it->second != map) {  // merged (or split off): landmarks follow their keyframes
         it->second = map;
+        ++added_since_global_[map];  // new to this map's global BA
         changed_maps_.insert(map);
         landmarks_.setPose(id, map, *graph_.pose(id));
       }
@@ -186,12 +190,22 @@ bool MapOptimizer::solveGraph(OptimizedPoses* out) {
 bool MapOptimizer::needsSolve(const OptimizerBatch& b) {
   const double limit = config_.graph.solve_above_chi2;
   if (b.must_solve || limit <= 0.0) return true;
+  std::vector<int64_t> check;  // edges a solve would have to reconcile
+  if (b.merge) {
+    const PoseGraph::Alignment moved = graph_.alignSubmaps(config_.graph);
+    for (int64_t id : moved.moved_nodes) landmarks_.setPose(id, map_of_[id], *graph_.pose(id));
+    check = moved.changed_edges;
+    merges_aligned_ += moved.moved_nodes.empty() ? 0 : 1;
+  }
   std::vector<int64_t> loops;
   for (const PoseGraphEdge& e : b.edges) {
     if (e.kind == EdgeKind::kOdometry) continue;
-    const std::optional<double> chi2 = graph_.edgeChi2(e.id);
-    if (!chi2 || *chi2 > limit) return true;  // (merges come with must_solve: their maps are one by now)
+    check.push_back(e.id);
     loops.push_back(e.id);
+  }
+  for (int64_t id : check) {
+    const std::optional<double> chi2 = graph_.edgeChi2(id);
+    if (!chi2 || *chi2 > limit) return true;
   }
   // Consistent with the estimate: a solve would barely move it and its check would keep these edges.
   for (int64_t id : loops)
@@ -350,6 +364,7 @@ void MapOptimizer::publish(uint64_t revision, bool solved, const OptimizedPoses&
   counters_.local_cpu_ms_p90 = local_cpu_ms_.quantile(0.9);
   out->ba = counters_;
   out->solves_skipped = solves_skipped_;
+  out->merges_aligned = merges_aligned_;
   {
     std::lock_guard<std::mutex> lock(mutex_);
     global_due_ = config_.ba.enabled && !changed_maps_.empty();

@@ -44,11 +44,16 @@ struct OptimizerBatch {
   std::vector<LandmarkKeyframe> keyframes;  ///< features of new keyframes, for bundle adjustment
   std::map<int64_t, EdgeMatches> matches;   ///< inlier pairs of new loop edges, by edge id
   bool solve = false;                       ///< loop edges added or chains joined: a pose-graph solve first
-  /// Maps merged, chains joined or a restore: solve whatever the loops' consistency (solve_above_chi2).
+  /// Chains joined or a restore: solve whatever the loops' consistency (solve_above_chi2).
   bool must_solve = false;
+  /// Loop edges between two maps: each map met for the first time is first moved rigidly onto the map it
+  /// joins (PoseGraph::alignSubmaps); a solve follows only if the new edges, or those the move changed,
+  /// disagree with the result beyond solve_above_chi2 (a robot's new chain joining a large map costs a
+  /// rigid move, not a solve of the whole graph).
+  bool merge = false;
   bool global = false;  ///< a global BA of every map changed since its last one (waitIdle)
   bool empty() const {
-    return nodes.empty() && edges.empty() && keyframes.empty() && !solve && !must_solve && !global;
+    return nodes.empty() && edges.empty() && keyframes.empty() && !solve && !must_solve && !merge && !global;
   }
   void append(OptimizerBatch&& other);
 };
@@ -59,6 +64,7 @@ struct MapOptimization {
   bool graph_solved = false;
   BundleAdjustmentStats ba;
   int solves_skipped = 0;  ///< batches with loops that needed no solve (all within solve_above_chi2), so far
+  int merges_aligned = 0;  ///< batches whose merging maps were moved rigidly (merge), so far
 };
 
 class MapOptimizer {
@@ -128,6 +134,7 @@ class MapOptimizer {
   std::set<int> changed_maps_;                ///< maps changed since their last global BA
   BundleAdjustmentStats counters_;
   int solves_skipped_ = 0;
+  int merges_aligned_ = 0;
   SampleReservoir local_ms_, local_cpu_ms_;
   SerialWorker worker_;  ///< last: stopped before the state above goes away
 };

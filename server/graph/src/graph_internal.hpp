@@ -45,9 +45,11 @@ std::vector<bool> consistentEdges(const std::vector<PoseGraphEdge>& edges, const
 
 /// Moves submaps (joined by enabled non-inter-robot edges) that contain no fixed node rigidly onto the
 /// anchored ones they connect to by enabled inter-robot edges, using the correction most edges agree on.
-/// Returns the number of submaps moved.
+/// Returns the number of submaps moved; `moved_by` (optional) gets, per node, the label of the submap whose
+/// correction moved it, or -1.
 int alignSubmaps(const std::vector<PoseGraphEdge>& edges, const std::vector<EdgeEnds>& ends,
                  const std::vector<bool>& enabled, const std::vector<bool>& fixed,
-                 const PoseGraphConfig& config, std::vector<SE3>* T_map_kf);
+                 const PoseGraphConfig& config, std::vector<SE3>* T_map_kf,
+                 std::vector<long>* moved_by = nullptr);
 
 }  // namespace rgbdmap::graph_detail

@@ -44,8 +44,9 @@ SE3 consensus(const std::vector<SE3>& candidates, const PoseGraphConfig& config)
 
 int alignSubmaps(const std::vector<PoseGraphEdge>& edges, const std::vector<EdgeEnds>& ends,
                  const std::vector<bool>& enabled, const std::vector<bool>& fixed,
-                 const PoseGraphConfig& config, std::vector<SE3>* T_map_kf) {
+                 const PoseGraphConfig& config, std::vector<SE3>* T_map_kf, std::vector<long>* moved_by) {
   const size_t n = T_map_kf->size();
+  if (moved_by) moved_by->assign(n, -1);
   std::vector<bool> intra(edges.size());
   for (size_t k = 0; k < edges.size(); ++k) intra[k] = enabled[k] && edges[k].kind != EdgeKind::kInterRobot;
   const std::vector<size_t> submap = componentLabels(n, ends, intra);
@@ -70,7 +71,9 @@ int alignSubmaps(const std::vector<PoseGraphEdge>& edges, const std::vector<Edge
       const SE3 C = consensus(candidates, config);
       if (!agree(C, SE3::Identity(), config.merge_align_translation_m, config.merge_align_rotation_rad)) {
         for (size_t i = 0; i < n; ++i) {
-          if (submap[i] == label) (*T_map_kf)[i] = se3::normalized(C * (*T_map_kf)[i]);
+          if (submap[i] != label) continue;
+          (*T_map_kf)[i] = se3::normalized(C * (*T_map_kf)[i]);
+          if (moved_by) (*moved_by)[i] = static_cast<long>(label);
         }
         ++moved;
       }

@@ -178,6 +178,28 @@ std::vector<bool> PoseGraph::gaugeFixed(const std::vector<bool>& enabled) const 
   return fixed;
 }
 
+PoseGraph::Alignment PoseGraph::alignSubmaps(const PoseGraphConfig& config) {
+  const auto ends = resolveEnds(edges_, node_index_);
+  const std::vector<bool> enabled = enabledMask();
+  std::vector<SE3> T_map_kf;
+  T_map_kf.reserve(nodes_.size());
+  for (const auto& n : nodes_) T_map_kf.push_back(n.T_map_kf);
+  std::vector<long> moved_by;
+  Alignment out;
+  if (graph_detail::alignSubmaps(edges_, ends, enabled, gaugeFixed(enabled), config, &T_map_kf, &moved_by) ==
+      0)
+    return out;
+  for (size_t i = 0; i < nodes_.size(); ++i) {
+    if (moved_by[i] < 0) continue;
+    nodes_[i].T_map_kf = T_map_kf[i];
+    out.moved_nodes.push_back(nodes_[i].id);
+  }
+  for (size_t k = 0; k < edges_.size(); ++k)
+    if (enabled[k] && moved_by[ends[k].from] != moved_by[ends[k].to])
+      out.changed_edges.push_back(edges_[k].id);
+  return out;
+}
+
 Result<OptimizeReport> PoseGraph::optimize(const PoseGraphConfig& config, const std::atomic<bool>* cancel) {
   const auto t0 = std::chrono::steady_clock::now();
   OptimizeReport report;

@@ -97,6 +97,8 @@ struct MapServerStats {
   int graph_solves = 0;   ///< of which with a pose-graph solve
   int graph_solves_skipped =
       0;  ///< loops kept without a solve: the estimate satisfied them (solve_above_chi2)
+  int graph_merges_aligned =
+      0;  ///< maps joined by a rigid move onto the map they met (solved only if needed)
   double last_optimize_ms = 0.0;  ///< of the last pose-graph solve
   BundleAdjustmentStats ba;
   /// Corrections that follow the robots' heartbeats: sent again (the first may have been lost), and

@@ -100,6 +100,17 @@ class PoseGraph {
   /// Whitened chi2 (no robust loss) of an edge at the current poses; nullopt for an unknown id.
   std::optional<double> edgeChi2(int64_t id) const;
 
+  /// What alignSubmaps() did: the nodes it moved and the enabled edges whose residual the moves changed
+  /// (their two ends moved by different corrections, or only one of them moved).
+  struct Alignment {
+    std::vector<int64_t> moved_nodes;
+    std::vector<int64_t> changed_edges;
+  };
+  /// Moves submaps joined to the anchored map by inter-robot edges only (a robot's map or a new chain met
+  /// for the first time) rigidly onto it, by the correction most of those edges agree on: what optimize()
+  /// does before it solves. Lets a caller see whether a merge alone already explains the new edges.
+  Alignment alignSubmaps(const PoseGraphConfig& config);
+
   /// Optimises all nodes. Loop edges whose whitened chi2 stays above outlier_chi2 are disabled (and
   /// re-admitted once they fit again). Each connected component without a fixed node has its first node
   /// held during the solve. `cancel` (optional) aborts the running solve when set; poses are then kept.
