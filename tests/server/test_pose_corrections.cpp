@@ -124,5 +124,27 @@ TEST(LoopEdgesMessage, EnabledLoopsOfEachRobotsMapWithOptimisedPositions) {
   EXPECT_TRUE(msg::validate(sent)) << msg::validate(sent).error();
 }
 
+// Issue #15: a fleet's map has tens of thousands of loops; each robot gets the newest loop_edges_max of its
+// map (in graph order), the same list for every robot of the map.
+TEST(LoopEdgesMessage, OnlyTheNewestEdgesOfAMapUpToTheCap) {
+  std::vector<IndexedNode> nodes;
+  for (int i = 0; i < 10; ++i) nodes.push_back(node(i, i < 5 ? "a" : "b", 1, i));
+  for (IndexedNode& n : nodes) n.kf.map_id = 0;
+  nodes.push_back(node(10, "c", 1, 0));
+  nodes[10].kf.map_id = 10;
+  std::vector<PoseGraphEdge> edges;
+  for (int i = 1; i < 10; ++i) edges.push_back(graphEdge(i - 1, i, i - 1, EdgeKind::kLoop));
+  edges.push_back(graphEdge(9, 10, 9, EdgeKind::kOdometry));  // odometry: never listed
+  const auto out = buildLoopEdges(nodes, edges, {7}, {"a", "b", "c"}, 3, 3);
+  ASSERT_EQ(out.at("a").edges.size(), 3u);
+  std::vector<int> from;
+  for (const msg::MapLoopEdge& e : out.at("a").edges) from.push_back(static_cast<int>(e.keyframe_from));
+  EXPECT_EQ(from, (std::vector<int>{6, 7, 9}))
+      << "the newest three enabled ones (edge 7, from keyframe 8, is disabled)";
+  EXPECT_EQ(out.at("b").edges.size(), 3u);
+  EXPECT_TRUE(out.at("c").edges.empty());
+  EXPECT_TRUE(buildLoopEdges(nodes, edges, {}, {"a"}, 3, 0).at("a").edges.empty());
+}
+
 }  // namespace
 }  // namespace rgbdmap

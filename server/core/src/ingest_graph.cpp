@@ -155,7 +155,7 @@ void IngestPipeline::onOptimized(const MapOptimization& result) {
   std::vector<std::string> robots;  // the loop edges of each corrected robot's map (for visualisers)
   for (const auto& [robot, c] : corrections) robots.push_back(robot);
   const auto loops = buildLoopEdges(index_.nodes(), graph_.edges(), graph_.disabledEdges(), robots,
-                                    counters_.graph_revision);
+                                    counters_.graph_revision, config_.loop_edges_max);
   std::vector<MapNodePose> map_poses = mapPosesLocked();
   lock.unlock();
   if (map_worker_) map_worker_->updatePoses(std::move(map_poses));
@@ -163,7 +163,8 @@ void IngestPipeline::onOptimized(const MapOptimization& result) {
     log::debug("server: corrections to ", robot, ": ", c.keyframes.size(), " keyframes");
     publisher_.publish(robot, c);
   }
-  for (const auto& [robot, l] : loops) publisher_.publish(robot, l);
+  if (config_.loop_edges_max > 0)
+    for (const auto& [robot, l] : loops) publisher_.publish(robot, l);
 }
 
 void IngestPipeline::applyOptimizedLocked(const MapOptimization& optimization) {

@@ -5,6 +5,7 @@
 #include "rgbdmap/loop/loop_config_tables.hpp"
 #include "rgbdmap/map/map_config_tables.hpp"
 #include "rgbdmap/proto/channels.hpp"
+#include "rgbdmap/proto/messages.hpp"
 #include "rgbdmap/vision/vision_config_tables.hpp"
 
 namespace rgbdmap {
@@ -26,6 +27,9 @@ const ConfigTable<C>& ownTable() {
                "fdatasync every keyframe before acknowledging it (durability)")
           .add("server.status_period_s", &C::status_period_s, ConfigRange::closed(0.0, 3600.0),
                "ServerStatus to every robot (s); 0: off")
+          .add("server.loop_edges_max", &C::loop_edges_max, R::closed(0, msg::kMaxLoopEdges),
+               "LoopEdges to each robot after an optimisation (for visualisers): the newest this many "
+               "enabled loop edges of its map; 0: none")
           .add("server.ingest_queue_capacity", &C::ingest_queue_capacity, R::closed(1, 1000000),
                "keyframes waiting for the worker, all robots together; beyond, they are left "
                "unacknowledged (the robot resends them) and counted as queue_full")

@@ -1,5 +1,6 @@
 #include "pose_corrections.hpp"
 
+#include <algorithm>
 #include <set>
 
 namespace rgbdmap {
@@ -31,32 +32,37 @@ std::map<std::string, msg::LoopEdges> buildLoopEdges(const std::vector<IndexedNo
                                                      const std::vector<PoseGraphEdge>& edges,
                                                      const std::vector<int64_t>& disabled_edges,
                                                      const std::vector<std::string>& robots,
-                                                     int64_t graph_revision) {
+                                                     int64_t graph_revision, int max_edges) {
+  const size_t cap = static_cast<size_t>(std::clamp(max_edges, 0, msg::kMaxLoopEdges));
   std::map<std::string, int> map_of;  // robot -> map id of its newest keyframe
   for (const IndexedNode& n : nodes)
     if (n.valid) map_of[n.kf.robot_id] = n.kf.map_id;
+  std::map<int, std::vector<msg::MapLoopEdge>> of_map;  // the robots' maps, each list newest first
+  for (const std::string& robot : robots)
+    if (const auto it = map_of.find(robot); it != map_of.end()) of_map[it->second];
   const std::set<int64_t> disabled(disabled_edges.begin(), disabled_edges.end());
   auto valid = [&](int64_t id) {
     return id >= 0 && id < static_cast<int64_t>(nodes.size()) && nodes[id].valid;
   };
+  size_t open = cap > 0 ? of_map.size() : 0;  // maps whose list is not full yet
+  for (auto e = edges.rbegin(); e != edges.rend() && open > 0; ++e) {
+    if (e->kind == EdgeKind::kOdometry || disabled.count(e->id) || !valid(e->from) || !valid(e->to)) continue;
+    const ServerKeyframe& a = nodes[e->from].kf;
+    const ServerKeyframe& b = nodes[e->to].kf;
+    const auto list = of_map.find(a.map_id);
+    if (list == of_map.end() || list->second.size() >= cap) continue;
+    list->second.push_back({a.robot_id, a.keyframe_id, b.robot_id, b.keyframe_id,
+                            e->kind == EdgeKind::kInterRobot, a.T_map_kf.translation(),
+                            b.T_map_kf.translation()});
+    if (list->second.size() == cap) --open;
+  }
+  for (auto& [map, list] : of_map) std::reverse(list.begin(), list.end());  // oldest first, as the graph
   std::map<std::string, msg::LoopEdges> out;
   for (const std::string& robot : robots) {
     msg::LoopEdges& m = out[robot];
     m.robot_id = robot;
     m.graph_revision = graph_revision;
-    const auto map = map_of.find(robot);
-    if (map == map_of.end()) continue;
-    for (const PoseGraphEdge& e : edges) {
-      if (e.kind == EdgeKind::kOdometry || disabled.count(e.id) || !valid(e.from) || !valid(e.to)) continue;
-      const ServerKeyframe& a = nodes[e.from].kf;
-      const ServerKeyframe& b = nodes[e.to].kf;
-      if (a.map_id != map->second) continue;
-      m.edges.push_back({a.robot_id, a.keyframe_id, b.robot_id, b.keyframe_id,
-                         e.kind == EdgeKind::kInterRobot, a.T_map_kf.translation(),
-                         b.T_map_kf.translation()});
-    }
-    if (m.edges.size() > static_cast<size_t>(msg::kMaxLoopEdges))
-      m.edges.erase(m.edges.begin(), m.edges.end() - msg::kMaxLoopEdges);
+    if (const auto map = map_of.find(robot); map != map_of.end()) m.edges = of_map.at(map->second);
   }
   return out;
 }

@@ -22,11 +22,14 @@ std::map<std::string, msg::PoseCorrections> buildCorrections(
 
 /// LoopEdges for each robot in `robots`: the enabled loop and inter-robot edges of `edges` whose first
 /// keyframe is in the map (graph component) of the robot's newest keyframe, with both ends' optimised
-/// positions. `nodes` indexed by node id; at most msg::kMaxLoopEdges per robot (the newest edges).
+/// positions. `nodes` indexed by node id; at most `max_edges` (and msg::kMaxLoopEdges) per robot, the newest.
+/// Each map's list is made once for all its robots, walking the edges from the newest: O(max_edges) per
+/// map while its edges are dense, never O(edges x robots).
 std::map<std::string, msg::LoopEdges> buildLoopEdges(const std::vector<IndexedNode>& nodes,
                                                      const std::vector<PoseGraphEdge>& edges,
                                                      const std::vector<int64_t>& disabled_edges,
                                                      const std::vector<std::string>& robots,
-                                                     int64_t graph_revision);
+                                                     int64_t graph_revision,
+                                                     int max_edges = msg::kMaxLoopEdges);
 
 }  // namespace rgbdmap

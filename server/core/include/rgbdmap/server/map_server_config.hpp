@@ -45,6 +45,9 @@ struct MapServerConfig {
   std::vector<std::string> robots;
   bool store_sync = true;        ///< fdatasync each keyframe before acknowledging it
   double status_period_s = 1.0;  ///< ServerStatus to every known robot; 0 turns it off
+  /// LoopEdges (for visualisers) after each optimisation: the newest this many enabled loop edges of the
+  /// robot's map, per robot. The whole map's would grow with it: 50,000 loops were 4 MB per robot and result.
+  int loop_edges_max = 2000;
   /// Fair share (issue #11): each robot's keyframes wait in a queue of their own, served round-robin with
   /// the other robots'; a keyframe that does not fit its robot's queue (robot_queue_capacity keyframes,
   /// robot_queue_bytes encoded bytes) or the total (ingest_queue_capacity, all robots together) is left
