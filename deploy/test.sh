@@ -17,10 +17,10 @@
 #                                 RelWithDebInfo at -O1: only the GoogleTest executables and the relay they
 #                                 start are built, unity; the long server runs, the cli tier's multi-process
 #                                 runs and the accuracy tests run in Release only: under ASan they take 1-2 min
-#                                 each and repeat code paths the sanitize tier covers). On 2 cores (idle):
-#                                 Release build 9 min, Release tests 8 min, sanitizer build ~9 min from
-#                                 scratch (12 min before its tests' own code went to -O0), sanitizer tests
-#                                 4 min (a 100 s global-BA schedule test now runs in Release only)
+#                                 each and repeat code paths the sanitize tier covers). On a fresh Debian 12
+#                                 root, 2 cores (../shared/tools/fresh-check.sh): 22 min after deploy/run.sh
+#                                 (Release tests 6.6 min, sanitizer build ~12 min from scratch with the
+#                                 tests' own code at -O0, sanitizer tests 3.6 min); 35 min before that
 #   bash deploy/test.sh --quick   the unit tier only, Release, no sanitizers (about a minute after the build)
 #   Further arguments go to both ctest runs, e.g. `bash deploy/test.sh -L e2e` or `-R '^server\.'`.
 # Tests needing ../shared/data skip when it is absent. By hand: `ctest --test-dir build -L unit` (or e2e,
