@@ -43,6 +43,8 @@ Json serverJson(const MapServerStats& s, const ServerOutcome& server, size_t rob
           {"graph_solves", s.graph_solves},
           {"graph_solves_skipped", s.graph_solves_skipped},
           {"graph_merges_aligned", s.graph_merges_aligned},
+          {"graph_solves_local", s.graph_solves_local},
+          {"graph_solves_local_refused", s.graph_solves_local_refused},
           {"bundle_adjustment", bundleAdjustmentJson(s.ba)},
           {"server_ms_per_keyframe_median", jsonNumber(s.ingest_ms_median)},
           {"server_ms_per_keyframe_p90", jsonNumber(s.ingest_ms_p90)},

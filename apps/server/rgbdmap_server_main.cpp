@@ -77,6 +77,8 @@ rgbdmap::Json summaryJson(const rgbdmap::MapServer& server) {
           {"graph_solves", s.graph_solves},
           {"graph_solves_skipped", s.graph_solves_skipped},
           {"graph_merges_aligned", s.graph_merges_aligned},
+          {"graph_solves_local", s.graph_solves_local},
+          {"graph_solves_local_refused", s.graph_solves_local_refused},
           {"bundle_adjustment", rgbdmap::bundleAdjustmentJson(s.ba)},
           {"optimizations_for_heartbeats", s.optimizations_for_heartbeats},
           {"corrections_resent", s.corrections_resent},

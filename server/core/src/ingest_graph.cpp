@@ -182,6 +182,8 @@ void IngestPipeline::applyOptimizedLocked(const MapOptimization& optimization) {
   counters_.ba = optimization.ba;
   counters_.graph_solves_skipped = optimization.solves_skipped;
   counters_.graph_merges_aligned = optimization.merges_aligned;
+  counters_.graph_solves_local = optimization.local_solves;
+  counters_.graph_solves_local_refused = optimization.local_refused;
   counters_.loops_disabled = static_cast<int>(graph_.disabledEdges().size());
   counters_.graph_revision = revision_base_ + static_cast<int64_t>(optimization.revision);
 }

@@ -75,7 +75,10 @@ void MapOptimizer::processPending() {
   }
   applyAdditions(b);
   OptimizedPoses solve;
-  const bool solved = b.solve && needsSolve(b) && solveGraph(&solve);
+  std::vector<int64_t> seeds;  // the edges a solve must reconcile; none: the whole graph
+  bool solved = b.solve && needsSolve(b, &seeds) && solveGraph(&solve, seeds);
+  // Asked for the global refinement (waitIdle): the whole graph after neighbourhood solves, then the BA.
+  if (b.global && graph_stale_ && !solved) solved = solveGraph(&solve);
   bool chains_joined = false;
   const bool large_cycle = updateTracks(&chains_joined);
   if (config_.ba.enabled) {
@@ -105,14 +108,15 @@ void MapOptimizer::onIdle() {
     std::lock_guard<std::mutex> lock(mutex_);
     const double quiet_s =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - last_batch_).count();
-    if (stopping_ || task_queued_ || !config_.ba.enabled || quiet_s < config_.ba.global_when_idle_s ||
-        !global_due_)
-      return;
+    if (stopping_ || task_queued_ || quiet_s < config_.ba.global_when_idle_s || !global_due_) return;
     // A result of its own: robots take corrections only from a newer revision than they have.
     revision = pending_revision_ = next_revision_++;
   }
-  adjustGlobally(changed_maps_);
-  if (!cancel_) publish(revision, false, {});
+  // A quiet map gets what the busy one put off: the whole-graph solve after neighbourhood solves, the BA.
+  OptimizedPoses solve;
+  const bool solved = graph_stale_ && solveGraph(&solve);
+  if (config_.ba.enabled) adjustGlobally(changed_maps_);
+  if (!cancel_) publish(revision, solved, solve);
 }
 
 void MapOptimizer::applyAdditions(const OptimizerBatch& b) {
@@ -174,20 +178,43 @@ void MapOptimizer::refreshMaps() {
   }
 }
 
-bool MapOptimizer::solveGraph(OptimizedPoses* out) {
+bool MapOptimizer::solveGraph(OptimizedPoses* out, const std::vector<int64_t>& seeds) {
+  if (!seeds.empty() && config_.graph.local_max_nodes > 0) {
+    const LocalOptimizeReport local = graph_.optimizeLocal(seeds, config_.graph, &cancel_);
+    if (local.cancelled) return false;
+    if (local.accepted) {
+      ++local_solves_;
+      graph_stale_ = true;
+      out->report.solves = 1;
+      out->report.iterations = local.iterations;
+      out->report.time_ms = local.time_ms;
+      // The edges that fit now are judged as a converged solve would judge them; the others wait for one.
+      for (auto& [id, w] : waiting_)
+        if (const auto chi2 = graph_.edgeChi2(id); chi2 && *chi2 <= config_.graph.outlier_chi2)
+          w.checked = true;
+      for (int64_t id : local.moved_nodes) landmarks_.setPose(id, map_of_[id], *graph_.pose(id));
+      return true;
+    }
+    if (!local.whole_component) {
+      ++local_refused_;
+      log::debug("optimiser: local solve of ", local.region_nodes, " nodes refused (worst chi2 ",
+                 local.worst_chi2, local.out_of_time ? ", out of time" : "", "): solving the whole graph");
+    }
+  }
   const Result<OptimizeReport> report = graph_.optimize(config_.graph, &cancel_);
   if (!report || report->cancelled) {
     if (!cancel_) log::warn("optimiser: pose graph: ", report ? "cancelled" : report.error());
     return false;
   }
   out->report = *report;
+  graph_stale_ = false;
   for (auto& [id, w] : waiting_) w.checked = true;  // the solve judged every edge added so far
   refreshMaps();
   for (const PoseGraphNode& n : graph_.nodes()) landmarks_.setPose(n.id, map_of_[n.id], n.T_map_kf);
   return true;
 }
 
-bool MapOptimizer::needsSolve(const OptimizerBatch& b) {
+bool MapOptimizer::needsSolve(const OptimizerBatch& b, std::vector<int64_t>* seeds) {
   const double limit = config_.graph.solve_above_chi2;
   if (b.must_solve || limit <= 0.0) return true;
   std::vector<int64_t> check;  // edges a solve would have to reconcile
@@ -205,7 +232,10 @@ bool MapOptimizer::needsSolve(const OptimizerBatch& b) {
   }
   for (int64_t id : check) {
     const std::optional<double> chi2 = graph_.edgeChi2(id);
-    if (!chi2 || *chi2 > limit) return true;
+    if (!chi2 || *chi2 > limit) {
+      *seeds = std::move(check);
+      return true;
+    }
   }
   // Consistent with the estimate: a solve would barely move it and its check would keep these edges.
   for (int64_t id : loops)
@@ -365,9 +395,11 @@ void MapOptimizer::publish(uint64_t revision, bool solved, const OptimizedPoses&
   out->ba = counters_;
   out->solves_skipped = solves_skipped_;
   out->merges_aligned = merges_aligned_;
+  out->local_solves = local_solves_;
+  out->local_refused = local_refused_;
   {
     std::lock_guard<std::mutex> lock(mutex_);
-    global_due_ = config_.ba.enabled && !changed_maps_.empty();
+    global_due_ = (config_.ba.enabled && !changed_maps_.empty()) || graph_stale_;
   }
   if (callback_) callback_(out);
 }

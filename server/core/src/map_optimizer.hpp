@@ -65,6 +65,8 @@ struct MapOptimization {
   BundleAdjustmentStats ba;
   int solves_skipped = 0;  ///< batches with loops that needed no solve (all within solve_above_chi2), so far
   int merges_aligned = 0;  ///< batches whose merging maps were moved rigidly (merge), so far
+  int local_solves = 0;    ///< pose-graph solves of new loops' neighbourhood kept (optimizeLocal), so far
+  int local_refused = 0;   ///< local solves refused (a whole-graph solve followed), so far
 };
 
 class MapOptimizer {
@@ -78,20 +80,23 @@ class MapOptimizer {
 
   /// Queues a batch and returns its revision at once (0 after stop()); its result comes to the callback.
   uint64_t submit(OptimizerBatch batch);
-  /// A map changed since its last global BA (what a submit with `global` would do something for).
+  /// A map changed since its last global BA, or neighbourhood solves since the last whole-graph one (what a
+  /// submit with `global` would do something for).
   bool globalDue() const;
   /// Cancels a running solve, drops pending batches and joins the worker. Idempotent.
   void stop();
 
  private:
   void processPending();  ///< a task on worker_: every pending batch as one
-  void onIdle();          ///< worker_'s period: a global BA when the maps have been quiet
+  void onIdle();          ///< worker_'s period: the deferred whole-graph solve and global BA when quiet
   void applyAdditions(const OptimizerBatch& b);
   void refreshMaps();  ///< map id (= first node of its component) and anchor of every node
-  bool solveGraph(OptimizedPoses* out);
+  /// Solves the pose graph: the neighbourhood of `seeds` (edge ids) first when there are any and
+  /// graph.local_max_nodes > 0, the whole graph when that answer is refused or there are none.
+  bool solveGraph(OptimizedPoses* out, const std::vector<int64_t>& seeds = {});
   /// Whether the batch's loops need a whole-graph solve (PoseGraphConfig::solve_above_chi2); when not,
   /// its loop edges count as judged (kept) without one.
-  bool needsSolve(const OptimizerBatch& b);
+  bool needsSolve(const OptimizerBatch& b, std::vector<int64_t>* seeds);
   /// Matches of kept edges into the tracks, of disabled edges out. Returns whether a large cycle closed;
   /// *chains_joined: whether an edge between two chains (a merge, a split rejoined) came into the tracks.
   bool updateTracks(bool* chains_joined);
@@ -135,6 +140,9 @@ class MapOptimizer {
   BundleAdjustmentStats counters_;
   int solves_skipped_ = 0;
   int merges_aligned_ = 0;
+  bool graph_stale_ = false;  ///< neighbourhood solves since the last whole-graph one (due when quiet)
+  int local_solves_ = 0;
+  int local_refused_ = 0;
   SampleReservoir local_ms_, local_cpu_ms_;
   SerialWorker worker_;  ///< last: stopped before the state above goes away
 };

@@ -1,8 +1,10 @@
-// bench_pose_graph: optimisation time of a 1,000-keyframe graph with 200 loop edges on one core.
-// The trajectory drives 5 laps of a 200-keyframe circle (radius 8 m, height and pitch waves); odometry has
-// 1 cm / 0.23 deg (0.004 rad) noise per axis and edge and initialises the poses (drift of metres after five
-// laps); every 4th keyframe after the first lap closes a loop to the same place one lap earlier. Target: <=
-// 150 ms.
+// bench_pose_graph: pose-graph optimisation times on one core.
+// - BM_PoseGraph1000Kf200Loops*: 5 laps of a 200-keyframe circle (radius 8 m, height and pitch waves);
+//   odometry has 1 cm / 0.23 deg (0.004 rad) noise per axis and edge and initialises the poses (drift of
+//   metres after five laps); every 4th keyframe after the first lap closes a loop to the same place one lap
+//   earlier. Target: <= 150 ms.
+// - BM_PoseGraphFleetRoom*: a room revisited by a fleet (~10 loops per keyframe): the whole graph solved vs.
+//   a new keyframe's neighbourhood (what the server's optimiser does).
 //   taskset -c 1 build/bin/bench_pose_graph
 #include <benchmark/benchmark.h>
 
@@ -64,7 +66,102 @@ void BM_PoseGraph1000Kf200Loops20False(benchmark::State& state) {
   run(state, rgbdmap::PoseGraphConfig{}, 20);
 }
 
+/// A room revisited by a fleet: laps of 46 keyframes (radius 1.5 m), every keyframe after the second lap with
+/// loops to the same place in 10 earlier laps (the first to the previous lap), as the 16-robot fleet run
+/// has ~10 loops per keyframe. `exact_start`: the poses start at the truth (a solved map).
+rgbdmap::SynthGraph fleetRoom(int keyframes, bool exact_start) {
+  rgbdmap::SynthGraphConfig c;
+  c.keyframes = keyframes;
+  c.keyframes_per_lap = 46;
+  c.radius_m = 1.5;
+  c.loop_every = 1;
+  c.loop_laps = 10;
+  c.initial_from_odometry = !exact_start;
+  c.seed = 7;
+  rgbdmap::SynthGraph synth = rgbdmap::makeSynthGraph(c);
+  synth.graph.setFixed(0);
+  return synth;
+}
+
+// The whole graph from odometry (what the server's optimiser avoids on such graphs; 2 s per solve cap).
+void BM_PoseGraphFleetRoom(benchmark::State& state) {
+  const rgbdmap::SynthGraph synth = fleetRoom(static_cast<int>(state.range(0)), false);
+  rgbdmap::OptimizeReport report;
+  for (auto _ : state) {
+    state.PauseTiming();
+    rgbdmap::PoseGraph graph = synth.graph;
+    state.ResumeTiming();
+    auto result = graph.optimize(rgbdmap::PoseGraphConfig{});
+    if (!result.ok()) {
+      state.SkipWithError(result.error().c_str());
+      return;
+    }
+    report = *result;
+    state.PauseTiming();
+    state.counters["ate_m"] = rgbdmap::translationRmse(graph, synth);
+    state.ResumeTiming();
+  }
+  state.counters["loops"] = report.loops_total;
+  state.counters["solves"] = report.solves;
+  state.counters["iterations"] = report.iterations;
+  state.counters["out_of_time"] = report.out_of_time ? 1 : 0;
+}
+
+// What the server's optimiser does instead: a new keyframe 5 cm off with 10 loops, its neighbourhood of 300
+// nodes solved (PoseGraph::optimizeLocal), in a solved map of N keyframes. Flat in N but for one pass over
+// the edges.
+void BM_PoseGraphFleetRoomNewKeyframeLocal(benchmark::State& state) {
+  rgbdmap::SynthGraph synth = fleetRoom(static_cast<int>(state.range(0)), true);
+  const int64_t last = synth.node_ids.back(), id = last + 1;
+  const rgbdmap::SE3 T_true = synth.T_map_kf_true[synth.T_map_kf_true.size() - 46];  // laps are periodic
+  rgbdmap::SE3 off = rgbdmap::SE3::Identity();
+  off.translation() = rgbdmap::Vec3(0.05, 0.0, 0.0);
+  synth.graph.addNode(id, 0, off * T_true);
+  std::vector<int64_t> loops;
+  auto add = [&](int64_t from, const rgbdmap::SE3& T_from, rgbdmap::EdgeKind kind) {
+    rgbdmap::PoseGraphEdge e;
+    e.id = synth.next_edge_id++;
+    e.from = from;
+    e.to = id;
+    e.T_from_to = T_from.inverse() * T_true;
+    e.information = rgbdmap::diagonalInformation(0.01, 0.004);
+    e.kind = kind;
+    synth.graph.addEdge(e);
+    if (kind != rgbdmap::EdgeKind::kOdometry) loops.push_back(e.id);
+  };
+  add(last, synth.T_map_kf_true.back(), rgbdmap::EdgeKind::kOdometry);
+  for (size_t l = 1; l <= 10; ++l) {
+    const size_t k = synth.node_ids.size() - 46 * l;
+    add(synth.node_ids[k], synth.T_map_kf_true[k], rgbdmap::EdgeKind::kLoop);
+  }
+  rgbdmap::LocalOptimizeReport report;
+  for (auto _ : state) {
+    state.PauseTiming();
+    rgbdmap::PoseGraph graph = synth.graph;
+    state.ResumeTiming();
+    report = graph.optimizeLocal(loops, rgbdmap::PoseGraphConfig{});
+    if (!report.accepted) {
+      state.SkipWithError("the local solve was refused");
+      return;
+    }
+    state.PauseTiming();
+    state.counters["error_m"] = (graph.pose(id)->translation() - T_true.translation()).norm();
+    state.ResumeTiming();
+  }
+  state.counters["region"] = report.region_nodes;
+  state.counters["edges"] = report.edges;
+  state.counters["iterations"] = report.iterations;
+}
+
 }  // namespace
+
+BENCHMARK(BM_PoseGraphFleetRoom)->Arg(1000)->Arg(3000)->Unit(benchmark::kMillisecond)->Iterations(1);
+BENCHMARK(BM_PoseGraphFleetRoomNewKeyframeLocal)
+    ->Arg(1000)
+    ->Arg(3000)
+    ->Arg(10000)
+    ->Unit(benchmark::kMillisecond)
+    ->MinTime(1.0);
 
 BENCHMARK(BM_PoseGraph1000Kf200Loops)->Unit(benchmark::kMillisecond)->MinTime(2.0);
 BENCHMARK(BM_PoseGraph1000Kf200LoopsNoConsistencyCheck)->Unit(benchmark::kMillisecond)->MinTime(2.0);

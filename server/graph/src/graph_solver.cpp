@@ -96,8 +96,10 @@ class CancelCallback : public ceres::IterationCallback {
 ceres::Solver::Options solverOptions(const PoseGraphConfig& config) {
   ceres::Solver::Options options;
   options.linear_solver_type = ceres::SPARSE_NORMAL_CHOLESKY;
-  // Eigen's sparse Cholesky: as fast as SuiteSparse's CHOLMOD on these graphs (52 vs 55 ms per solve), and
-  // single-threaded, whereas Debian's CHOLMOD starts OpenMP threads of its own.
+  // Eigen's sparse Cholesky: as fast as SuiteSparse's CHOLMOD on sparse loops (52 vs 55 ms per solve of
+  // bench_pose_graph), and single-threaded, whereas Debian's CHOLMOD starts OpenMP threads of its own. On a
+  // room revisited by a fleet (BM_PoseGraphFleetRoom/3000: 27,000 loops) CHOLMOD's supernodes factor ~2.5x
+  // faster (~0.6 vs ~2.8 s per iteration); the server avoids such whole-graph solves (optimizeLocal).
   options.sparse_linear_algebra_library_type = ceres::EIGEN_SPARSE;
   options.max_num_iterations = config.max_iterations;
   options.max_solver_time_in_seconds = config.max_solver_time_s;

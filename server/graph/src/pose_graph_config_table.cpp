@@ -21,6 +21,10 @@ const ConfigTable<PoseGraphConfig>& poseGraphConfigTable() {
           .add("solve_above_chi2", &C::solve_above_chi2, R::closed(0.0, 1e6),
                "the server solves the whole graph after loops only when one has a whitened chi2 above this "
                "at the current poses (or maps merged); 0: after every loop")
+          .add("local_max_nodes", &C::local_max_nodes, R::closed(0, 1000000),
+               "the server solves new loops' neighbourhood of this many nodes first (nodes around it fixed) "
+               "and keeps the answer when every edge there fits; else the whole graph. 0: always the whole "
+               "graph")
           .add("num_threads", &C::num_threads, R::closed(1, 256), "Ceres threads");
   return table;
 }

@@ -1,7 +1,9 @@
 #include "rgbdmap/graph/pose_graph_synth.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <random>
+#include <vector>
 
 namespace rgbdmap {
 namespace {
@@ -73,6 +75,23 @@ void appendSynthRobot(const SynthGraphConfig& c, SynthGraph* s) {
     addEdge(s, c.first_node_id + j, c.first_node_id + k,
             perturb(T_true, c.noise_scale * c.loop_sigma_t, c.noise_scale * c.loop_sigma_r, &rng), loop_info,
             EdgeKind::kLoop);
+  }
+  // Further loops to the same place in random earlier laps (drawn after the above: the default graphs are
+  // unchanged).
+  for (int k = 2 * c.keyframes_per_lap; c.loop_laps > 1 && k < c.keyframes; k += c.loop_every) {
+    const int lap = k / c.keyframes_per_lap;
+    std::vector<int> earlier;  // laps before the previous one
+    for (int l = 0; l + 1 < lap; ++l) earlier.push_back(l);
+    std::shuffle(earlier.begin(), earlier.end(), rng);
+    earlier.resize(std::min<size_t>(earlier.size(), static_cast<size_t>(c.loop_laps - 1)));
+    for (int l : earlier) {
+      const int j = k % c.keyframes_per_lap + c.keyframes_per_lap * l;
+      const SE3 T_true = s->T_map_kf_true[base + j].inverse() * s->T_map_kf_true[base + k];
+      s->loop_edge_ids.push_back(s->next_edge_id);
+      addEdge(s, c.first_node_id + j, c.first_node_id + k,
+              perturb(T_true, c.noise_scale * c.loop_sigma_t, c.noise_scale * c.loop_sigma_r, &rng),
+              loop_info, EdgeKind::kLoop);
+    }
   }
   std::uniform_int_distribution<int> pick(0, c.keyframes - 1);
   for (int f = 0; f < c.false_loops;) {

@@ -98,7 +98,10 @@ struct MapServerStats {
   int graph_solves_skipped =
       0;  ///< loops kept without a solve: the estimate satisfied them (solve_above_chi2)
   int graph_merges_aligned =
-      0;  ///< maps joined by a rigid move onto the map they met (solved only if needed)
+      0;                       ///< maps joined by a rigid move onto the map they met (solved only if needed)
+  int graph_solves_local = 0;  ///< of graph_solves: of new loops' neighbourhood only (graph.local_max_nodes)
+  int graph_solves_local_refused =
+      0;                          ///< local solves whose answer did not fit (a whole-graph solve followed)
   double last_optimize_ms = 0.0;  ///< of the last pose-graph solve
   BundleAdjustmentStats ba;
   /// Corrections that follow the robots' heartbeats: sent again (the first may have been lost), and

@@ -45,6 +45,11 @@ struct PoseGraphConfig {
   /// Two inter-robot edges agree on the alignment when their implied corrections differ by less than these.
   double merge_consensus_translation_m = 0.5;
   double merge_consensus_rotation_rad = 0.1;
+  /// The server's optimiser solves new loops' neighbourhood first: up to this many nodes nearest (in edges)
+  /// to them, the nodes around it held fixed (PoseGraph::optimizeLocal). It keeps that answer when every
+  /// edge there then fits (chi2 <= outlier_chi2); otherwise (a loop closing a long cycle, a false loop) it
+  /// solves the whole graph, which alone may disable loops. 0: always the whole graph.
+  int local_max_nodes = 300;
 };
 
 enum class EdgeKind { kOdometry, kLoop, kInterRobot };
@@ -82,6 +87,26 @@ struct OptimizeReport {
   bool out_of_time = false;
 };
 
+/// What PoseGraph::optimizeLocal() did.
+struct LocalOptimizeReport {
+  /// The region's poses were written: the solve converged, every seed edge then has a chi2 <= outlier_chi2
+  /// and so has every edge of the solve (to the fixed nodes around the region included) that had one before.
+  /// Otherwise the graph is unchanged.
+  bool accepted = false;
+  /// The region grew to its whole component: nothing was solved (a whole-graph solve is the same work and
+  /// may also judge loops).
+  bool whole_component = false;
+  int region_nodes = 0;    ///< nodes free in the solve
+  int boundary_nodes = 0;  ///< nodes around the region, held fixed
+  int edges = 0;           ///< enabled edges in the solve
+  int iterations = 0;
+  double worst_chi2 = 0.0;  ///< after the solve, the largest chi2 of the seed edges and the edges that fitted
+  bool out_of_time = false;
+  bool cancelled = false;
+  double time_ms = 0.0;
+  std::vector<int64_t> moved_nodes;  ///< the region's node ids when accepted
+};
+
 class PoseGraph {
  public:
   /// Adds a keyframe; fails on a duplicate id or an invalid pose.
@@ -115,6 +140,14 @@ class PoseGraph {
   /// re-admitted once they fit again). Each connected component without a fixed node has its first node
   /// held during the solve. `cancel` (optional) aborts the running solve when set; poses are then kept.
   Result<OptimizeReport> optimize(const PoseGraphConfig& config, const std::atomic<bool>* cancel = nullptr);
+
+  /// Optimises the neighbourhood of the enabled edges `edge_ids` (e.g. new loop edges): a breadth-first
+  /// region over enabled edges from their ends, of up to config.local_max_nodes nodes, the nodes adjacent to
+  /// it held fixed, the enabled set kept (no loop is disabled or re-admitted here). Writes the region's poses
+  /// only when the answer is accepted (see LocalOptimizeReport). Cost: the region's edges, plus one pass
+  /// over the graph's edges to find it.
+  LocalOptimizeReport optimizeLocal(const std::vector<int64_t>& edge_ids, const PoseGraphConfig& config,
+                                    const std::atomic<bool>* cancel = nullptr);
 
   /// Takes an optimised solution of an earlier snapshot of this graph (from PoseGraphOptimizer): nodes in
   /// `T_map_kf` get those poses; nodes added since follow the correction of the latest earlier node of their

@@ -23,6 +23,9 @@ struct SynthGraphConfig {
   double noise_scale = 1.0;  ///< scales the noise drawn (0: exact edges); the information keeps the sigmas
   int loop_every = 5;        ///< a loop edge from every n-th keyframe after the first lap to the same place
   int false_loops = 0;       ///< extra wrong loops between far-apart keyframes claiming they coincide
+  /// Loop edges of a loop keyframe: to the same place in this many earlier laps (the previous one first, the
+  /// rest drawn at random), e.g. 10 for a fleet revisiting one room (every keyframe meets many passes).
+  int loop_laps = 1;
   bool initial_from_odometry = true;  ///< chain noisy odometry (else: start at ground truth)
   uint32_t seed = 1;
 };
