@@ -198,7 +198,8 @@ bool MapOptimizer::solveGraph(OptimizedPoses* out, const std::vector<int64_t>& s
     if (!local.whole_component) {
       ++local_refused_;
       log::debug("optimiser: local solve of ", local.region_nodes, " nodes refused (worst chi2 ",
-                 local.worst_chi2, local.out_of_time ? ", out of time" : "", "): solving the whole graph");
+                 local.worst_chi2, ", strain chi2 ", local.worst_strain_chi2,
+                 local.out_of_time ? ", out of time" : "", "): solving the whole graph");
     }
   }
   const Result<OptimizeReport> report = graph_.optimize(config_.graph, &cancel_);

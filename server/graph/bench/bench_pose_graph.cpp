@@ -151,6 +151,7 @@ void BM_PoseGraphFleetRoomNewKeyframeLocal(benchmark::State& state) {
   state.counters["region"] = report.region_nodes;
   state.counters["edges"] = report.edges;
   state.counters["iterations"] = report.iterations;
+  state.counters["strain_chi2"] = report.worst_strain_chi2;
 }
 
 }  // namespace

@@ -112,11 +112,19 @@ LocalOptimizeReport PoseGraph::optimizeLocal(const std::vector<int64_t>& edge_id
   report.cancelled = solved->cancelled;
   report.out_of_time = solved->out_of_time;
   if (report.cancelled || report.out_of_time) return report;
-  for (size_t k = 0; k < sub_edges.size(); ++k)
-    report.worst_chi2 = std::max(
-        report.worst_chi2,
-        graph_detail::edgeChi2(sub_edges[k], sub_sqrt[k], params[sub_ends[k].from], params[sub_ends[k].to]));
-  if (!(report.worst_chi2 <= config.outlier_chi2)) return report;
+  // Refused when a seed edge still does not fit, or an edge that fitted is strained past local_strain_chi2
+  // (the region pulled against its fixed surroundings). Edges that did not fit before are the whole-graph
+  // check's to judge; they do not count against the region.
+  for (size_t k = 0; k < sub_edges.size(); ++k) {
+    const double chi2 =
+        graph_detail::edgeChi2(sub_edges[k], sub_sqrt[k], params[sub_ends[k].from], params[sub_ends[k].to]);
+    if (sub_seed[k])
+      report.worst_chi2 = std::max(report.worst_chi2, chi2);
+    else if (sub_fit_before[k])
+      report.worst_strain_chi2 = std::max(report.worst_strain_chi2, chi2);
+  }
+  if (!(report.worst_chi2 <= config.outlier_chi2 && report.worst_strain_chi2 <= config.local_strain_chi2))
+    return report;
   report.accepted = true;
   for (size_t l = 0; l < region.size(); ++l) {
     nodes_[global_of[l]].T_map_kf = unpackPose(params[l].data());

@@ -25,6 +25,9 @@ const ConfigTable<PoseGraphConfig>& poseGraphConfigTable() {
                "the server solves new loops' neighbourhood of this many nodes first (nodes around it fixed) "
                "and keeps the answer when every edge there fits; else the whole graph. 0: always the whole "
                "graph")
+          .add("local_strain_chi2", &C::local_strain_chi2, R::closed(0.1, 1e6),
+               "a neighbourhood solve is refused when an edge that fitted ends above this chi2 (strained "
+               "against the fixed nodes around it)")
           .add("num_threads", &C::num_threads, R::closed(1, 256), "Ceres threads");
   return table;
 }

@@ -50,6 +50,12 @@ struct PoseGraphConfig {
   /// edge there then fits (chi2 <= outlier_chi2); otherwise (a loop closing a long cycle, a false loop) it
   /// solves the whole graph, which alone may disable loops. 0: always the whole graph.
   int local_max_nodes = 300;
+  /// A neighbourhood solve is refused when an edge that fitted before it (chi2 <= outlier_chi2) ends above
+  /// this: the region strained against the fixed nodes around it (a loop closing a long cycle gives chi2 in
+  /// the thousands). Above outlier_chi2, because edges near the threshold may cross it as the region
+  /// settles against surroundings that were themselves only solved locally; the whole-graph solve when
+  /// quiet judges them. 44.9: the 6-dof chi2 exceeded with probability 5e-8.
+  double local_strain_chi2 = 44.9;
 };
 
 enum class EdgeKind { kOdometry, kLoop, kInterRobot };
@@ -90,8 +96,8 @@ struct OptimizeReport {
 /// What PoseGraph::optimizeLocal() did.
 struct LocalOptimizeReport {
   /// The region's poses were written: the solve converged, every seed edge then has a chi2 <= outlier_chi2
-  /// and so has every edge of the solve (to the fixed nodes around the region included) that had one before.
-  /// Otherwise the graph is unchanged.
+  /// and every edge of the solve (to the fixed nodes around the region included) that had one before has a
+  /// chi2 <= local_strain_chi2. Otherwise the graph is unchanged.
   bool accepted = false;
   /// The region grew to its whole component: nothing was solved (a whole-graph solve is the same work and
   /// may also judge loops).
@@ -100,7 +106,8 @@ struct LocalOptimizeReport {
   int boundary_nodes = 0;  ///< nodes around the region, held fixed
   int edges = 0;           ///< enabled edges in the solve
   int iterations = 0;
-  double worst_chi2 = 0.0;  ///< after the solve, the largest chi2 of the seed edges and the edges that fitted
+  double worst_chi2 = 0.0;         ///< after the solve, the largest chi2 of the seed edges
+  double worst_strain_chi2 = 0.0;  ///< after the solve, the largest chi2 of the other edges that fitted
   bool out_of_time = false;
   bool cancelled = false;
   double time_ms = 0.0;
