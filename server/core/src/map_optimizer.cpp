@@ -331,7 +331,7 @@ bool MapOptimizer::grownEnough(int map) const {
 }
 
 void MapOptimizer::adjustGlobally(const std::set<int>& maps) {
-  bool weak = false;
+  std::vector<int64_t> weak;
   for (int map : std::set<int>(maps)) {
     const auto anchor = anchor_of_.find(map);
     if (anchor == anchor_of_.end() || cancel_) continue;
@@ -355,12 +355,17 @@ void MapOptimizer::adjustGlobally(const std::set<int>& maps) {
     counters_.global_cpu_ms_max = std::max(counters_.global_cpu_ms_max, cpu_ms);
     counters_.global_keyframes_last = r.report.frames;
     applyBundle(r);
-    weak = weak || !r.weak.empty();
+    weak.insert(weak.end(), r.weak.begin(), r.weak.end());
   }
-  // Keyframes too weakly observed to be adjusted (e.g. restored ones that only a few new tracks reach) are
-  // placed by their edges: a pose-graph solve over the refined edges follows.
+  // Keyframes too weakly observed to be adjusted (restored ones that only a few new tracks reach; in a
+  // large map, those the observation cap left with too few) are placed by their edges: a pose-graph solve
+  // over the refined edges follows, of their neighbourhood when it fits (a fleet's map of thousands of
+  // keyframes has hundreds of weak ones after every global BA).
+  std::vector<int64_t> seeds;
+  for (int64_t id : weak)
+    for (int64_t e : edges_of_node_[id]) seeds.push_back(e);
   OptimizedPoses ignored;
-  if (weak && !cancel_) solveGraph(&ignored);
+  if (!seeds.empty() && !cancel_) solveGraph(&ignored, seeds);
 }
 
 void MapOptimizer::applyBundle(const BundleResult& r) {

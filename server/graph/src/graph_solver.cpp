@@ -97,9 +97,8 @@ ceres::Solver::Options solverOptions(const PoseGraphConfig& config) {
   ceres::Solver::Options options;
   options.linear_solver_type = ceres::SPARSE_NORMAL_CHOLESKY;
   // Eigen's sparse Cholesky: as fast as SuiteSparse's CHOLMOD on sparse loops (52 vs 55 ms per solve of
-  // bench_pose_graph), and single-threaded, whereas Debian's CHOLMOD starts OpenMP threads of its own. On a
-  // room revisited by a fleet (BM_PoseGraphFleetRoom/3000: 27,000 loops) CHOLMOD's supernodes factor ~2.5x
-  // faster (~0.6 vs ~2.8 s per iteration); the server avoids such whole-graph solves (optimizeLocal).
+  // bench_pose_graph), and single-threaded, whereas Debian's CHOLMOD starts OpenMP threads of its own. Dense
+  // graphs go to conjugate gradients instead (solveOnce).
   options.sparse_linear_algebra_library_type = ceres::EIGEN_SPARSE;
   options.max_num_iterations = config.max_iterations;
   options.max_solver_time_in_seconds = config.max_solver_time_s;
@@ -149,6 +148,23 @@ Result<SolveOutcome> solveOnce(const std::vector<PoseGraphEdge>& edges, const st
   if (problem.NumResidualBlocks() == 0) return outcome;
 
   ceres::Solver::Options options = solverOptions(config);
+  // A room revisited many times ties every keyframe to ~10 others anywhere in the graph: its normal
+  // equations fill in almost completely under Cholesky (BM_PoseGraphFleetRoom/3000, 27,000 loops: ~2.8 s
+  // and GBs per iteration), while such a well-connected graph is well conditioned for conjugate gradients
+  // (~0.15 s per iteration, linear in the edges). Long sparse chains are the opposite (a circle with 200
+  // loops: 89 ms with Cholesky, 723 ms with CG), hence the switch on density.
+  const int free_blocks = problem.NumParameterBlocks() - [&] {
+    int constant = 0;
+    for (size_t i = 0; i < poses->size(); ++i)
+      constant += problem.HasParameterBlock((*poses)[i].data()) && fixed[i] ? 1 : 0;
+    return constant;
+  }();
+  if (config.iterative_min_edges_per_node > 0.0 && free_blocks >= config.iterative_min_nodes &&
+      problem.NumResidualBlocks() >= config.iterative_min_edges_per_node * free_blocks) {
+    options.linear_solver_type = ceres::CGNR;
+    options.preconditioner_type = ceres::JACOBI;
+    options.max_linear_solver_iterations = config.iterative_max_cg_iterations;
+  }
   CancelCallback cancel_callback(cancel);
   options.callbacks.push_back(&cancel_callback);
   ceres::Solver::Summary summary;

@@ -28,6 +28,14 @@ const ConfigTable<PoseGraphConfig>& poseGraphConfigTable() {
           .add("local_strain_chi2", &C::local_strain_chi2, R::closed(0.1, 1e6),
                "a neighbourhood solve is refused when an edge that fitted ends above this chi2 (strained "
                "against the fixed nodes around it)")
+          .add(
+              "iterative_min_edges_per_node", &C::iterative_min_edges_per_node, R::closed(0.0, 1e6),
+              "a solve uses conjugate gradients instead of sparse Cholesky with at least this many edges per "
+              "free node (dense loops, e.g. a fleet in one room); 0: always Cholesky")
+          .add("iterative_min_nodes", &C::iterative_min_nodes, R::closed(1, 100000000),
+               "... and at least this many free nodes")
+          .add("iterative_max_cg_iterations", &C::iterative_max_cg_iterations, R::closed(1, 100000),
+               "conjugate-gradient steps per Levenberg-Marquardt iteration")
           .add("num_threads", &C::num_threads, R::closed(1, 256), "Ceres threads");
   return table;
 }

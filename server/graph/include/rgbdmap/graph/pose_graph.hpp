@@ -34,6 +34,13 @@ struct PoseGraphConfig {
   /// kept without a solve, as a converged solve would keep it (bundle adjustment uses its matches). 0:
   /// solve after every loop. 12.59 = the 6-dof 95% quantile.
   double solve_above_chi2 = 12.59;
+  /// Linear solver per solve: sparse Cholesky, or conjugate gradients (CGNR, Jacobi preconditioner) when at
+  /// least iterative_min_nodes nodes are free and there are at least iterative_min_edges_per_node edges per
+  /// free node: a room revisited by many passes fills the Cholesky factor in almost completely (seconds and
+  /// GBs per iteration) but is well conditioned for CG. 0 edges per node: always Cholesky.
+  double iterative_min_edges_per_node = 4.0;
+  int iterative_min_nodes = 200;
+  int iterative_max_cg_iterations = 200;  ///< per Levenberg-Marquardt iteration
   /// Ceres threads; the service runs the optimiser on one core.
   int num_threads = 1;
   /// Analytic Jacobians (RelativePoseCost); false: Ceres autodiff of RelativePoseResidual (same residual).
