@@ -3,6 +3,7 @@
 #include "map_optimizer.hpp"
 
 #include <algorithm>
+#include <string>
 #include <utility>
 
 #include "ingest_timings.hpp"
@@ -327,7 +328,9 @@ bool MapOptimizer::grownEnough(int map) const {
   for (const auto& [id, m] : map_of_) keyframes += m == map;
   const auto it = added_since_global_.find(map);
   const int added = it == added_since_global_.end() ? 0 : it->second;
-  return added >= config_.ba.global_min_growth_fraction * static_cast<double>(keyframes);
+  const auto backoff = global_backoff_.find(map);
+  const int factor = backoff == global_backoff_.end() ? 1 : std::max(1, backoff->second);
+  return added >= config_.ba.global_min_growth_fraction * factor * static_cast<double>(keyframes);
 }
 
 void MapOptimizer::adjustGlobally(const std::set<int>& maps) {
@@ -343,11 +346,21 @@ void MapOptimizer::adjustGlobally(const std::set<int>& maps) {
     changed_maps_.erase(map);
     counters_.out_of_time += r.report.out_of_time ? 1 : 0;
     if (!r.ok) continue;
+    // Stopped by its time limit without lowering the error: a map this large is more than the observation
+    // cap can move in that time; the next one waits for twice the growth (reset by one that helps).
+    int& backoff = global_backoff_[map];
+    if (r.report.out_of_time && !(r.report.final_rms_px < 0.99 * r.report.initial_rms_px)) {
+      backoff = std::min(64, std::max(1, backoff) * 2);
+      ++counters_.global_fruitless;
+    } else {
+      backoff = 1;
+    }
     log::info("optimiser: global BA of map ", map, ": ", r.report.frames, " keyframes, ", r.report.points,
               " landmarks, ", r.report.observations, " observations (", r.outliers_removed,
               " rejected), rms ", r.report.initial_rms_px, " -> ", r.report.final_rms_px, " px, ",
               r.report.iterations, " iterations", r.report.out_of_time ? " (out of time)" : "", ", ", ms,
-              " ms (", cpu_ms, " ms CPU)");
+              " ms (", cpu_ms, " ms CPU)", backoff > 1 ? "; no gain: the next waits for growth x" : "",
+              backoff > 1 ? std::to_string(backoff) : "");
     ++counters_.global_runs;
     counters_.global_ms_last = ms;
     counters_.global_ms_max = std::max(counters_.global_ms_max, ms);

@@ -137,6 +137,7 @@ class MapOptimizer {
   std::map<int64_t, EdgeMatches> in_tracks_;  ///< matches of edges in the tracks
   std::map<int, int> added_since_global_;     ///< map id -> keyframes added since its last global BA
   std::set<int> changed_maps_;                ///< maps changed since their last global BA
+  std::map<int, int> global_backoff_;         ///< map id -> growth factor after fruitless global BAs
   BundleAdjustmentStats counters_;
   int solves_skipped_ = 0;
   int merges_aligned_ = 0;

@@ -21,6 +21,7 @@ Json bundleAdjustmentJson(const BundleAdjustmentStats& s) {
           {"local_ba_cpu_ms_p90", jsonNumber(s.local_cpu_ms_p90)},
           {"global_ba_runs", s.global_runs},
           {"global_ba_ms_last", jsonNumber(s.global_ms_last)},
+          {"global_ba_fruitless", s.global_fruitless},
           {"global_ba_ms_max", jsonNumber(s.global_ms_max)},
           {"global_ba_cpu_ms_last", jsonNumber(s.global_cpu_ms_last)},
           {"global_ba_cpu_ms_max", jsonNumber(s.global_cpu_ms_max)},

@@ -82,8 +82,11 @@ struct BundleAdjustmentStats {
   double global_ms_last = 0.0, global_ms_max = 0.0;
   double global_cpu_ms_last = 0.0, global_cpu_ms_max = 0.0;
   int global_keyframes_last = 0;  ///< keyframes of the last global BA
-  int64_t edges_in_tracks = 0;    ///< loop edges whose inlier matches are in the tracks
-  int64_t edges_taken_back = 0;   ///< of those, taken out again when the pose graph disabled the edge
+  /// Global BAs that ended at their time limit without lowering the error (a map too large for the
+  /// observation cap); each doubles the growth its map must reach before the next one (up to 64x).
+  int64_t global_fruitless = 0;
+  int64_t edges_in_tracks = 0;   ///< loop edges whose inlier matches are in the tracks
+  int64_t edges_taken_back = 0;  ///< of those, taken out again when the pose graph disabled the edge
   LandmarkStats landmarks;
 };
 
@@ -98,8 +101,10 @@ struct MapServerStats {
   int graph_solves_skipped =
       0;  ///< loops kept without a solve: the estimate satisfied them (solve_above_chi2)
   int graph_merges_aligned =
-      0;                       ///< maps joined by a rigid move onto the map they met (solved only if needed)
-  int graph_solves_local = 0;  ///< of graph_solves: of new loops' neighbourhood only (graph.local_max_nodes)
+      0;  ///< maps joined by a rigid move onto the map they met (solved only if needed)
+  /// Neighbourhood solves kept (graph.local_max_nodes): after new loops (counted in graph_solves too) and
+  /// placing the weak keyframes after a global BA.
+  int graph_solves_local = 0;
   int graph_solves_local_refused =
       0;                          ///< local solves whose answer did not fit (a whole-graph solve followed)
   double last_optimize_ms = 0.0;  ///< of the last pose-graph solve

@@ -30,7 +30,8 @@ struct BundleAdjustmentConfig {
   /// A global BA for growth or after a large cycle waits until the map has grown by this fraction of its
   /// keyframes since its last one, so its cost (linear in the map, up to the landmark map's observation cap)
   /// stays constant per keyframe as the map grows. Joined chains (a merge), an explicit request (waitIdle)
-  /// and a quiet map are not held back.
+  /// and a quiet map are not held back. A global BA that ends at its time limit without lowering the
+  /// error doubles its map's fraction (up to 64x) until one helps (BundleAdjustmentStats::global_fruitless).
   /// 0: no wait.
   double global_min_growth_fraction = 0.1;
   /// A map changed since its last global BA gets one once no keyframe came for this long (0: only when
