@@ -310,14 +310,8 @@ TEST(MapOptimizer, OnlyLoopsTheEstimateDoesNotSatisfyGetAWholeGraphSolve) {
 // false loops, drift it cannot absorb) goes to a whole-graph solve, which alone disables loops. Once quiet,
 // the optimiser solves the whole graph by itself: same loops kept, same accuracy as solving it every time.
 TEST(MapOptimizer, LoopsInARevisitedRoomAreSolvedInTheirNeighbourhood) {
-  SynthGraphConfig c;
-  c.keyframes = 46 * 6;
-  c.keyframes_per_lap = 46;
-  c.radius_m = 1.5;
-  c.loop_every = 1;
-  c.loop_laps = 4;
+  SynthGraphConfig c = revisitedRoom(46 * 6, 4, 11);
   c.false_loops = 3;
-  c.seed = 11;
   const SynthGraph synth = makeSynthGraph(c);
   MapOptimizerConfig config;
   config.ba.enabled = false;

@@ -66,24 +66,17 @@ void BM_PoseGraph1000Kf200Loops20False(benchmark::State& state) {
   run(state, rgbdmap::PoseGraphConfig{}, 20);
 }
 
-/// A room revisited by a fleet: laps of 46 keyframes (radius 1.5 m), every keyframe after the second lap with
-/// loops to the same place in 10 earlier laps (the first to the previous lap), as the 16-robot fleet run
-/// has ~10 loops per keyframe. `exact_start`: the poses start at the truth (a solved map).
+/// A room revisited by a fleet (revisitedRoom): up to 10 loops per keyframe, as the 16-robot fleet run has
+/// ~10. `exact_start`: the poses start at the truth (a solved map).
 rgbdmap::SynthGraph fleetRoom(int keyframes, bool exact_start) {
-  rgbdmap::SynthGraphConfig c;
-  c.keyframes = keyframes;
-  c.keyframes_per_lap = 46;
-  c.radius_m = 1.5;
-  c.loop_every = 1;
-  c.loop_laps = 10;
+  rgbdmap::SynthGraphConfig c = rgbdmap::revisitedRoom(keyframes, 10, 7);
   c.initial_from_odometry = !exact_start;
-  c.seed = 7;
   rgbdmap::SynthGraph synth = rgbdmap::makeSynthGraph(c);
   synth.graph.setFixed(0);
   return synth;
 }
 
-// The whole graph from odometry (what the server's optimiser avoids on such graphs; 2 s per solve cap).
+// The whole graph from odometry (2 s cap per solve; conjugate gradients on a graph this dense).
 void BM_PoseGraphFleetRoom(benchmark::State& state) {
   const rgbdmap::SynthGraph synth = fleetRoom(static_cast<int>(state.range(0)), false);
   rgbdmap::OptimizeReport report;

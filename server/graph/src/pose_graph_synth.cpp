@@ -106,6 +106,17 @@ void appendSynthRobot(const SynthGraphConfig& c, SynthGraph* s) {
   }
 }
 
+SynthGraphConfig revisitedRoom(int keyframes, int loop_laps, uint32_t seed) {
+  SynthGraphConfig c;
+  c.keyframes = keyframes;
+  c.keyframes_per_lap = 46;
+  c.radius_m = 1.5;
+  c.loop_every = 1;
+  c.loop_laps = loop_laps;
+  c.seed = seed;
+  return c;
+}
+
 SynthGraph makeSynthGraph(const SynthGraphConfig& config) {
   SynthGraph s;
   appendSynthRobot(config, &s);

@@ -42,6 +42,11 @@ struct SynthGraph {
 /// Builds the graph; fixes no node (the caller decides the gauge).
 SynthGraph makeSynthGraph(const SynthGraphConfig& config);
 
+/// A room revisited pass after pass, as by the 16-robot fleet run: `keyframes` on laps of 46 keyframes
+/// (radius 1.5 m), every keyframe after the first lap with loops to the same place in `loop_laps` earlier
+/// laps (the previous one and random others).
+SynthGraphConfig revisitedRoom(int keyframes, int loop_laps, uint32_t seed);
+
 /// Appends the robot of `config` to an existing graph (ids must not collide).
 void appendSynthRobot(const SynthGraphConfig& config, SynthGraph* synth);
 
