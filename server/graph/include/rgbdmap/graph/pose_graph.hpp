@@ -102,9 +102,11 @@ struct OptimizeReport {
 
 /// What PoseGraph::optimizeLocal() did.
 struct LocalOptimizeReport {
-  /// The region's poses were written: the solve converged, every seed edge then has a chi2 <= outlier_chi2
-  /// and every edge of the solve (to the fixed nodes around the region included) that had one before has a
-  /// chi2 <= local_strain_chi2. Otherwise the graph is unchanged.
+  /// The region's poses were written: the solve converged, every seed edge that touches the region then
+  /// has a chi2 <= outlier_chi2 and every edge of the solve (to the fixed nodes around the region included)
+  /// that had one before has a chi2 <= local_strain_chi2. Otherwise the graph is unchanged. (Seed edges
+  /// beyond local_max_nodes are not in the solve and not judged: the whole-graph solve owed when quiet
+  /// covers them.)
   bool accepted = false;
   /// The region grew to its whole component: nothing was solved (a whole-graph solve is the same work and
   /// may also judge loops).
