@@ -3,6 +3,8 @@
 #include <array>
 #include <atomic>
 #include <cstddef>
+#include <cstdint>
+#include <unordered_map>
 #include <vector>
 
 #include "rgbdmap/common/result.hpp"
@@ -16,6 +18,10 @@ using Pose7 = std::array<double, 7>;
 struct EdgeEnds {
   size_t from = 0, to = 0;
 };
+
+/// Node indices of every edge (node_index: node id -> index).
+std::vector<EdgeEnds> resolveEnds(const std::vector<PoseGraphEdge>& edges,
+                                  const std::unordered_map<int64_t, size_t>& node_index);
 
 /// Component label (smallest member index) per node over the edges where mask is true.
 std::vector<size_t> componentLabels(size_t num_nodes, const std::vector<EdgeEnds>& ends,

@@ -138,11 +138,15 @@ Result<SolveOutcome> solveOnce(const std::vector<PoseGraphEdge>& edges, const st
     problem.AddResidualBlock(makeCost(edges[k], sqrt_info[k], config.analytic_jacobians), loss,
                              (*poses)[ends[k].from].data(), (*poses)[ends[k].to].data());
   }
+  int free_blocks = 0;
   for (size_t i = 0; i < poses->size(); ++i) {
     double* block = (*poses)[i].data();
     if (!problem.HasParameterBlock(block)) continue;
     problem.SetManifold(block, &manifold);
-    if (fixed[i]) problem.SetParameterBlockConstant(block);
+    if (fixed[i])
+      problem.SetParameterBlockConstant(block);
+    else
+      ++free_blocks;
   }
   SolveOutcome outcome;
   if (problem.NumResidualBlocks() == 0) return outcome;
@@ -153,12 +157,6 @@ Result<SolveOutcome> solveOnce(const std::vector<PoseGraphEdge>& edges, const st
   // and GBs per iteration), while such a well-connected graph is well conditioned for conjugate gradients
   // (~0.15 s per iteration, linear in the edges). Long sparse chains are the opposite (a circle with 200
   // loops: 89 ms with Cholesky, 723 ms with CG), hence the switch on density.
-  const int free_blocks = problem.NumParameterBlocks() - [&] {
-    int constant = 0;
-    for (size_t i = 0; i < poses->size(); ++i)
-      constant += problem.HasParameterBlock((*poses)[i].data()) && fixed[i] ? 1 : 0;
-    return constant;
-  }();
   if (config.iterative_min_edges_per_node > 0.0 && free_blocks >= config.iterative_min_nodes &&
       problem.NumResidualBlocks() >= config.iterative_min_edges_per_node * free_blocks) {
     options.linear_solver_type = ceres::CGNR;

@@ -133,14 +133,6 @@ std::optional<double> PoseGraph::edgeChi2(int64_t id) const {
 }
 
 namespace {
-std::vector<EdgeEnds> resolveEnds(const std::vector<PoseGraphEdge>& edges,
-                                  const std::unordered_map<int64_t, size_t>& node_index) {
-  std::vector<EdgeEnds> ends;
-  ends.reserve(edges.size());
-  for (const auto& e : edges) ends.push_back({node_index.at(e.from), node_index.at(e.to)});
-  return ends;
-}
-
 bool isLoop(const PoseGraphEdge& e) { return e.kind != EdgeKind::kOdometry; }
 }  // namespace
 
@@ -151,8 +143,8 @@ std::vector<bool> PoseGraph::enabledMask() const {
 }
 
 std::vector<std::vector<int64_t>> PoseGraph::components() const {
-  const auto labels =
-      graph_detail::componentLabels(nodes_.size(), resolveEnds(edges_, node_index_), enabledMask());
+  const auto labels = graph_detail::componentLabels(
+      nodes_.size(), graph_detail::resolveEnds(edges_, node_index_), enabledMask());
   std::vector<std::vector<int64_t>> groups;
   std::unordered_map<size_t, size_t> group_of_label;
   for (size_t i = 0; i < nodes_.size(); ++i) {
@@ -164,7 +156,8 @@ std::vector<std::vector<int64_t>> PoseGraph::components() const {
 }
 
 std::vector<bool> PoseGraph::gaugeFixed(const std::vector<bool>& enabled) const {
-  const auto labels = graph_detail::componentLabels(nodes_.size(), resolveEnds(edges_, node_index_), enabled);
+  const auto labels =
+      graph_detail::componentLabels(nodes_.size(), graph_detail::resolveEnds(edges_, node_index_), enabled);
   std::vector<bool> fixed(nodes_.size(), false);
   std::vector<bool> label_has_fixed(nodes_.size(), false);
   for (size_t i = 0; i < nodes_.size(); ++i) {
@@ -179,7 +172,7 @@ std::vector<bool> PoseGraph::gaugeFixed(const std::vector<bool>& enabled) const 
 }
 
 PoseGraph::Alignment PoseGraph::alignSubmaps(const PoseGraphConfig& config) {
-  const auto ends = resolveEnds(edges_, node_index_);
+  const auto ends = graph_detail::resolveEnds(edges_, node_index_);
   const std::vector<bool> enabled = enabledMask();
   std::vector<SE3> T_map_kf;
   T_map_kf.reserve(nodes_.size());
@@ -203,7 +196,7 @@ PoseGraph::Alignment PoseGraph::alignSubmaps(const PoseGraphConfig& config) {
 Result<OptimizeReport> PoseGraph::optimize(const PoseGraphConfig& config, const std::atomic<bool>* cancel) {
   const auto t0 = std::chrono::steady_clock::now();
   OptimizeReport report;
-  const auto ends = resolveEnds(edges_, node_index_);
+  const auto ends = graph_detail::resolveEnds(edges_, node_index_);
   std::vector<bool> enabled = enabledMask();
   for (const auto& e : edges_) report.loops_total += isLoop(e) ? 1 : 0;
 
