@@ -37,12 +37,14 @@
 #include <vector>
 
 #include "bench_common.hpp"
+#include "rgbdmap/common/config_reader.hpp"
 #include "rgbdmap/common/evaluation.hpp"
 #include "rgbdmap/common/image_codec.hpp"
 #include "rgbdmap/common/logging.hpp"
 #include "rgbdmap/common/synth.hpp"
 #include "rgbdmap/proto/channels.hpp"
 #include "rgbdmap/server/map_server.hpp"
+#include "rgbdmap/server/server_config.hpp"
 
 using namespace rgbdmap;
 
@@ -56,6 +58,7 @@ struct Options {
   bool occupancy = true;
   double max_minutes = 0.0;
   std::string map_dir;
+  std::string config;  ///< YAML whose keys override the bench's server configuration
 };
 
 bool parse(int argc, char** argv, Options* o) {
@@ -76,6 +79,8 @@ bool parse(int argc, char** argv, Options* o) {
       o->max_minutes = std::atof(argv[++i]);
     } else if (a == "--map-dir" && has) {
       o->map_dir = argv[++i];
+    } else if (a == "--config" && has) {
+      o->config = argv[++i];
     } else if (a == "--no-occupancy") {
       o->occupancy = false;
     } else {
@@ -198,7 +203,8 @@ int main(int argc, char** argv) {
   if (!parse(argc, argv, &o)) {
     std::fprintf(stderr,
                  "usage: bench_map_growth [--keyframes N>=10] [--per-lap K>=8] [--revisit-every R>=1] "
-                 "[--width W] [--height H] [--no-occupancy] [--max-minutes M] [--map-dir DIR]\n");
+                 "[--width W] [--height H] [--no-occupancy] [--max-minutes M] [--map-dir DIR] [--config FILE "
+                 "(server.yaml keys to override)]\n");
     return 2;
   }
   cv::setNumThreads(1);
@@ -216,6 +222,20 @@ int main(int argc, char** argv) {
       o.map_dir.empty() ? (std::filesystem::temp_directory_path() / "rgbdmap_bench_map_growth").string()
                         : o.map_dir,
       o.occupancy);
+  if (!o.config.empty()) {
+    auto reader = ConfigReader::fromFile(o.config);
+    if (!reader) {
+      std::fprintf(stderr, "bench_map_growth: %s\n", reader.error().c_str());
+      return 2;
+    }
+    ServerAppConfig app;
+    app.server = config;
+    readServerConfig(*reader, &app);
+    for (const std::string& e : reader->errors())
+      std::fprintf(stderr, "bench_map_growth: %s: %s\n", o.config.c_str(), e.c_str());
+    if (!reader->errors().empty()) return 2;
+    config = app.server;
+  }
   std::filesystem::remove_all(config.map_dir);
   MapServer server(config, *transport, msg::KeyStore::openMode());
   if (!server.start() || !transport->start()) return 1;
