@@ -65,6 +65,14 @@ void BM_PoseGraph1000Kf200LoopsAutodiff(benchmark::State& state) {
 void BM_PoseGraph1000Kf200Loops20False(benchmark::State& state) {
   run(state, rgbdmap::PoseGraphConfig{}, 20);
 }
+/// The long circle forced onto conjugate gradients: a sparse graph with long chains, ill conditioned for
+/// CG with the block Jacobi preconditioner (arg 0); arg 1: the fallback to the spanning tree (the default).
+void BM_PoseGraph1000Kf200LoopsCg(benchmark::State& state) {
+  rgbdmap::PoseGraphConfig config;
+  config.iterative_min_edges_per_node = 0.5;
+  config.iterative_tree_fallback = state.range(0) == 1;
+  run(state, config, 0);
+}
 
 /// A room revisited by a fleet (revisitedRoom): up to 10 loops per keyframe, as the 16-robot fleet run has
 /// ~10. `exact_start`: the poses start at the truth (a solved map).
@@ -76,15 +84,20 @@ rgbdmap::SynthGraph fleetRoom(int keyframes, bool exact_start) {
   return synth;
 }
 
-// The whole graph from odometry (2 s cap per solve; conjugate gradients on a graph this dense).
+// The whole graph from odometry (2 s cap per solve; conjugate gradients on a graph this dense). Second
+// argument: 0 sparse Cholesky, 1 CG with block Jacobi only, 2 CG with the fallback to the spanning tree (the
+// default).
 void BM_PoseGraphFleetRoom(benchmark::State& state) {
   const rgbdmap::SynthGraph synth = fleetRoom(static_cast<int>(state.range(0)), false);
+  rgbdmap::PoseGraphConfig config;
+  if (state.range(1) == 0) config.iterative_min_edges_per_node = 0.0;
+  config.iterative_tree_fallback = state.range(1) == 2;
   rgbdmap::OptimizeReport report;
   for (auto _ : state) {
     state.PauseTiming();
     rgbdmap::PoseGraph graph = synth.graph;
     state.ResumeTiming();
-    auto result = graph.optimize(rgbdmap::PoseGraphConfig{});
+    auto result = graph.optimize(config);
     if (!result.ok()) {
       state.SkipWithError(result.error().c_str());
       return;
@@ -149,7 +162,10 @@ void BM_PoseGraphFleetRoomNewKeyframeLocal(benchmark::State& state) {
 
 }  // namespace
 
-BENCHMARK(BM_PoseGraphFleetRoom)->Arg(1000)->Arg(3000)->Unit(benchmark::kMillisecond)->Iterations(1);
+BENCHMARK(BM_PoseGraphFleetRoom)
+    ->ArgsProduct({{1000, 3000}, {0, 1, 2}})
+    ->Unit(benchmark::kMillisecond)
+    ->Iterations(1);
 BENCHMARK(BM_PoseGraphFleetRoomNewKeyframeLocal)
     ->Arg(1000)
     ->Arg(3000)
@@ -161,4 +177,5 @@ BENCHMARK(BM_PoseGraph1000Kf200Loops)->Unit(benchmark::kMillisecond)->MinTime(2.
 BENCHMARK(BM_PoseGraph1000Kf200LoopsNoConsistencyCheck)->Unit(benchmark::kMillisecond)->MinTime(2.0);
 BENCHMARK(BM_PoseGraph1000Kf200LoopsAutodiff)->Unit(benchmark::kMillisecond)->MinTime(2.0);
 BENCHMARK(BM_PoseGraph1000Kf200Loops20False)->Unit(benchmark::kMillisecond)->MinTime(2.0);
+BENCHMARK(BM_PoseGraph1000Kf200LoopsCg)->Arg(0)->Arg(1)->Unit(benchmark::kMillisecond)->MinTime(2.0);
 BENCHMARK_MAIN();

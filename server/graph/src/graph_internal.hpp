@@ -32,13 +32,17 @@ struct SolveOutcome {
   double initial_cost = 0.0, final_cost = 0.0;
   bool cancelled = false;
   bool out_of_time = false;  ///< stopped by max_solver_time_s before converging (a load-dependent answer)
+  bool converged = false;    ///< Ceres' convergence test ended it (not a limit, not a cancel)
+  bool tree_preconditioner = false;  ///< CG used the spanning tree (from the start or after Jacobi's cap)
 };
 
-/// One Levenberg-Marquardt solve over the enabled edges; nodes with fixed[i] are held constant.
+/// One Levenberg-Marquardt solve over the enabled edges; nodes with fixed[i] are held constant. With
+/// conjugate gradients, `tree_first` starts with the spanning-tree preconditioner instead of block Jacobi.
 Result<SolveOutcome> solveOnce(const std::vector<PoseGraphEdge>& edges, const std::vector<Mat6>& sqrt_info,
                                const std::vector<EdgeEnds>& ends, const std::vector<bool>& enabled,
                                const std::vector<bool>& fixed, const PoseGraphConfig& config,
-                               const std::atomic<bool>* cancel, std::vector<Pose7>* poses);
+                               const std::atomic<bool>* cancel, std::vector<Pose7>* poses,
+                               bool tree_first = false);
 
 /// Whitened chi2 (no robust loss) of one edge at the given poses.
 double edgeChi2(const PoseGraphEdge& edge, const Mat6& sqrt_info, const Pose7& from, const Pose7& to);

@@ -102,8 +102,9 @@ LocalOptimizeReport PoseGraph::optimizeLocal(const std::vector<int64_t>& edge_id
     sub_fit_before.push_back(graph_detail::edgeChi2(sub_edges[k], sub_sqrt[k], params[sub_ends[k].from],
                                                     params[sub_ends[k].to]) <= config.outlier_chi2);
   const std::vector<bool> sub_enabled(sub_edges.size(), true);
-  auto solved =
-      graph_detail::solveOnce(sub_edges, sub_sqrt, sub_ends, sub_enabled, fixed, config, cancel, &params);
+  auto solved = graph_detail::solveOnce(sub_edges, sub_sqrt, sub_ends, sub_enabled, fixed, config, cancel,
+                                        &params, cg_tree_);
+  if (solved.ok()) cg_tree_ = cg_tree_ || solved->tree_preconditioner;
   report.time_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
   if (!solved.ok()) return report;
   report.iterations = solved->iterations;

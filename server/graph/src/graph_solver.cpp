@@ -1,8 +1,10 @@
 // The Ceres side of the pose graph: residual helpers, connectivity and one robust LM solve.
 #include <ceres/ceres.h>
 
+#include <chrono>
 #include <memory>
 #include <numeric>
+#include <unordered_set>
 
 #include "graph_internal.hpp"
 #include "rgbdmap/graph/pose_graph_cost.hpp"
@@ -115,12 +117,55 @@ ceres::CostFunction* makeCost(const PoseGraphEdge& edge, const Mat6& sqrt_info, 
       new RelativePoseResidual(edge.T_from_to, sqrt_info));
 }
 
+/// Stops a solve after the first iteration whose conjugate gradients needed the cap (poses kept).
+class CgCapCallback : public ceres::IterationCallback {
+ public:
+  explicit CgCapCallback(int cap) : cap_(cap) {}
+  ceres::CallbackReturnType operator()(const ceres::IterationSummary& it) override {
+    if (it.linear_solver_iterations < cap_) return ceres::SOLVER_CONTINUE;
+    hit_ = true;
+    return ceres::SOLVER_TERMINATE_SUCCESSFULLY;
+  }
+  bool hit() const { return hit_; }
+
+ private:
+  int cap_;
+  bool hit_ = false;
+};
+
+/// The residual blocks of a spanning forest of the solved graph, odometry first: every odometry edge (a
+/// chain per robot session, so already a forest) and then each loop edge that joins two trees. Its normal
+/// equations are a tree's, which sparse Cholesky factors without fill-in; Levenberg-Marquardt's diagonal
+/// (which Ceres adds to the subset) makes them definite although no node of the tree is held fixed.
+std::unordered_set<ceres::ResidualBlockId> spanningTree(const std::vector<PoseGraphEdge>& edges,
+                                                        const std::vector<EdgeEnds>& ends,
+                                                        const std::vector<ceres::ResidualBlockId>& block_ids,
+                                                        size_t num_nodes) {
+  std::vector<size_t> parent(num_nodes);
+  std::iota(parent.begin(), parent.end(), size_t{0});
+  const auto find = [&parent](size_t i) {
+    while (parent[i] != i) i = parent[i] = parent[parent[i]];
+    return i;
+  };
+  std::unordered_set<ceres::ResidualBlockId> tree;
+  for (const bool odometry : {true, false}) {
+    for (size_t k = 0; k < edges.size(); ++k) {
+      if (!block_ids[k] || (edges[k].kind == EdgeKind::kOdometry) != odometry) continue;
+      const size_t a = find(ends[k].from), b = find(ends[k].to);
+      if (a == b) continue;
+      parent[std::max(a, b)] = std::min(a, b);
+      tree.insert(block_ids[k]);
+    }
+  }
+  return tree;
+}
+
 }  // namespace
 
 Result<SolveOutcome> solveOnce(const std::vector<PoseGraphEdge>& edges, const std::vector<Mat6>& sqrt_info,
                                const std::vector<EdgeEnds>& ends, const std::vector<bool>& enabled,
                                const std::vector<bool>& fixed, const PoseGraphConfig& config,
-                               const std::atomic<bool>* cancel, std::vector<Pose7>* poses) {
+                               const std::atomic<bool>* cancel, std::vector<Pose7>* poses, bool tree_first) {
   std::unique_ptr<ceres::LossFunction> loop_loss;
   if (config.use_cauchy) {
     loop_loss = std::make_unique<ceres::CauchyLoss>(config.loop_loss_scale);
@@ -132,11 +177,12 @@ Result<SolveOutcome> solveOnce(const std::vector<PoseGraphEdge>& edges, const st
   problem_options.loss_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
   problem_options.manifold_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
   ceres::Problem problem(problem_options);
+  std::vector<ceres::ResidualBlockId> block_ids(edges.size(), nullptr);
   for (size_t k = 0; k < edges.size(); ++k) {
     if (!enabled[k]) continue;
     ceres::LossFunction* loss = edges[k].kind == EdgeKind::kOdometry ? nullptr : loop_loss.get();
-    problem.AddResidualBlock(makeCost(edges[k], sqrt_info[k], config.analytic_jacobians), loss,
-                             (*poses)[ends[k].from].data(), (*poses)[ends[k].to].data());
+    block_ids[k] = problem.AddResidualBlock(makeCost(edges[k], sqrt_info[k], config.analytic_jacobians), loss,
+                                            (*poses)[ends[k].from].data(), (*poses)[ends[k].to].data());
   }
   int free_blocks = 0;
   for (size_t i = 0; i < poses->size(); ++i) {
@@ -157,26 +203,57 @@ Result<SolveOutcome> solveOnce(const std::vector<PoseGraphEdge>& edges, const st
   // and GBs per iteration), while such a well-connected graph is well conditioned for conjugate gradients
   // (~0.15 s per iteration, linear in the edges). Long sparse chains are the opposite (a circle with 200
   // loops: 89 ms with Cholesky, 723 ms with CG), hence the switch on density.
-  if (config.iterative_min_edges_per_node > 0.0 && free_blocks >= config.iterative_min_nodes &&
-      problem.NumResidualBlocks() >= config.iterative_min_edges_per_node * free_blocks) {
+  const bool iterative = config.iterative_min_edges_per_node > 0.0 &&
+                         free_blocks >= config.iterative_min_nodes &&
+                         problem.NumResidualBlocks() >= config.iterative_min_edges_per_node * free_blocks;
+  if (iterative) {
     options.linear_solver_type = ceres::CGNR;
     options.preconditioner_type = ceres::JACOBI;
     options.max_linear_solver_iterations = config.iterative_max_cg_iterations;
   }
   CancelCallback cancel_callback(cancel);
   options.callbacks.push_back(&cancel_callback);
+  // Block Jacobi suits a compact, densely looped graph (the room: 2-116 CG steps per iteration) but not
+  // long chains, whose drift it spreads one node per CG step (rooms joined by long stretches: the cap of
+  // 200 steps in most iterations, and a solve that stops far from the optimum while its step and cost
+  // change look converged). The first iteration that needs the cap switches the rest of the solve to the
+  // spanning tree, which carries a chain's drift exactly in one application.
+  CgCapCallback cap_callback(config.iterative_max_cg_iterations);
+  const auto useTree = [&] {
+    outcome.tree_preconditioner = true;
+    options.preconditioner_type = ceres::SUBSET;
+    options.residual_blocks_for_subset_preconditioner = spanningTree(edges, ends, block_ids, poses->size());
+    options.callbacks = {&cancel_callback};
+  };
+  if (iterative && config.iterative_tree_fallback) {
+    if (tree_first)
+      useTree();
+    else
+      options.callbacks.push_back(&cap_callback);
+  }
+  const auto t0 = std::chrono::steady_clock::now();
   ceres::Solver::Summary summary;
   ceres::Solve(options, &problem, &summary);
+  outcome.iterations = static_cast<int>(summary.iterations.size());
+  outcome.initial_cost = summary.initial_cost;
+  int steps = summary.num_successful_steps + summary.num_unsuccessful_steps;
+  if (cap_callback.hit() && summary.termination_type == ceres::USER_SUCCESS) {
+    useTree();
+    options.max_num_iterations = std::max(1, config.max_iterations - steps);
+    const double spent = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    options.max_solver_time_in_seconds = std::max(1e-3, config.max_solver_time_s - spent);
+    ceres::Solve(options, &problem, &summary);
+    outcome.iterations += static_cast<int>(summary.iterations.size());
+    steps += summary.num_successful_steps + summary.num_unsuccessful_steps;
+  }
   if (summary.termination_type == ceres::FAILURE) {
     return Result<SolveOutcome>::failure("pose graph solve failed: " + summary.message);
   }
-  outcome.iterations = static_cast<int>(summary.iterations.size());
-  outcome.initial_cost = summary.initial_cost;
   outcome.final_cost = summary.final_cost;
   outcome.cancelled = summary.termination_type == ceres::USER_FAILURE;
   // NO_CONVERGENCE is the iteration limit (deterministic) or the time limit (depends on the machine's load).
-  outcome.out_of_time = summary.termination_type == ceres::NO_CONVERGENCE &&
-                        summary.num_successful_steps + summary.num_unsuccessful_steps < config.max_iterations;
+  outcome.out_of_time = summary.termination_type == ceres::NO_CONVERGENCE && steps < config.max_iterations;
+  outcome.converged = summary.termination_type == ceres::CONVERGENCE;
   return outcome;
 }
 

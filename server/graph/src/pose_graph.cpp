@@ -209,15 +209,20 @@ Result<OptimizeReport> PoseGraph::optimize(const PoseGraphConfig& config, const 
 
   for (int round = 0; round <= std::max(0, config.max_outlier_rounds); ++round) {
     auto solved = graph_detail::solveOnce(edges_, sqrt_information_, ends, enabled, gaugeFixed(enabled),
-                                          config, cancel, &params);
+                                          config, cancel, &params, cg_tree_);
     if (!solved.ok()) return Result<OptimizeReport>::failure(solved.error());
+    cg_tree_ = cg_tree_ || solved->tree_preconditioner;
     if (report.solves++ == 0) report.initial_cost = solved->initial_cost;
     report.iterations += solved->iterations;
     report.final_cost = solved->final_cost;
     report.cancelled = solved->cancelled;
     report.out_of_time = report.out_of_time || solved->out_of_time;
-    // An unfinished solve is no basis for disabling loops: on a loaded machine it would reject true ones.
-    if (report.cancelled || solved->out_of_time || round == config.max_outlier_rounds) break;
+    report.iteration_limit =
+        report.iteration_limit || (!solved->converged && !solved->out_of_time && !solved->cancelled);
+    report.tree_preconditioned_solves += solved->tree_preconditioner ? 1 : 0;
+    // An unfinished solve is no basis for disabling loops: on a loaded machine it would reject true ones,
+    // and one stopped by its iteration limit may be as far from the optimum.
+    if (report.cancelled || !solved->converged || round == config.max_outlier_rounds) break;
     const std::vector<bool> next =
         graph_detail::consistentEdges(edges_, sqrt_information_, ends, params, enabled, config.outlier_chi2);
     if (next == enabled) break;

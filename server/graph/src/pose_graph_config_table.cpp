@@ -36,6 +36,9 @@ const ConfigTable<PoseGraphConfig>& poseGraphConfigTable() {
                "... and at least this many free nodes")
           .add("iterative_max_cg_iterations", &C::iterative_max_cg_iterations, R::closed(1, 100000),
                "conjugate-gradient steps per Levenberg-Marquardt iteration")
+          .add("iterative_tree_fallback", &C::iterative_tree_fallback,
+               "CG (block Jacobi) switches to a spanning-tree preconditioner (odometry and the loops joining "
+               "chains, solved exactly) once an iteration needs iterative_max_cg_iterations steps")
           .add("num_threads", &C::num_threads, R::closed(1, 256), "Ceres threads");
   return table;
 }

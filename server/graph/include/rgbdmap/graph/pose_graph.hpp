@@ -41,6 +41,12 @@ struct PoseGraphConfig {
   double iterative_min_edges_per_node = 4.0;
   int iterative_min_nodes = 200;
   int iterative_max_cg_iterations = 200;  ///< per Levenberg-Marquardt iteration
+  /// CG's preconditioner is block Jacobi; the first Levenberg-Marquardt iteration whose CG needs all
+  /// iterative_max_cg_iterations steps (long chains, for which Jacobi is poor) switches the rest of the
+  /// solve, and every later CG solve of the same graph, to the exact inverse of a spanning tree (every
+  /// odometry edge plus the loops joining chains: a tree factors without fill-in; Ceres' SUBSET
+  /// preconditioner). false: block Jacobi throughout.
+  bool iterative_tree_fallback = true;
   /// Ceres threads; the service runs the optimiser on one core.
   int num_threads = 1;
   /// Analytic Jacobians (RelativePoseCost); false: Ceres autodiff of RelativePoseResidual (same residual).
@@ -98,6 +104,11 @@ struct OptimizeReport {
   /// A solve ran out of max_solver_time_s: its poses are kept (they lower the cost), but it judges no loop
   /// edge (the disabled set stays as the last converged solve left it).
   bool out_of_time = false;
+  /// A solve stopped at max_iterations: likewise kept, and it judges no loop edge.
+  bool iteration_limit = false;
+  /// Solves whose conjugate gradients switched from block Jacobi to the spanning tree
+  /// (iterative_tree_fallback).
+  int tree_preconditioned_solves = 0;
 };
 
 /// What PoseGraph::optimizeLocal() did.
@@ -193,6 +204,9 @@ class PoseGraph {
   std::unordered_map<int64_t, size_t> node_index_;
   std::unordered_map<int64_t, size_t> edge_index_;
   std::vector<int64_t> disabled_edges_;
+  /// A solve of this graph found block Jacobi too weak for its conjugate gradients (the cap reached): later
+  /// CG solves start with the spanning tree (iterative_tree_fallback). Chains do not go away as a map grows.
+  bool cg_tree_ = false;
 };
 
 }  // namespace rgbdmap
