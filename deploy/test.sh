@@ -14,8 +14,9 @@
 # Usage:
 #   bash deploy/test.sh           the full suite (CI): the Release build (unity), every test in Release
 #                                 (build/), then the sanitize tier under ASan + UBSan (build-asan/,
-#                                 RelWithDebInfo at -O1: only the GoogleTest executables and the relay they
-#                                 start are built, unity; the long server runs, the cli tier's multi-process
+#                                 RelWithDebInfo at -O1, the orchestrating libraries and the tests' own code
+#                                 at -O0 (cmake/RgbdmapWarnings.cmake): only the GoogleTest executables and
+#                                 the relay they start are built, unity; the long server runs, the cli tier's multi-process
 #                                 runs and the accuracy tests run in Release only: under ASan they take 1-2 min
 #                                 each and repeat code paths the sanitize tier covers). On a fresh Debian 12
 #                                 root, 2 cores (../shared/tools/fresh-check.sh): 22 min after deploy/run.sh
