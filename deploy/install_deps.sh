@@ -43,14 +43,29 @@ fi
 # The Foxglove WebSocket reference client for the viewer's test (tests/viewer/foxglove_check.js): npm
 # packages in a folder outside the source tree, never at build time. RGBDMAP_NODE_DIR moves it (the test
 # reads the same variable); RGBDMAP_SKIP_NODE=1 skips it (the test then skips with a message).
+# Without a route to the npm registry, npm's default retries take 2 min 20 s to fail, and the README's test
+# command runs this script twice (the Release and the sanitizer builds): short timeouts, and a failure is
+# remembered for an hour ($node_dir/npm_install_failed; delete it to try again at once).
 node_dir="${RGBDMAP_NODE_DIR:-/usr/local/lib/rgbdmap-node}"
+failed_mark="$node_dir/npm_install_failed"
 if [ -z "${RGBDMAP_SKIP_NODE:-}" ] && [ ! -f "$node_dir/node_modules/@foxglove/ws-protocol/package.json" ]; then
   if [ "$(id -u)" -ne 0 ] && [ ! -w "$(dirname "$node_dir")" ]; then
     echo "install_deps: cannot write $node_dir; run as root or set RGBDMAP_NODE_DIR" >&2
     exit 1
   fi
-  echo "install_deps: npm install @foxglove/ws-protocol ws into $node_dir" >&2
-  mkdir -p "$node_dir"
-  npm install --silent --no-audit --no-fund --prefix "$node_dir" @foxglove/ws-protocol@0.8.0 ws@8.23.0 >&2 \
-    || echo "install_deps: npm install failed; the viewer's Foxglove client test will skip" >&2
+  if [ -f "$failed_mark" ] && [ -n "$(find "$failed_mark" -mmin -60 2>/dev/null)" ]; then
+    echo "install_deps: npm install failed less than an hour ago ($failed_mark); the viewer's Foxglove" \
+      "client test will skip" >&2
+  else
+    echo "install_deps: npm install @foxglove/ws-protocol ws into $node_dir" >&2
+    mkdir -p "$node_dir"
+    if npm install --silent --no-audit --no-fund --fetch-retries=1 --fetch-retry-mintimeout=2000 \
+      --fetch-retry-maxtimeout=5000 --fetch-timeout=20000 --prefix "$node_dir" \
+      @foxglove/ws-protocol@0.8.0 ws@8.23.0 >&2; then
+      rm -f "$failed_mark"
+    else
+      touch "$failed_mark"
+      echo "install_deps: npm install failed; the viewer's Foxglove client test will skip" >&2
+    fi
+  fi
 fi
