@@ -19,9 +19,11 @@
 #                                 the relay they start are built, unity; the long server runs, the cli tier's multi-process
 #                                 runs and the accuracy tests run in Release only: under ASan they take 1-2 min
 #                                 each and repeat code paths the sanitize tier covers). On a fresh Debian 12
-#                                 root, 2 cores (../shared/tools/fresh-check.sh): 22 min after deploy/run.sh
-#                                 (Release tests 6.6 min, sanitizer build ~12 min from scratch with the
-#                                 tests' own code at -O0, sanitizer tests 3.6 min); 35 min before that
+#                                 root, 2 cores (../shared/tools/fresh-check.sh): 17 min after deploy/run.sh
+#                                 (stop 25: Release tests 6.7 min, sanitizer build ~6.4 min from scratch,
+#                                 sanitizer tests 3.9 min); 22 min at stop 24, when npm's retries without a
+#                                 registry took 2 x 2.3 min (deploy/install_deps.sh) and every library was
+#                                 at -O1
 #   bash deploy/test.sh --quick   the unit tier only, Release, no sanitizers (about a minute after the build)
 #   Further arguments go to both ctest runs, e.g. `bash deploy/test.sh -L e2e` or `-R '^server\.'`.
 # Tests needing ../shared/data skip when it is absent. By hand: `ctest --test-dir build -L unit` (or e2e,
