@@ -44,23 +44,40 @@ SE3 unpackPose(const double* pose7) {
   return se3::fromQuatTrans(q, Eigen::Map<const Vec3>(pose7 + 4));
 }
 
+namespace {
+
+/// Disjoint sets of node indices (path halving); the root of a set is its smallest index.
+class UnionFind {
+ public:
+  explicit UnionFind(size_t n) : parent_(n) { std::iota(parent_.begin(), parent_.end(), size_t{0}); }
+  size_t find(size_t i) {
+    while (parent_[i] != i) i = parent_[i] = parent_[parent_[i]];
+    return i;
+  }
+  /// Joins the sets of a and b; false when they were one set already.
+  bool join(size_t a, size_t b) {
+    a = find(a);
+    b = find(b);
+    if (a == b) return false;
+    parent_[std::max(a, b)] = std::min(a, b);
+    return true;
+  }
+
+ private:
+  std::vector<size_t> parent_;
+};
+
+}  // namespace
+
 namespace graph_detail {
 
 std::vector<size_t> componentLabels(size_t num_nodes, const std::vector<EdgeEnds>& ends,
                                     const std::vector<bool>& mask) {
-  std::vector<size_t> parent(num_nodes);
-  std::iota(parent.begin(), parent.end(), size_t{0});
-  const auto find = [&parent](size_t i) {
-    while (parent[i] != i) i = parent[i] = parent[parent[i]];
-    return i;
-  };
-  for (size_t k = 0; k < ends.size(); ++k) {
-    if (!mask[k]) continue;
-    const size_t a = find(ends[k].from), b = find(ends[k].to);
-    if (a != b) parent[std::max(a, b)] = std::min(a, b);  // the root stays the smallest index
-  }
+  UnionFind sets(num_nodes);
+  for (size_t k = 0; k < ends.size(); ++k)
+    if (mask[k]) sets.join(ends[k].from, ends[k].to);
   std::vector<size_t> labels(num_nodes);
-  for (size_t i = 0; i < num_nodes; ++i) labels[i] = find(i);
+  for (size_t i = 0; i < num_nodes; ++i) labels[i] = sets.find(i);
   return labels;
 }
 
@@ -141,22 +158,13 @@ std::unordered_set<ceres::ResidualBlockId> spanningTree(const std::vector<PoseGr
                                                         const std::vector<EdgeEnds>& ends,
                                                         const std::vector<ceres::ResidualBlockId>& block_ids,
                                                         size_t num_nodes) {
-  std::vector<size_t> parent(num_nodes);
-  std::iota(parent.begin(), parent.end(), size_t{0});
-  const auto find = [&parent](size_t i) {
-    while (parent[i] != i) i = parent[i] = parent[parent[i]];
-    return i;
-  };
+  UnionFind sets(num_nodes);
   std::unordered_set<ceres::ResidualBlockId> tree;
-  for (const bool odometry : {true, false}) {
-    for (size_t k = 0; k < edges.size(); ++k) {
-      if (!block_ids[k] || (edges[k].kind == EdgeKind::kOdometry) != odometry) continue;
-      const size_t a = find(ends[k].from), b = find(ends[k].to);
-      if (a == b) continue;
-      parent[std::max(a, b)] = std::min(a, b);
-      tree.insert(block_ids[k]);
-    }
-  }
+  for (const bool odometry : {true, false})
+    for (size_t k = 0; k < edges.size(); ++k)
+      if (block_ids[k] && (edges[k].kind == EdgeKind::kOdometry) == odometry &&
+          sets.join(ends[k].from, ends[k].to))
+        tree.insert(block_ids[k]);
   return tree;
 }
 
