@@ -45,6 +45,7 @@
 #include "rgbdmap/proto/channels.hpp"
 #include "rgbdmap/server/map_server.hpp"
 #include "rgbdmap/server/server_config.hpp"
+#include "rgbdmap/store/map_store.hpp"
 
 using namespace rgbdmap;
 
@@ -237,7 +238,8 @@ int main(int argc, char** argv) {
     config = app.server;
   }
   std::filesystem::remove_all(config.map_dir);
-  MapServer server(config, *transport, msg::KeyStore::openMode());
+  auto server_owner = std::make_unique<MapServer>(config, *transport, msg::KeyStore::openMode());
+  MapServer& server = *server_owner;
   if (!server.start() || !transport->start()) return 1;
 
   bench::AckWaiter acks(*transport);
@@ -336,29 +338,37 @@ int main(int argc, char** argv) {
   // the global ATE grows with the number of rooms whatever the server does. What the server's optimisation
   // decides is each lap's shape: the ATE of each lap aligned on its own, over the first and the last tenth
   // of the laps, shows whether the map's accuracy holds as it grows.
+  // Each lap's ATE (aligned on its own); -1 when it has too few poses.
+  const size_t laps_run = (truth.size() + o.per_lap - 1) / o.per_lap;
+  std::vector<double> lap_ate(laps_run, -1.0);
+  for (size_t lap = 0; lap < laps_run; ++lap) {
+    Trajectory t, e;
+    for (size_t i = lap * o.per_lap; i < std::min(truth.size(), (lap + 1) * o.per_lap); ++i)
+      t.push_back(truth[i]);
+    if (t.size() < 8) continue;
+    for (const auto& p : estimate)
+      if (p.timestamp >= t.front().timestamp && p.timestamp <= t.back().timestamp) e.push_back(p);
+    if (e.size() < 8) continue;
+    if (const auto a = computeAte(t, e)) lap_ate[lap] = a->rmse;
+  }
   const auto lapAte = [&](size_t first, size_t last) {
     double sum = 0.0;
     int n = 0;
-    for (size_t lap = first; lap < last; ++lap) {
-      Trajectory t, e;
-      for (size_t i = lap * o.per_lap; i < std::min(truth.size(), (lap + 1) * o.per_lap); ++i)
-        t.push_back(truth[i]);
-      if (t.size() < 8) continue;
-      for (const auto& p : estimate)
-        if (p.timestamp >= t.front().timestamp && p.timestamp <= t.back().timestamp) e.push_back(p);
-      if (e.size() < 8) continue;
-      const auto a = computeAte(t, e);
-      if (!a) continue;
-      sum += a->rmse;
-      ++n;
-    }
+    for (size_t lap = first; lap < last; ++lap)
+      if (lap_ate[lap] >= 0.0) sum += lap_ate[lap], ++n;
     return n > 0 ? sum / n : -1.0;
   };
-  const size_t laps_run = (truth.size() + o.per_lap - 1) / o.per_lap;
   const size_t lap_tenth = std::max<size_t>(1, laps_run / 10);
   std::printf(
       "per-lap ATE (each lap aligned on its own), mean: first tenth %.4f m, last tenth %.4f m, all %.4f m\n",
       lapAte(0, lap_tenth), lapAte(laps_run - std::min(laps_run, lap_tenth), laps_run), lapAte(0, laps_run));
+  std::vector<size_t> worst(laps_run);
+  for (size_t i = 0; i < laps_run; ++i) worst[i] = i;
+  std::sort(worst.begin(), worst.end(), [&](size_t a, size_t b) { return lap_ate[a] > lap_ate[b]; });
+  std::printf("worst laps (lap:room ATE):");
+  for (size_t k = 0; k < std::min<size_t>(8, worst.size()); ++k)
+    std::printf(" %zu:%d %.3f m", worst[k], plan[worst[k]], lap_ate[worst[k]]);
+  std::printf("\n");
   const MapServerStats s = server.stats();
   std::printf(
       "end: %d keyframes sent, %d stored, %d not acknowledged; loops %d (disabled %d), solves %d (%d kept "
@@ -369,6 +379,42 @@ int main(int argc, char** argv) {
       out_of_time ? "; stopped at --max-minutes" : "");
   transport->stop();
   server.stop();
+  // Every stored loop against the truth: a loop far from the true relative pose is a false match that the
+  // server accepted (the store keeps them all; the graph may have disabled some since).
+  std::map<int64_t, int> index_of_node;
+  for (const ServerKeyframe& k : server.keyframes()) index_of_node[k.node_id] = k.keyframe_id;
+  server_owner.reset();  // releases the store's lock
+  if (auto store = MapStore::open(config.map_dir)) {
+    int checked = 0, wrong = 0;
+    std::vector<std::pair<double, std::string>> worst_loops;
+    for (const StoredLoop& l : (*store)->loops()) {
+      const auto a = index_of_node.find(l.from_node), b = index_of_node.find(l.to_node);
+      if (a == index_of_node.end() || b == index_of_node.end() ||
+          a->second >= static_cast<int>(truth.size()) || b->second >= static_cast<int>(truth.size()))
+        continue;
+      const SE3 T_true = truth[a->second].T_world_cam.inverse() * truth[b->second].T_world_cam;
+      const SE3 d = T_true.inverse() * l.T_from_to;
+      const double dt = d.translation().norm();
+      const double dr = Eigen::AngleAxisd(d.rotation()).angle() * 180.0 / M_PI;
+      ++checked;
+      if (dt > 0.05 || dr > 2.0) {
+        ++wrong;
+        char line[160];
+        std::snprintf(line, sizeof line, " %d(lap %d room %d)-%d(lap %d room %d) %.2f m %.1f deg", a->second,
+                      a->second / o.per_lap, plan[a->second / o.per_lap], b->second, b->second / o.per_lap,
+                      plan[b->second / o.per_lap], dt, dr);
+        worst_loops.emplace_back(dt + dr / 10.0, line);
+      }
+    }
+    std::sort(worst_loops.rbegin(), worst_loops.rend());
+    std::printf("stored loops against the truth: %d checked, %d off by > 5 cm or 2 deg%s", checked, wrong,
+                wrong > 0 ? "; worst:" : "");
+    for (size_t k = 0; k < std::min<size_t>(6, worst_loops.size()); ++k)
+      std::printf("%s", worst_loops[k].second.c_str());
+    std::printf("\n");
+  } else {
+    std::fprintf(stderr, "bench_map_growth: reopening the store: %s\n", store.error().c_str());
+  }
   if (o.map_dir.empty()) std::filesystem::remove_all(config.map_dir);
   return unacked == 0 && !out_of_time ? 0 : 1;
 }
