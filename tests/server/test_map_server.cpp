@@ -290,6 +290,21 @@ TEST(MapServer, InjectedFalseLoopsDoNotMoveTheOptimisedTrajectory) {
               injected, s.loops_disabled, worst);
   EXPECT_GE(s.loops_disabled, injected);
   EXPECT_LT(worst, 0.02) << "false loops moved the map";
+  // loops() tells which edges are held out: every injected one (their ends are far apart), as the count says.
+  const std::vector<ServerLoop> loops = h.server->loops();
+  EXPECT_EQ(static_cast<int>(loops.size()), s.loops_accepted);
+  int disabled = 0, injected_disabled = 0;
+  for (const ServerLoop& l : loops) {
+    EXPECT_FALSE(l.inter_robot);
+    if (l.enabled) continue;
+    ++disabled;
+    const bool forged = l.T_from_to.isApprox(se3::exp((Vec6() << 0.1, 0, 0, 0, 0.05, 0).finished()), 1e-9);
+    const double apart =
+        (clean[l.from_node].T_map_kf.translation() - clean[l.to_node].T_map_kf.translation()).norm();
+    if (forged && apart >= 1.0) ++injected_disabled;
+  }
+  EXPECT_EQ(disabled, s.loops_disabled);
+  EXPECT_EQ(injected_disabled, injected);
 }
 
 TEST(MapServer, BadInputIsCountedRefusedOrIgnoredAndNothingStoredIsLost) {

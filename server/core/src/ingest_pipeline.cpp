@@ -2,6 +2,8 @@
 // edges) and the readers. Graph insertion and optimisation results are in ingest_graph.cpp.
 #include "ingest_pipeline.hpp"
 
+#include <algorithm>
+
 #include <utility>
 
 #include "image_admission.hpp"
@@ -300,6 +302,17 @@ MapServerStats IngestPipeline::stats() const {
 std::vector<ServerKeyframe> IngestPipeline::keyframes() const {
   std::lock_guard<std::mutex> lock(mutex_);
   return index_.validKeyframes();
+}
+
+std::vector<ServerLoop> IngestPipeline::loops() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  const std::vector<int64_t>& disabled = graph_.disabledEdges();  // sorted
+  std::vector<ServerLoop> out;
+  for (const PoseGraphEdge& e : graph_.edges())
+    if (e.kind != EdgeKind::kOdometry)
+      out.push_back({e.from, e.to, e.T_from_to, e.kind == EdgeKind::kInterRobot,
+                     !std::binary_search(disabled.begin(), disabled.end(), e.id)});
+  return out;
 }
 
 std::vector<double> IngestPipeline::ingestTimesMs() const {

@@ -98,6 +98,7 @@ class IngestPipeline {
   /// Counters, timings, maps and robots (not the receive-side or map worker fields).
   MapServerStats stats() const;
   std::vector<ServerKeyframe> keyframes() const;
+  std::vector<ServerLoop> loops() const;
   std::vector<double> ingestTimesMs() const;
   int64_t graphRevision() const;
 

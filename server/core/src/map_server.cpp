@@ -215,6 +215,8 @@ MapServerStats MapServer::stats() const {
 
 std::vector<ServerKeyframe> MapServer::keyframes() const { return impl_->pipeline.keyframes(); }
 
+std::vector<ServerLoop> MapServer::loops() const { return impl_->pipeline.loops(); }
+
 std::vector<std::vector<std::string>> MapServer::mergedMaps() const {
   const MapServerStats s = stats();
   std::map<int, std::vector<std::string>> by_map;

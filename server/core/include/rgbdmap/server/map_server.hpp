@@ -177,6 +177,16 @@ struct ServerKeyframe {
   SE3 T_odom_kf = SE3::Identity();
 };
 
+/// One loop edge (within a robot or between robots) as the server's pose graph holds it now.
+struct ServerLoop {
+  int64_t from_node = 0, to_node = 0;  ///< ServerKeyframe::node_id
+  SE3 T_from_to = SE3::Identity();
+  bool inter_robot = false;
+  /// False while the consistency check of the last finished whole-graph solve holds it out (a false match,
+  /// or a true one the estimate did not fit then).
+  bool enabled = true;
+};
+
 class MapServer {
  public:
   /// `transport` must outlive the server; it may be shared with robots in the same process.
@@ -201,6 +211,8 @@ class MapServer {
   MapServerStats stats() const;
   /// Keyframes with their current (optimised) poses, in ingestion order.
   std::vector<ServerKeyframe> keyframes() const;
+  /// Loop edges in the order they were found.
+  std::vector<ServerLoop> loops() const;
   /// Robot ids grouped by the map they are in now (robots whose newest keyframes share a component).
   std::vector<std::vector<std::string>> mergedMaps() const;
   /// Ingest times (ms per keyframe) so far, in order: all of them up to 4096 keyframes, beyond a uniform
