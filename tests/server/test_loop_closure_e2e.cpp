@@ -165,6 +165,55 @@ TEST(SyntheticLoop, InterRobotLoopsFoundByRetrievalAcrossMapFrames) {
               chi2[n / 2]);
 }
 
+/// Runs the drifted synthetic loop through a detector that is given, for every earlier keyframe, a measured
+/// relative pose: the true one times `error` (as PoseGraph::measuredPosesNear would give it). Returns the
+/// revisit edges (last keyframes -> first ones, found by retrieval only) and counts accepted edges.
+struct MeasuredRun {
+  int revisits = 0, edges = 0, inconsistent = 0, worst_edge_error_mm = 0;
+};
+MeasuredRun runWithMeasuredPriors(const KeyframeSet& set, const SE3& error) {
+  MeasuredRun run;
+  LoopDetector detector(set.camera);
+  for (size_t k = 0; k < set.features.size(); ++k) {
+    const int id = static_cast<int>(k);
+    LoopDetector::MeasuredPoses measured;
+    for (int j = 0; j < id; ++j) measured[j] = set.T_world_cam[k].inverse() * set.T_world_cam[j] * error;
+    auto r = detector.addKeyframe({id, 0, 0, drifted(set.T_world_cam[k], id), set.features[k]}, &measured);
+    if (!r) return run;
+    run.inconsistent += r->stats.rejected_by_reason[static_cast<int>(LoopRejection::kInconsistentPose)];
+    for (const LoopEdge& e : r->edges) {
+      ++run.edges;
+      run.worst_edge_error_mm =
+          std::max(run.worst_edge_error_mm, static_cast<int>(1000 * edgeError(e, set).t_m));
+      if (e.from_id >= 25 && e.to_id <= 4) ++run.revisits;
+    }
+  }
+  return run;
+}
+
+TEST(SyntheticLoop, AMeasuredPriorVetoesCandidatesThatDisagreeRetrievalHitsIncluded) {
+  const KeyframeSet& set = syntheticLoop();
+  ASSERT_EQ(set.features.size(), 30u);
+  // Right priors: the revisit (a retrieval hit; the drifted estimates are 1.7 m off) and the local loops
+  // are accepted and accurate, as without priors.
+  const MeasuredRun right = runWithMeasuredPriors(set, SE3::Identity());
+  EXPECT_GE(right.revisits, 1);
+  EXPECT_GE(right.edges, 20);
+  EXPECT_LT(right.worst_edge_error_mm, 50);
+  // Priors that say every other view is turned 90 deg (what a symmetric room's aliased match claims
+  // against the true path): every candidate, the retrieval hits included, disagrees and is refused.
+  SE3 turned = SE3::Identity();
+  turned.linear() = Eigen::AngleAxisd(M_PI / 2, Vec3::UnitY()).toRotationMatrix();
+  const MeasuredRun wrong = runWithMeasuredPriors(set, turned);
+  EXPECT_EQ(wrong.edges, 0);
+  EXPECT_EQ(wrong.revisits, 0);
+  EXPECT_GE(wrong.inconsistent, right.edges * 9 / 10) << "refused for the prior, not for lack of matches";
+  std::printf(
+      "measured priors: right %d edges (%d revisits, worst %d mm), turned 90 deg %d edges (%d refused "
+      "as inconsistent)\n",
+      right.edges, right.revisits, right.worst_edge_error_mm, wrong.edges, wrong.inconsistent);
+}
+
 TEST(LoopDetectorApi, RejectsDuplicateIdsAndInconsistentFeaturesAndUpdatesPoses) {
   const KeyframeSet& set = syntheticLoop();
   ASSERT_FALSE(set.features.empty());

@@ -220,6 +220,53 @@ TEST(PoseGraphApi, FixesTheFirstNodeWhenNothingIsFixed) {
   EXPECT_EQ(graph.components().size(), 1u);
 }
 
+TEST(PoseGraphApi, MeasuredPosesNearComposeMeasurementsAlongFewestHopsOverEnabledEdges) {
+  // A chain 0..9 of true poses; edges point either way; the estimates are all wrong (identity), so only
+  // the measurements can give the answer. A loop 9 -> 0 makes 9 one hop from 0.
+  std::mt19937 rng(11);
+  std::vector<SE3> truth;
+  PoseGraph graph;
+  for (int i = 0; i < 10; ++i) {
+    truth.push_back(i == 0 ? SE3::Identity() : truth.back() * randomPose(&rng, 0.3, 0.1));
+    ASSERT_TRUE(graph.addNode(i, 0, SE3::Identity()).ok());
+  }
+  int64_t edge_id = 0;
+  const auto addEdge = [&](int from, int to, EdgeKind kind) {
+    PoseGraphEdge e;
+    e.id = edge_id++;
+    e.from = from, e.to = to, e.kind = kind;
+    e.T_from_to = truth[from].inverse() * truth[to];
+    EXPECT_TRUE(graph.addEdge(e).ok());
+    return e.id;
+  };
+  for (int i = 0; i + 1 < 10; ++i)
+    i % 2 ? addEdge(i + 1, i, EdgeKind::kOdometry) : addEdge(i, i + 1, EdgeKind::kOdometry);
+  const int64_t loop = addEdge(9, 0, EdgeKind::kLoop);
+
+  const auto near5 = graph.measuredPosesNear(5, 2, 100);
+  EXPECT_EQ(near5.size(), 5u);  // 3..7
+  for (const auto& [id, T] : near5) {
+    EXPECT_LE(std::abs(id - 5), 2);
+    EXPECT_TRUE(T.isApprox(truth[5].inverse() * truth[id], 1e-9)) << id;
+  }
+  const auto near0 = graph.measuredPosesNear(0, 1, 100);
+  ASSERT_EQ(near0.size(), 3u);  // 0, 1 and, over the loop, 9
+  EXPECT_TRUE(near0.at(9).isApprox(truth[9], 1e-9));
+  EXPECT_TRUE(near0.at(0).isApprox(SE3::Identity()));
+  EXPECT_EQ(graph.measuredPosesNear(0, 100, 4).size(), 4u) << "node cap";
+  EXPECT_TRUE(graph.measuredPosesNear(42, 3, 100).empty()) << "unknown source";
+  EXPECT_TRUE(graph.measuredPosesNear(0, 0, 100).size() == 1u) << "no hops: the source alone";
+
+  // A disabled loop is no path: 9 is then 9 hops away, composed over the whole chain.
+  std::map<int64_t, SE3> poses;
+  for (int i = 0; i < 10; ++i) poses[i] = SE3::Identity();
+  graph.applyOptimized(poses, {loop});
+  EXPECT_EQ(graph.measuredPosesNear(0, 1, 100).size(), 2u);
+  const auto all = graph.measuredPosesNear(0, 9, 100);
+  ASSERT_EQ(all.size(), 10u);
+  EXPECT_TRUE(all.at(9).isApprox(truth[9], 1e-9));
+}
+
 TEST(PoseGraphApi, EmptyGraphOptimizes) {
   PoseGraph graph;
   EXPECT_TRUE(graph.optimize(PoseGraphConfig{}).ok());

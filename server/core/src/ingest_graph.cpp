@@ -33,7 +33,12 @@ std::vector<LoopEdge> IngestPipeline::integrateLocked(const StoredKeyframe& stor
       log::error("server: restore: ", s.error());
     return {};
   }
-  auto detection = detector_.addKeyframe(std::move(lk));
+  const LoopDetectorConfig& lc = config_.loop;
+  const LoopDetector::MeasuredPoses measured =
+      lc.prior_max_hops > 0 ? graph_.measuredPosesNear(stored.node_id, lc.prior_max_hops,
+                                                       static_cast<size_t>(lc.prior_max_nodes))
+                            : LoopDetector::MeasuredPoses{};
+  auto detection = detector_.addKeyframe(std::move(lk), &measured);
   if (!detection) {
     log::error("server: loop detection for keyframe ", stored.node_id, ": ", detection.error());
     return {};

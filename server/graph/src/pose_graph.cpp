@@ -29,6 +29,7 @@ Status PoseGraph::addNode(int64_t id, int robot, const SE3& T_map_kf) {
   if (!se3::isValid(T_map_kf, 1e-4)) return Status::failure("invalid pose for node " + std::to_string(id));
   node_index_[id] = nodes_.size();
   nodes_.push_back({id, robot, se3::normalized(T_map_kf), false});
+  incident_.emplace_back();
   return Status::success();
 }
 
@@ -48,7 +49,10 @@ Status PoseGraph::addEdge(const PoseGraphEdge& edge) {
   if (!sqrtInformation(residualInformation(edge.T_from_to, info), &sqrt_info)) {
     return Status::failure(name + " has an information matrix that is not positive definite");
   }
-  edge_index_[edge.id] = edges_.size();
+  const auto k = static_cast<uint32_t>(edges_.size());
+  edge_index_[edge.id] = k;
+  incident_[node_index_.at(edge.from)].push_back(k);
+  incident_[node_index_.at(edge.to)].push_back(k);
   edges_.push_back(edge);
   edges_.back().T_from_to = se3::normalized(edge.T_from_to);
   sqrt_information_.push_back(sqrt_info);
@@ -135,6 +139,38 @@ std::optional<double> PoseGraph::edgeChi2(int64_t id) const {
 namespace {
 bool isLoop(const PoseGraphEdge& e) { return e.kind != EdgeKind::kOdometry; }
 }  // namespace
+
+std::unordered_map<int64_t, SE3> PoseGraph::measuredPosesNear(int64_t source, int max_hops,
+                                                              size_t max_nodes) const {
+  std::unordered_map<int64_t, SE3> out;
+  const auto it = node_index_.find(source);
+  if (it == node_index_.end() || max_nodes == 0) return out;
+  // Breadth first over enabled edges: each node is reached by a path of fewest hops, and its pose relative
+  // to the source is the product of that path's measurements (T_from_to = T_map_from^-1 T_map_to).
+  std::unordered_map<size_t, SE3> reached{{it->second, SE3::Identity()}};
+  std::vector<size_t> frontier{it->second};
+  for (int hop = 0; hop < max_hops && !frontier.empty() && reached.size() < max_nodes; ++hop) {
+    std::vector<size_t> next;
+    for (size_t i : frontier) {
+      const SE3 T_source_i = reached.at(i);
+      for (uint32_t k : incident_[i]) {
+        const PoseGraphEdge& e = edges_[k];
+        if (std::binary_search(disabled_edges_.begin(), disabled_edges_.end(), e.id)) continue;
+        const bool forward = node_index_.at(e.from) == i;
+        const size_t j = node_index_.at(forward ? e.to : e.from);
+        if (reached.count(j)) continue;
+        reached.emplace(j, se3::normalized(T_source_i * (forward ? e.T_from_to : e.T_from_to.inverse())));
+        next.push_back(j);
+        if (reached.size() >= max_nodes) break;
+      }
+      if (reached.size() >= max_nodes) break;
+    }
+    frontier = std::move(next);
+  }
+  out.reserve(reached.size());
+  for (const auto& [i, T] : reached) out.emplace(nodes_[i].id, T);
+  return out;
+}
 
 std::vector<bool> PoseGraph::enabledMask() const {
   std::vector<bool> enabled(edges_.size(), true);

@@ -78,6 +78,10 @@ const ConfigTable<LoopDetectorConfig>& loopDetectorConfigTable() {
           .nest("", &C::verify, loopVerifyConfigTable())
           .add("min_retrieval_score", &C::min_retrieval_score, R::closed(0.0, 1.0),
                "retrieval hits scoring below this are not candidates")
+          .add("prior_max_hops", &C::prior_max_hops, R::closed(0, 1000),
+               "candidates within this many graph hops are checked against the measured path (0: off)")
+          .add("prior_max_nodes", &C::prior_max_nodes, R::closed(1, 1000000),
+               "... of at most this many keyframes")
           .nest("words.", &C::words, binaryWordsConfigTable(), false)
           .nest("consistency.", &C::consistency, loopConsistencyConfigTable(), false);
   return table;

@@ -64,20 +64,27 @@ std::vector<RetrievalHit> LoopDetector::retrieve(const LoopKeyframe& kf, int rob
 }
 
 LoopThresholds LoopDetector::thresholdsFor(const LoopKeyframe& kf, const LoopCandidate& c,
-                                           const LoopKeyframe& other) const {
-  if ((c.sources & kSourceRetrieval) != 0) return retrievalThresholds(config_.verify);
+                                           const LoopKeyframe& other, const MeasuredPoses* measured) const {
   std::optional<SE3> T_from_to_prior;
-  if (kf.map_id == other.map_id) T_from_to_prior = kf.T_map_kf.inverse() * other.T_map_kf;
+  if (measured)
+    if (const auto it = measured->find(other.id); it != measured->end()) T_from_to_prior = it->second;
+  if ((c.sources & kSourceRetrieval) != 0) {
+    LoopThresholds t = retrievalThresholds(config_.verify);
+    t.T_from_to_prior = T_from_to_prior;  // only a measured one: the estimates may be far off there
+    return t;
+  }
+  if (!T_from_to_prior && kf.map_id == other.map_id) T_from_to_prior = kf.T_map_kf.inverse() * other.T_map_kf;
   return localThresholds(config_.verify, T_from_to_prior);
 }
 
-void LoopDetector::verifyCandidates(const LoopKeyframe& kf, LoopDetection* out) const {
+void LoopDetector::verifyCandidates(const LoopKeyframe& kf, const MeasuredPoses* measured,
+                                    LoopDetection* out) const {
   const PinholeCamera& camera = cameraOf(kf.robot_id);
   const FeatureGrid grid(*kf.features, camera.intrinsics().width, camera.intrinsics().height);
   for (const LoopCandidate& c : out->candidates) {
     const LoopKeyframe& other = keyframes_[slot_of_.at(c.keyframe_id)];
     const LoopVerification v = verifyLoop(kf.id, *kf.features, other.id, *other.features, camera,
-                                          config_.verify, thresholdsFor(kf, c, other), &grid);
+                                          config_.verify, thresholdsFor(kf, c, other, measured), &grid);
     ++out->stats.rejected_by_reason[static_cast<int>(v.rejection)];
     if (v.edge) out->edges.push_back(*v.edge);
   }
@@ -98,7 +105,7 @@ void LoopDetector::dropInconsistent(LoopDetection* out) const {
   out->edges = std::move(kept);
 }
 
-Result<LoopDetection> LoopDetector::addKeyframe(LoopKeyframe keyframe) {
+Result<LoopDetection> LoopDetector::addKeyframe(LoopKeyframe keyframe, const MeasuredPoses* measured) {
   const auto t0 = std::chrono::steady_clock::now();
   if (slot_of_.count(keyframe.id) != 0)
     return Result<LoopDetection>::failure("duplicate keyframe id " + std::to_string(keyframe.id));
@@ -119,7 +126,7 @@ Result<LoopDetection> LoopDetector::addKeyframe(LoopKeyframe keyframe) {
     for (int b = 0; b < kCandidateSourceCount; ++b) out.stats.candidates_by_source[b] += (c.sources >> b) & 1;
 
   const auto t1 = std::chrono::steady_clock::now();
-  verifyCandidates(keyframe, &out);
+  verifyCandidates(keyframe, measured, &out);
   out.stats.verify_ms = msSince(t1);
 
   slot_of_.emplace(keyframe.id, keyframes_.size());

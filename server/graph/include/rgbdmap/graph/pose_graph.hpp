@@ -184,6 +184,12 @@ class PoseGraph {
 
   std::optional<SE3> pose(int64_t id) const;
   std::map<int64_t, SE3> poses() const;
+  /// What the measurements alone say about the nodes near `source`: T_source_node, the product of the
+  /// measurements along a path of fewest hops over enabled edges, for every node within `max_hops` hops
+  /// (the source itself included, as the identity), up to `max_nodes` nodes. No pose estimate enters, so it
+  /// holds while an optimisation is pending (a loop just added, chains not yet joined by a solve). Empty for
+  /// an unknown source. Cost: the nodes reached and their edges.
+  std::unordered_map<int64_t, SE3> measuredPosesNear(int64_t source, int max_hops, size_t max_nodes) const;
   /// Loop edges disabled by the last optimize(), ascending ids.
   const std::vector<int64_t>& disabledEdges() const { return disabled_edges_; }
   /// Node ids grouped by connectivity over enabled edges, each group in insertion order; groups ordered by
@@ -203,6 +209,7 @@ class PoseGraph {
   std::vector<Mat6> sqrt_information_;  ///< per edge, in the residual's frame
   std::unordered_map<int64_t, size_t> node_index_;
   std::unordered_map<int64_t, size_t> edge_index_;
+  std::vector<std::vector<uint32_t>> incident_;  ///< per node (index), its edges (index), in insertion order
   std::vector<int64_t> disabled_edges_;
   /// A solve of this graph found block Jacobi too weak for its conjugate gradients (the cap reached): later
   /// CG solves start with the spanning tree (iterative_tree_fallback). Chains do not go away as a map grows.

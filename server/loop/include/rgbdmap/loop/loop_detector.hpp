@@ -26,6 +26,13 @@ struct LoopDetectorConfig {
   BinaryWordsConfig words;
   LoopConsistencyConfig consistency;
   double min_retrieval_score = 0.02;  ///< retrieval hits scoring below this are not candidates
+  /// The caller's measured priors (addKeyframe's `measured`): relative poses composed from the pose graph's
+  /// measurements over paths of at most this many hops from the new keyframe (0: none), up to
+  /// prior_max_nodes keyframes. A candidate with one is checked against it (max_prior_disagreement) and
+  /// matched by projection, retrieval hits included: a symmetric room's views 90 deg apart match each other
+  /// (aliasing), and a few hops of odometry know better.
+  int prior_max_hops = 40;
+  int prior_max_nodes = 4000;
 
   /// Checks every value's range; returns an empty string when valid, else all reasons ("; "-separated).
   /// Apps call this once at start-up; the detector itself clamps nothing.
@@ -75,9 +82,14 @@ class LoopDetector {
   LoopDetector(const CameraIntrinsics& default_camera, const LoopDetectorConfig& config = {});
 
   void setRobotCamera(int robot_id, const CameraIntrinsics& intrinsics);
-  /// Stores the keyframe, finds and verifies its loops. Fails (nothing stored) on a duplicate id or on
-  /// features whose arrays disagree in size.
-  Result<LoopDetection> addKeyframe(LoopKeyframe keyframe);
+  /// Relative poses T_kf_other of keyframes near a new one, from measurements alone (odometry and verified
+  /// loops along a few hops: PoseGraph::measuredPosesNear), by keyframe id.
+  using MeasuredPoses = std::unordered_map<int64_t, SE3>;
+  /// Stores the keyframe, finds and verifies its loops. A candidate in `measured` (optional) must agree
+  /// with that relative pose (max_prior_disagreement), whatever its source; other candidates in the same
+  /// map are checked against the pose estimates, local ones only. Fails (nothing stored) on a duplicate id
+  /// or on features whose arrays disagree in size.
+  Result<LoopDetection> addKeyframe(LoopKeyframe keyframe, const MeasuredPoses* measured = nullptr);
   /// Restart path: stores and indexes a keyframe that was verified before (no candidates, no verification),
   /// in the original order, so retrieval and recent/random candidates continue as before the restart.
   Status restoreKeyframe(LoopKeyframe keyframe);
@@ -93,9 +105,9 @@ class LoopDetector {
  private:
   std::vector<RetrievalHit> retrieve(const LoopKeyframe& kf, int robot_sequence,
                                      const WordHistogram& words) const;
-  LoopThresholds thresholdsFor(const LoopKeyframe& kf, const LoopCandidate& c,
-                               const LoopKeyframe& other) const;
-  void verifyCandidates(const LoopKeyframe& kf, LoopDetection* out) const;
+  LoopThresholds thresholdsFor(const LoopKeyframe& kf, const LoopCandidate& c, const LoopKeyframe& other,
+                               const MeasuredPoses* measured) const;
+  void verifyCandidates(const LoopKeyframe& kf, const MeasuredPoses* measured, LoopDetection* out) const;
   const PinholeCamera& cameraOf(int robot_id) const;
   void dropInconsistent(LoopDetection* out) const;
   void accumulate(const LoopStats& s);
