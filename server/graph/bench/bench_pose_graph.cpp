@@ -160,8 +160,27 @@ void BM_PoseGraphFleetRoomNewKeyframeLocal(benchmark::State& state) {
   state.counters["strain_chi2"] = report.worst_strain_chi2;
 }
 
+// The loop detector's measured priors for a new keyframe (PoseGraph::measuredPosesNear with the server's
+// defaults, 40 hops, at most 4,000 keyframes) in the fleet room of N keyframes, where ~10 loops per keyframe
+// make the 40-hop ball the whole room: the cost of the node cap.
+void BM_PoseGraphMeasuredPosesNear(benchmark::State& state) {
+  const rgbdmap::SynthGraph synth = fleetRoom(static_cast<int>(state.range(0)), true);
+  size_t reached = 0;
+  for (auto _ : state) {
+    const auto near =
+        synth.graph.measuredPosesNear(synth.node_ids.back(), 40, static_cast<size_t>(state.range(1)));
+    reached = near.size();
+    benchmark::DoNotOptimize(near);
+  }
+  state.counters["reached"] = static_cast<double>(reached);
+}
+
 }  // namespace
 
+BENCHMARK(BM_PoseGraphMeasuredPosesNear)
+    ->ArgsProduct({{1000, 10000}, {1000, 4000}})
+    ->Unit(benchmark::kMillisecond)
+    ->MinTime(0.5);
 BENCHMARK(BM_PoseGraphFleetRoom)
     ->ArgsProduct({{1000, 3000}, {0, 1, 2}})
     ->Unit(benchmark::kMillisecond)
