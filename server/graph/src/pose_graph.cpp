@@ -51,8 +51,10 @@ Status PoseGraph::addEdge(const PoseGraphEdge& edge) {
   }
   const auto k = static_cast<uint32_t>(edges_.size());
   edge_index_[edge.id] = k;
-  incident_[node_index_.at(edge.from)].push_back(k);
-  incident_[node_index_.at(edge.to)].push_back(k);
+  const auto from = static_cast<uint32_t>(node_index_.at(edge.from));
+  const auto to = static_cast<uint32_t>(node_index_.at(edge.to));
+  incident_[from].push_back({k, to, true});
+  incident_[to].push_back({k, from, false});
   edges_.push_back(edge);
   edges_.back().T_from_to = se3::normalized(edge.T_from_to);
   sqrt_information_.push_back(sqrt_info);
@@ -146,26 +148,30 @@ std::unordered_map<int64_t, SE3> PoseGraph::measuredPosesNear(int64_t source, in
   const auto it = node_index_.find(source);
   if (it == node_index_.end() || max_nodes == 0) return out;
   // Breadth first over enabled edges: each node is reached by a path of fewest hops, and its pose relative
-  // to the source is the product of that path's measurements (T_from_to = T_map_from^-1 T_map_to).
-  std::unordered_map<size_t, SE3> reached{{it->second, SE3::Identity()}};
-  std::vector<size_t> frontier{it->second};
-  for (int hop = 0; hop < max_hops && !frontier.empty() && reached.size() < max_nodes; ++hop) {
-    std::vector<size_t> next;
-    for (size_t i : frontier) {
-      const SE3 T_source_i = reached.at(i);
-      for (uint32_t k : incident_[i]) {
-        const PoseGraphEdge& e = edges_[k];
-        if (std::binary_search(disabled_edges_.begin(), disabled_edges_.end(), e.id)) continue;
-        const bool forward = node_index_.at(e.from) == i;
-        const size_t j = node_index_.at(forward ? e.to : e.from);
-        if (reached.count(j)) continue;
-        reached.emplace(j, se3::normalized(T_source_i * (forward ? e.T_from_to : e.T_from_to.inverse())));
-        next.push_back(j);
+  // to the source is the product of that path's measurements (T_from_to = T_map_from^-1 T_map_to). Paths
+  // are short, so the products are not re-normalised.
+  std::vector<char> seen(nodes_.size(), 0);
+  std::vector<std::pair<uint32_t, SE3>> reached;  // node index, T_source_node; in BFS order
+  reached.reserve(std::min(max_nodes, nodes_.size()));
+  reached.emplace_back(static_cast<uint32_t>(it->second), SE3::Identity());
+  seen[it->second] = 1;
+  size_t begin = 0;  // the current hop's nodes are reached[begin, end)
+  for (int hop = 0; hop < max_hops && reached.size() < max_nodes; ++hop) {
+    const size_t end = reached.size();
+    if (begin == end) break;
+    for (size_t r = begin; r < end && reached.size() < max_nodes; ++r) {
+      const uint32_t i = reached[r].first;
+      for (const Incidence& inc : incident_[i]) {
+        if (seen[inc.other] ||
+            std::binary_search(disabled_edges_.begin(), disabled_edges_.end(), edges_[inc.edge].id))
+          continue;
+        seen[inc.other] = 1;
+        const SE3& T = edges_[inc.edge].T_from_to;
+        reached.emplace_back(inc.other, reached[r].second * (inc.forward ? T : T.inverse()));
         if (reached.size() >= max_nodes) break;
       }
-      if (reached.size() >= max_nodes) break;
     }
-    frontier = std::move(next);
+    begin = end;
   }
   out.reserve(reached.size());
   for (const auto& [i, T] : reached) out.emplace(nodes_[i].id, T);

@@ -209,7 +209,12 @@ class PoseGraph {
   std::vector<Mat6> sqrt_information_;  ///< per edge, in the residual's frame
   std::unordered_map<int64_t, size_t> node_index_;
   std::unordered_map<int64_t, size_t> edge_index_;
-  std::vector<std::vector<uint32_t>> incident_;  ///< per node (index), its edges (index), in insertion order
+  /// An edge at a node: its index, the node at its other end (index), whether it leaves this node (from).
+  struct Incidence {
+    uint32_t edge, other;
+    bool forward;
+  };
+  std::vector<std::vector<Incidence>> incident_;  ///< per node (index), in insertion order
   std::vector<int64_t> disabled_edges_;
   /// A solve of this graph found block Jacobi too weak for its conjugate gradients (the cap reached): later
   /// CG solves start with the spanning tree (iterative_tree_fallback). Chains do not go away as a map grows.
