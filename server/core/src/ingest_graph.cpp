@@ -175,7 +175,7 @@ void IngestPipeline::onOptimized(const MapOptimization& result) {
 void IngestPipeline::applyOptimizedLocked(const MapOptimization& optimization) {
   const OptimizedPoses& result = optimization.graph;
   graph_.applyOptimized(result.T_map_kf, result.disabled_edges);
-  for (const auto& [id, pose] : graph_.poses()) index_.node(id).kf.T_map_kf = pose;
+  for (const PoseGraphNode& n : graph_.nodes()) index_.node(n.id).kf.T_map_kf = n.T_map_kf;
   index_.setComponents(graph_.components());
   for (const IndexedNode& n : index_.nodes())
     if (n.valid) detector_.updatePose(static_cast<int>(n.kf.node_id), n.kf.map_id, n.kf.T_map_kf);

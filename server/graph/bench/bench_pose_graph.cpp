@@ -175,8 +175,17 @@ void BM_PoseGraphMeasuredPosesNear(benchmark::State& state) {
   state.counters["reached"] = static_cast<double>(reached);
 }
 
+// What the server does with the graph for every optimisation result, on the ingest and optimiser threads:
+// its components (maps) and the poses, in the fleet room of N keyframes (~10 loops per keyframe).
+void BM_PoseGraphComponents(benchmark::State& state) {
+  const rgbdmap::SynthGraph synth = fleetRoom(static_cast<int>(state.range(0)), true);
+  for (auto _ : state) benchmark::DoNotOptimize(synth.graph.components());
+  state.counters["edges"] = static_cast<double>(synth.graph.edges().size());
+}
+
 }  // namespace
 
+BENCHMARK(BM_PoseGraphComponents)->Arg(1000)->Arg(10000)->Unit(benchmark::kMillisecond)->MinTime(0.5);
 BENCHMARK(BM_PoseGraphMeasuredPosesNear)
     ->ArgsProduct({{1000, 10000}, {1000, 4000}})
     ->Unit(benchmark::kMillisecond)

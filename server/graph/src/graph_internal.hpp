@@ -14,15 +14,6 @@ namespace rgbdmap::graph_detail {
 
 using Pose7 = std::array<double, 7>;
 
-/// Node indices of each edge, resolved once per optimisation.
-struct EdgeEnds {
-  size_t from = 0, to = 0;
-};
-
-/// Node indices of every edge (node_index: node id -> index).
-std::vector<EdgeEnds> resolveEnds(const std::vector<PoseGraphEdge>& edges,
-                                  const std::unordered_map<int64_t, size_t>& node_index);
-
 /// Component label (smallest member index) per node over the edges where mask is true.
 std::vector<size_t> componentLabels(size_t num_nodes, const std::vector<EdgeEnds>& ends,
                                     const std::vector<bool>& mask);

@@ -18,7 +18,7 @@ LocalOptimizeReport PoseGraph::optimizeLocal(const std::vector<int64_t>& edge_id
   const auto t0 = std::chrono::steady_clock::now();
   LocalOptimizeReport report;
   const std::vector<bool> enabled = enabledMask();
-  const std::vector<EdgeEnds> ends = graph_detail::resolveEnds(edges_, node_index_);
+  const std::vector<EdgeEnds>& ends = ends_;
   std::vector<std::vector<size_t>> edges_at(nodes_.size());  // enabled edges per node
   for (size_t k = 0; k < edges_.size(); ++k) {
     if (!enabled[k]) continue;

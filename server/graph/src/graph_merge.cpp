@@ -7,13 +7,6 @@
 
 namespace rgbdmap::graph_detail {
 
-std::vector<EdgeEnds> resolveEnds(const std::vector<PoseGraphEdge>& edges,
-                                  const std::unordered_map<int64_t, size_t>& node_index) {
-  std::vector<EdgeEnds> ends;
-  ends.reserve(edges.size());
-  for (const auto& e : edges) ends.push_back({node_index.at(e.from), node_index.at(e.to)});
-  return ends;
-}
 namespace {
 
 /// Correction C applied to the submap so that the edge holds: C * T_map_moving = implied pose.

@@ -55,6 +55,7 @@ Status PoseGraph::addEdge(const PoseGraphEdge& edge) {
   const auto to = static_cast<uint32_t>(node_index_.at(edge.to));
   incident_[from].push_back({k, to, true});
   incident_[to].push_back({k, from, false});
+  ends_.push_back({from, to});
   edges_.push_back(edge);
   edges_.back().T_from_to = se3::normalized(edge.T_from_to);
   sqrt_information_.push_back(sqrt_info);
@@ -185,8 +186,7 @@ std::vector<bool> PoseGraph::enabledMask() const {
 }
 
 std::vector<std::vector<int64_t>> PoseGraph::components() const {
-  const auto labels = graph_detail::componentLabels(
-      nodes_.size(), graph_detail::resolveEnds(edges_, node_index_), enabledMask());
+  const auto labels = graph_detail::componentLabels(nodes_.size(), ends_, enabledMask());
   std::vector<std::vector<int64_t>> groups;
   std::unordered_map<size_t, size_t> group_of_label;
   for (size_t i = 0; i < nodes_.size(); ++i) {
@@ -198,8 +198,7 @@ std::vector<std::vector<int64_t>> PoseGraph::components() const {
 }
 
 std::vector<bool> PoseGraph::gaugeFixed(const std::vector<bool>& enabled) const {
-  const auto labels =
-      graph_detail::componentLabels(nodes_.size(), graph_detail::resolveEnds(edges_, node_index_), enabled);
+  const auto labels = graph_detail::componentLabels(nodes_.size(), ends_, enabled);
   std::vector<bool> fixed(nodes_.size(), false);
   std::vector<bool> label_has_fixed(nodes_.size(), false);
   for (size_t i = 0; i < nodes_.size(); ++i) {
@@ -214,7 +213,7 @@ std::vector<bool> PoseGraph::gaugeFixed(const std::vector<bool>& enabled) const 
 }
 
 PoseGraph::Alignment PoseGraph::alignSubmaps(const PoseGraphConfig& config) {
-  const auto ends = graph_detail::resolveEnds(edges_, node_index_);
+  const std::vector<EdgeEnds>& ends = ends_;
   const std::vector<bool> enabled = enabledMask();
   std::vector<SE3> T_map_kf;
   T_map_kf.reserve(nodes_.size());
@@ -238,7 +237,7 @@ PoseGraph::Alignment PoseGraph::alignSubmaps(const PoseGraphConfig& config) {
 Result<OptimizeReport> PoseGraph::optimize(const PoseGraphConfig& config, const std::atomic<bool>* cancel) {
   const auto t0 = std::chrono::steady_clock::now();
   OptimizeReport report;
-  const auto ends = graph_detail::resolveEnds(edges_, node_index_);
+  const std::vector<EdgeEnds>& ends = ends_;
   std::vector<bool> enabled = enabledMask();
   for (const auto& e : edges_) report.loops_total += isLoop(e) ? 1 : 0;
 

@@ -134,6 +134,13 @@ struct LocalOptimizeReport {
   std::vector<int64_t> moved_nodes;  ///< the region's node ids when accepted
 };
 
+namespace graph_detail {
+/// Node indices (not ids) of an edge's two ends.
+struct EdgeEnds {
+  size_t from = 0, to = 0;
+};
+}  // namespace graph_detail
+
 class PoseGraph {
  public:
   /// Adds a keyframe; fails on a duplicate id or an invalid pose.
@@ -215,6 +222,7 @@ class PoseGraph {
     bool forward;
   };
   std::vector<std::vector<Incidence>> incident_;  ///< per node (index), in insertion order
+  std::vector<graph_detail::EdgeEnds> ends_;      ///< per edge (index)
   std::vector<int64_t> disabled_edges_;
   /// A solve of this graph found block Jacobi too weak for its conjugate gradients (the cap reached): later
   /// CG solves start with the spanning tree (iterative_tree_fallback). Chains do not go away as a map grows.
