@@ -386,14 +386,31 @@ void MapOptimizer::applyBundle(const BundleResult& r) {
   in.insert(r.fixed.begin(), r.fixed.end());
   for (int64_t id : r.moved) graph_.setPose(id, *landmarks_.pose(id));
   const std::vector<int64_t>& disabled = graph_.disabledEdges();
-  // The edges at a moved keyframe whose other end the adjustment saw too take its relative pose.
+  // The edges at a moved keyframe whose other end the adjustment saw too take its relative pose. Diagnostic
+  // (issue #15, a room torn without a false loop): measurements it moves by more than 5 cm or 2 deg.
+  int far = 0, far_odometry = 0;
+  double far_t = 0.0, far_deg = 0.0;
   for (int64_t id : r.moved)
     for (int64_t e_id : edges_of_node_[id]) {
       const PoseGraphEdge* e = graph_.edge(e_id);
       if (!e || !in.count(e->from) || !in.count(e->to)) continue;
       if (std::binary_search(disabled.begin(), disabled.end(), e_id)) continue;
-      graph_.setEdgeMeasurement(e_id, graph_.pose(e->from)->inverse() * *graph_.pose(e->to));
+      const SE3 measured = graph_.pose(e->from)->inverse() * *graph_.pose(e->to);
+      const SE3 change = e->T_from_to.inverse() * measured;
+      const double t = change.translation().norm(), deg = se3::rotationAngle(change) * 180.0 / M_PI;
+      if (t > 0.05 || deg > 2.0) {
+        ++far;
+        far_odometry += e->kind == EdgeKind::kOdometry ? 1 : 0;
+        far_t = std::max(far_t, t);
+        far_deg = std::max(far_deg, deg);
+      }
+      graph_.setEdgeMeasurement(e_id, measured);
     }
+  if (far > 0)
+    log::warn("optimiser: a bundle adjustment of ", r.report.frames, " keyframes",
+              r.report.out_of_time ? " (out of time)" : "", " moved ", far, " edge measurements (",
+              far_odometry, " odometry) by more than 5 cm or 2 deg, up to ", far_t, " m and ", far_deg,
+              " deg");
 }
 
 void MapOptimizer::publish(uint64_t revision, bool solved, const OptimizedPoses& solve) {
