@@ -3,6 +3,7 @@
 #include "map_optimizer.hpp"
 
 #include <algorithm>
+#include <set>
 #include <string>
 #include <utility>
 
@@ -386,14 +387,20 @@ void MapOptimizer::applyBundle(const BundleResult& r) {
   in.insert(r.fixed.begin(), r.fixed.end());
   for (int64_t id : r.moved) graph_.setPose(id, *landmarks_.pose(id));
   const std::vector<int64_t>& disabled = graph_.disabledEdges();
-  // The edges at a moved keyframe whose other end the adjustment saw too take its relative pose. Diagnostic
-  // (issue #15, a room torn without a false loop): measurements it moves by more than 5 cm or 2 deg.
+  // The edges at a moved keyframe whose other end the adjustment saw too, and shares landmarks with, take
+  // its relative pose. Without shared landmarks the adjustment knows nothing of that relative pose (an
+  // odometry step into a room not seen before): a global BA moved such steps by up to 2.2 m, and the
+  // measurement, overwritten, no longer held the map together (issue #15, a room torn without a false loop).
+  // Diagnostic: measurements moved by more than 5 cm or 2 deg.
   int far = 0, far_odometry = 0;
   double far_t = 0.0, far_deg = 0.0;
-  for (int64_t id : r.moved)
+  for (int64_t id : r.moved) {
+    std::set<int64_t> shared;
+    for (const auto& [other, n] : landmarks_.covisible(id)) shared.insert(other);
     for (int64_t e_id : edges_of_node_[id]) {
       const PoseGraphEdge* e = graph_.edge(e_id);
       if (!e || !in.count(e->from) || !in.count(e->to)) continue;
+      if (!shared.count(e->from == id ? e->to : e->from)) continue;
       if (std::binary_search(disabled.begin(), disabled.end(), e_id)) continue;
       const SE3 measured = graph_.pose(e->from)->inverse() * *graph_.pose(e->to);
       const SE3 change = e->T_from_to.inverse() * measured;
@@ -406,6 +413,7 @@ void MapOptimizer::applyBundle(const BundleResult& r) {
       }
       graph_.setEdgeMeasurement(e_id, measured);
     }
+  }
   if (far > 0)
     log::warn("optimiser: a bundle adjustment of ", r.report.frames, " keyframes",
               r.report.out_of_time ? " (out of time)" : "", " moved ", far, " edge measurements (",
