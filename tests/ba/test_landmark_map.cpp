@@ -244,3 +244,103 @@ TEST(LandmarkMap, RollingShutterRotationIsEstimated) {
 
 }  // namespace
 }  // namespace rgbdmap
+
+namespace rgbdmap {
+namespace {
+
+// Issue #15: a part of a global BA that no held keyframe observes (a room that only an odometry step joins
+// to the rest shares no landmark with it) has no gauge in the adjustment. Its shape is refined; its placement
+// as a whole is kept (else the solver's drift moved it, and a pose-graph solve pulled it back).
+TEST(LandmarkMap, APartNoHeldKeyframeObservesKeepsItsPlacement) {
+  BaSceneOptions o;
+  o.keyframes = 12;
+  const BaScene s = makeBaScene(o);
+  const std::vector<SE3> start = perturbed(s, 0.02, 0.01, 14);
+  constexpr int kSplit = 6;  // keyframes 0-5 (the anchor's part) and 6-11 share no landmark
+  struct Run {
+    BundleResult r;
+    std::vector<SE3> poses;
+  };
+  const auto run = [&](int part_link_landmarks) {
+    LandmarkMapConfig config;
+    config.part_link_landmarks = part_link_landmarks;
+    LandmarkMap map(config);
+    for (int k = 0; k < o.keyframes; ++k) EXPECT_TRUE(map.addKeyframe(sceneKeyframe(s, k, start[k])));
+    for (int k = 0; k < o.keyframes; ++k)
+      for (int j = std::max(k < kSplit ? 0 : kSplit, k - 3); j < k; ++j) map.addMatches(trueMatches(s, k, j));
+    Run out{map.globalAdjust(0, 0), {}};
+    out.poses = posesOf(map, s.T_map_kf.size());
+    return out;
+  };
+  // The free part's placement change: its mean camera centre, and the chordal mean of its rotation changes
+  // (sum of R_before R_after^T is symmetric when that mean is the identity).
+  const auto placementChange = [&](const std::vector<SE3>& after) {
+    Vec3 shift = Vec3::Zero();
+    Mat3 M = Mat3::Zero();
+    for (int k = kSplit; k < o.keyframes; ++k) {
+      shift += (after[k].translation() - start[k].translation()) / (o.keyframes - kSplit);
+      M += start[k].linear() * after[k].linear().transpose();
+    }
+    return std::make_pair(shift.norm(), (M - M.transpose()).norm());
+  };
+  // The free part's shape: keyframe positions relative to its first, against the truth.
+  const auto shapeError = [&](const std::vector<SE3>& poses) {
+    double sum = 0.0;
+    for (int k = kSplit + 1; k < o.keyframes; ++k) {
+      const SE3 est = poses[kSplit].inverse() * poses[k],
+                truth = s.T_map_kf[kSplit].inverse() * s.T_map_kf[k];
+      sum += (est.translation() - truth.translation()).squaredNorm();
+    }
+    return std::sqrt(sum / (o.keyframes - kSplit - 1));
+  };
+  const Run kept = run(3), drifted = run(0);
+  ASSERT_TRUE(kept.r.ok && drifted.r.ok) << kept.r.error << drifted.r.error;
+  const auto [kept_m, kept_rot] = placementChange(kept.poses);
+  const auto [drift_m, drift_rot] = placementChange(drifted.poses);
+  std::printf(
+      "[ measured ] unheld part: placement moved %.2e m (rotation asymmetry %.1e) without the correction, "
+      "%.1e m (%.1e) with; shape error %.4f -> %.5f m\n",
+      drift_m, drift_rot, kept_m, kept_rot, shapeError(start), shapeError(kept.poses));
+  EXPECT_EQ(kept.r.parts_kept, 1);
+  EXPECT_EQ(drifted.r.parts_kept, 0);
+  EXPECT_LT(kept_m, 1e-9);
+  EXPECT_LT(kept_rot, 1e-9);
+  EXPECT_GT(drift_m + drift_rot, 1e-6) << "the solver left the part in place by itself: nothing shown";
+  EXPECT_NEAR(kept.r.part_shift_m, drift_m, 0.5 * drift_m + 1e-6);
+  EXPECT_LT(shapeError(kept.poses), 0.25 * shapeError(start)) << "the part's shape was not refined";
+  EXPECT_TRUE(kept.poses[0].isApprox(start[0], 1e-12)) << "the anchor moved";
+}
+
+// A BundleCheck sees the outcome before it is applied and can refuse it: nothing changes then.
+TEST(LandmarkMap, ARefusedAdjustmentChangesNothing) {
+  BaSceneOptions o;
+  o.keyframes = 12;
+  const BaScene s = makeBaScene(o);
+  const std::vector<SE3> start = perturbed(s, 0.02, 0.01, 15);
+  LandmarkMap map;
+  for (int k = 0; k < o.keyframes; ++k) ASSERT_TRUE(map.addKeyframe(sceneKeyframe(s, k, start[k])));
+  for (int k = 0; k < o.keyframes; ++k)
+    for (int j = std::max(0, k - 3); j < k; ++j) map.addMatches(trueMatches(s, k, j));
+  const int64_t landmark = map.landmarkOf(5, 0) >= 0 ? map.landmarkOf(5, 0) : map.landmarkOf(5, 1);
+  ASSERT_GE(landmark, 0);
+  const Vec3 p_before = *map.positionOf(landmark);
+  size_t proposed = 0;
+  const BundleResult refused =
+      map.globalAdjust(0, 0, nullptr, [&](const std::vector<std::pair<int64_t, SE3>>& poses) {
+        proposed = poses.size();
+        return std::string("refused by the test");
+      });
+  EXPECT_FALSE(refused.ok);
+  EXPECT_TRUE(refused.refused);
+  EXPECT_EQ(refused.error, "refused by the test");
+  EXPECT_EQ(proposed, static_cast<size_t>(o.keyframes - 1));  // every keyframe but the anchor
+  for (int k = 0; k < o.keyframes; ++k) EXPECT_TRUE(map.pose(k)->isApprox(start[k], 1e-15)) << k;
+  EXPECT_EQ(*map.positionOf(landmark), p_before);
+  const BundleResult accepted = map.globalAdjust(
+      0, 0, nullptr, [](const std::vector<std::pair<int64_t, SE3>>&) { return std::string(); });
+  EXPECT_TRUE(accepted.ok);
+  EXPECT_LT(positionRms(s.T_map_kf, posesOf(map, s.T_map_kf.size())), 0.003);
+}
+
+}  // namespace
+}  // namespace rgbdmap

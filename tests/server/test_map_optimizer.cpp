@@ -215,6 +215,30 @@ TEST(MapOptimizer, AFalseLoopNeverEntersTheTracks) {
   EXPECT_LT(dirty.rms_m, clean.rms_m + 0.001);
 }
 
+// Issue #15: an adjustment that would change the relative pose of keyframes sharing landmarks by more than
+// ba.max_edge_change_m / _deg is a solve gone wrong and is refused whole. Here the limits are set so low that
+// every adjustment is refused: the result is the pose graph's alone.
+TEST(MapOptimizer, AnAdjustmentThatMovesCovisibleKeyframesTooFarIsRefused) {
+  const BaSynthScene s = scene();
+  const Outcome graph_only = runScene(s, false, false);
+  const Outcome normal = runScene(s, true, false);
+  const Outcome refused = runScene(s, true, false, [](MapOptimizerConfig* c) {
+    c->ba.max_edge_change_m = 1e-6;
+    c->ba.max_edge_change_deg = 1e-6;
+  });
+  ASSERT_TRUE(graph_only.result && normal.result && refused.result);
+  std::printf(
+      "[ measured ] rms: pose graph %.5f m, BA %.5f m (%lld refused), every BA refused %.5f m (%lld)\n",
+      graph_only.rms_m, normal.rms_m, static_cast<long long>(normal.result->ba.refused), refused.rms_m,
+      static_cast<long long>(refused.result->ba.refused));
+  EXPECT_EQ(normal.result->ba.refused, 0);
+  EXPECT_GT(refused.result->ba.local_runs, 0);
+  EXPECT_GT(refused.result->ba.refused, refused.result->ba.local_runs) << "local and global BAs are refused";
+  EXPECT_EQ(refused.result->ba.global_runs, 0) << "a refused global BA counts as not run";
+  EXPECT_NEAR(refused.rms_m, graph_only.rms_m, 0.1 * graph_only.rms_m) << "a refused BA still moved poses";
+  EXPECT_LT(normal.rms_m, 0.5 * refused.rms_m);
+}
+
 struct GraphRun {
   double rms_m = 0.0;
   int solves = 0, skipped = 0, local = 0, local_refused = 0;

@@ -73,7 +73,10 @@ const ConfigTable<LandmarkMapConfig>& landmarkMapConfigTable() {
                "a global BA takes at most this many observations of a landmark, spread over its observers "
                "(0: all; the cost grows with the square of a track's length)")
           .add("min_frame_observations", &C::min_frame_observations, R::closed(0, 100000),
-               "a keyframe with fewer observations in an adjustment is held there (too weakly constrained)");
+               "a keyframe with fewer observations in an adjustment is held there (too weakly constrained)")
+          .add("part_link_landmarks", &C::part_link_landmarks, R::closed(0, 100000),
+               "keyframes sharing this many of an adjustment's landmarks are one part of it; a part no held "
+               "keyframe observes keeps its placement as a whole (0: no such correction)");
   return table;
 }
 

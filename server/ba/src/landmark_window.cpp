@@ -6,7 +6,10 @@
 #include <tuple>
 #include <unordered_set>
 
+#include <Eigen/SVD>
+
 #include "rgbdmap/ba/landmark_map.hpp"
+#include "rgbdmap/common/union_find.hpp"
 
 namespace rgbdmap {
 
@@ -50,7 +53,85 @@ std::vector<std::pair<int64_t, int>> observationsTaken(const std::vector<std::pa
   return out;
 }
 
+BundleResult failed(std::string why) {
+  BundleResult r;
+  r.error = std::move(why);
+  return r;
+}
+
+/// A rigid correction A (T_map_kf <- A * T_map_kf) that puts a set of keyframes back where they were as a
+/// whole: the chordal mean of their rotation changes, and the mean of their camera centres kept.
+SE3 placementKept(const std::vector<SE3>& before, const std::vector<SE3>& after) {
+  Mat3 M = Mat3::Zero();
+  Vec3 c_before = Vec3::Zero(), c_after = Vec3::Zero();
+  for (size_t i = 0; i < before.size(); ++i) {
+    M += before[i].linear() * after[i].linear().transpose();
+    c_before += before[i].translation();
+    c_after += after[i].translation();
+  }
+  const Eigen::JacobiSVD<Mat3> svd(M, Eigen::ComputeFullU | Eigen::ComputeFullV);
+  Mat3 D = Mat3::Identity();
+  D(2, 2) = (svd.matrixU() * svd.matrixV().transpose()).determinant() < 0.0 ? -1.0 : 1.0;
+  SE3 A = SE3::Identity();
+  A.linear() = svd.matrixU() * D * svd.matrixV().transpose();
+  const double n = static_cast<double>(before.size());
+  A.translation() = c_before / n - A.linear() * (c_after / n);
+  return A;
+}
+
 }  // namespace
+
+/// A bundle adjustment fixes the gauge of its window through the keyframes it holds. A part of the window
+/// whose landmarks no held keyframe observes (in a global BA: a room joined to the rest by odometry steps
+/// alone, which share no landmark) has none: the solve refines its shape, and where it leaves it as a whole
+/// is drift of the solver, not information. Measured in a 6,000-keyframe map: such parts moved, a pose-graph
+/// solve pulled them back along their odometry steps, and every round trip re-integrated their clouds. Such
+/// a part is put back where it was as a whole (placementKept), with its landmarks.
+void LandmarkMap::keepUnheldParts(const BaProblem& p, BaSolution* s, BundleResult* out) const {
+  if (config_.part_link_landmarks <= 0) return;
+  const size_t nf = p.frames.size();
+  std::vector<char> outlier(p.observations.size(), 0);
+  for (int o : s->outliers) outlier[o] = 1;
+  std::vector<std::vector<int>> observers(p.points.size());
+  std::vector<int> seen(nf, 0);
+  for (size_t i = 0; i < p.observations.size(); ++i) {
+    if (outlier[i]) continue;
+    observers[p.observations[i].point].push_back(p.observations[i].frame);
+    ++seen[p.observations[i].frame];
+  }
+  UnionFind parts(nf);
+  std::unordered_map<uint64_t, int> shared;  // frame pair -> landmarks both observe
+  for (const std::vector<int>& obs : observers)
+    for (size_t x = 0; x < obs.size(); ++x)
+      for (size_t y = x + 1; y < obs.size(); ++y) {
+        const auto [a, b] = std::minmax(obs[x], obs[y]);
+        const uint64_t key = (static_cast<uint64_t>(a) << 32) | static_cast<uint32_t>(b);
+        if (++shared[key] == config_.part_link_landmarks) parts.join(a, b);
+      }
+  std::vector<char> held(nf, 0);
+  for (size_t f = 0; f < nf; ++f)
+    if (p.frames[f].fixed && seen[f] > 0) held[parts.find(f)] = 1;
+  std::unordered_map<size_t, std::vector<int>> unheld;  // part root -> its free frames
+  for (size_t f = 0; f < nf; ++f)
+    if (!p.frames[f].fixed && !held[parts.find(f)]) unheld[parts.find(f)].push_back(static_cast<int>(f));
+  std::vector<int> point_part(p.points.size(), -1);
+  for (size_t j = 0; j < p.points.size(); ++j)
+    if (!observers[j].empty()) point_part[j] = static_cast<int>(parts.find(observers[j].front()));
+  for (const auto& [root, frames] : unheld) {
+    std::vector<SE3> before, after;
+    for (int f : frames) {
+      before.push_back(p.frames[f].T_kf_map.inverse());
+      after.push_back(s->T_kf_map[f].inverse());
+    }
+    const SE3 A = placementKept(before, after);
+    for (int f : frames) s->T_kf_map[f] = s->T_kf_map[f] * A.inverse();
+    for (size_t j = 0; j < p.points.size(); ++j)
+      if (point_part[j] == static_cast<int>(root)) s->p_map[j] = A * s->p_map[j];
+    ++out->parts_kept;
+    out->part_shift_m = std::max(out->part_shift_m, A.translation().norm());
+    out->part_shift_deg = std::max(out->part_shift_deg, se3::rotationAngle(A) * 180.0 / M_PI);
+  }
+}
 
 std::vector<std::pair<int64_t, int>> LandmarkMap::covisible(int64_t id) const {
   std::vector<std::pair<int64_t, int>> out;
@@ -192,14 +273,15 @@ BaProblem LandmarkMap::problemOf(const Window& w) const {
 }
 
 BundleResult LandmarkMap::solveAndApply(const Window& w, int second_iterations, double max_time_s,
-                                        bool rolling_shutter, const std::atomic<bool>* cancel) {
+                                        bool rolling_shutter, const std::atomic<bool>* cancel,
+                                        const BundleCheck& check) {
   BundleResult out;
   const BaProblem problem = problemOf(w);
   BaSolveConfig solve = config_.solve;
   solve.second_iterations = second_iterations;
   solve.rolling_shutter = solve.rolling_shutter && rolling_shutter;
   solve.max_time_s = max_time_s;
-  const Result<BaSolution> s = solveBundle(problem, solve, cancel);
+  Result<BaSolution> s = solveBundle(problem, solve, cancel);
   if (!s) {
     out.error = s.error();
     return out;
@@ -208,6 +290,18 @@ BundleResult LandmarkMap::solveAndApply(const Window& w, int second_iterations, 
   if (s->report.cancelled) {
     out.error = "cancelled";
     return out;
+  }
+  keepUnheldParts(problem, &*s, &out);
+  if (check) {
+    std::vector<std::pair<int64_t, SE3>> proposed;
+    for (size_t i = 0; i < problem.frames.size(); ++i)
+      if (!problem.frames[i].fixed)
+        proposed.emplace_back(problem.frames[i].id, se3::normalized(s->T_kf_map[i].inverse()));
+    if (std::string why = check(proposed); !why.empty()) {
+      out.error = std::move(why);
+      out.refused = true;
+      return out;
+    }
   }
   std::vector<int> seen(problem.frames.size(), 0);
   for (const BaObservation& o : problem.observations) ++seen[o.frame];
@@ -236,18 +330,20 @@ BundleResult LandmarkMap::solveAndApply(const Window& w, int second_iterations, 
   return out;
 }
 
-BundleResult LandmarkMap::localAdjust(int64_t id, int64_t anchor, const std::atomic<bool>* cancel) {
-  if (!keyframes_.count(id)) return {false, "unknown keyframe " + std::to_string(id), {}, {}, {}, {}, 0};
+BundleResult LandmarkMap::localAdjust(int64_t id, int64_t anchor, const std::atomic<bool>* cancel,
+                                      const BundleCheck& check) {
+  if (!keyframes_.count(id)) return failed("unknown keyframe " + std::to_string(id));
   const Window w = localWindow(id, anchor);
-  if (w.free.empty() || w.points.empty()) return {false, "nothing to adjust", {}, {}, {}, {}, 0};
-  return solveAndApply(w, config_.solve.second_iterations, config_.solve.max_time_s, true, cancel);
+  if (w.free.empty() || w.points.empty()) return failed("nothing to adjust");
+  return solveAndApply(w, config_.solve.second_iterations, config_.solve.max_time_s, true, cancel, check);
 }
 
-BundleResult LandmarkMap::globalAdjust(int map_id, int64_t anchor, const std::atomic<bool>* cancel) {
+BundleResult LandmarkMap::globalAdjust(int map_id, int64_t anchor, const std::atomic<bool>* cancel,
+                                       const BundleCheck& check) {
   const Window w = globalWindow(map_id, anchor);
-  if (w.free.empty() || w.points.empty()) return {false, "nothing to adjust", {}, {}, {}, {}, 0};
+  if (w.free.empty() || w.points.empty()) return failed("nothing to adjust");
   return solveAndApply(w, config_.global_max_iterations, config_.global_max_time_s,
-                       config_.global_rolling_shutter, cancel);
+                       config_.global_rolling_shutter, cancel, check);
 }
 
 LandmarkStats LandmarkMap::stats() const { return stats_; }

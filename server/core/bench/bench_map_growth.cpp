@@ -370,9 +370,13 @@ int main(int argc, char** argv) {
   const MapServerStats s = server.stats();
   std::printf(
       "end: %d keyframes sent, %d stored, %d not acknowledged; loops %d (disabled %d), solves %d (%d kept "
-      "without one), global BA %lld; ATE %s m (odometry %s m)%s\n",
+      "without one), global BA %lld; BA parts kept in place %lld (largest %.3f m), BAs refused %lld; ATE %s "
+      "m "
+      "(odometry %s m)%s\n",
       sent, s.keyframes, unacked, s.loops_accepted, s.loops_disabled, s.graph_solves, s.graph_solves_skipped,
-      static_cast<long long>(s.ba.global_runs), ate ? std::to_string(ate->rmse).c_str() : ate.error().c_str(),
+      static_cast<long long>(s.ba.global_runs), static_cast<long long>(s.ba.parts_kept),
+      s.ba.part_shift_m_max, static_cast<long long>(s.ba.refused),
+      ate ? std::to_string(ate->rmse).c_str() : ate.error().c_str(),
       ate_odometry ? std::to_string(ate_odometry->rmse).c_str() : ate_odometry.error().c_str(),
       out_of_time ? "; stopped at --max-minutes" : "");
   // Every loop against the truth: one far from the true relative pose is a false match; the consistency

@@ -3,8 +3,10 @@
 #include "map_optimizer.hpp"
 
 #include <algorithm>
+#include <optional>
 #include <set>
 #include <string>
+#include <unordered_map>
 #include <utility>
 
 #include "ingest_timings.hpp"
@@ -300,12 +302,12 @@ void MapOptimizer::adjustNewKeyframes(const std::vector<int64_t>& ids) {
     if (!landmarks_.contains(ids[i]) || cancel_) continue;
     const auto t0 = std::chrono::steady_clock::now();
     const double cpu0 = threadCpuMs();
-    const BundleResult r = landmarks_.localAdjust(ids[i], anchor_of_[map_of_[ids[i]]], &cancel_);
+    const BundleResult r = landmarks_.localAdjust(ids[i], anchor_of_[map_of_[ids[i]]], &cancel_, check_);
     local_ms_.add(msSince(t0));
     local_cpu_ms_.add(threadCpuMs() - cpu0);
     ++counters_.local_runs;
     counters_.out_of_time += r.report.out_of_time ? 1 : 0;
-    if (!r.ok) {
+    if (!countBundle(r, "local")) {
       ++counters_.local_failures;
       continue;
     }
@@ -341,12 +343,12 @@ void MapOptimizer::adjustGlobally(const std::set<int>& maps) {
     if (anchor == anchor_of_.end() || cancel_) continue;
     const auto t0 = std::chrono::steady_clock::now();
     const double cpu0 = threadCpuMs();
-    const BundleResult r = landmarks_.globalAdjust(map, anchor->second, &cancel_);
+    const BundleResult r = landmarks_.globalAdjust(map, anchor->second, &cancel_, check_);
     const double ms = msSince(t0), cpu_ms = threadCpuMs() - cpu0;
     added_since_global_[map] = 0;
     changed_maps_.erase(map);
     counters_.out_of_time += r.report.out_of_time ? 1 : 0;
-    if (!r.ok) continue;
+    if (!countBundle(r, "global")) continue;
     // Stopped by its time limit without lowering the error: a map this large is more than the observation
     // cap can move in that time; the next one waits for twice the growth (reset by one that helps).
     int& backoff = global_backoff_[map];
@@ -359,8 +361,10 @@ void MapOptimizer::adjustGlobally(const std::set<int>& maps) {
     log::info("optimiser: global BA of map ", map, ": ", r.report.frames, " keyframes, ", r.report.points,
               " landmarks, ", r.report.observations, " observations (", r.outliers_removed,
               " rejected), rms ", r.report.initial_rms_px, " -> ", r.report.final_rms_px, " px, ",
-              r.report.iterations, " iterations", r.report.out_of_time ? " (out of time)" : "", ", ", ms,
-              " ms (", cpu_ms, " ms CPU)", backoff > 1 ? "; no gain: the next waits for growth x" : "",
+              r.report.iterations, " iterations", r.report.out_of_time ? " (out of time)" : "", ", ",
+              r.parts_kept, " parts kept in place (up to ", r.part_shift_m, " m, ", r.part_shift_deg,
+              " deg), ", ms, " ms (", cpu_ms, " ms CPU)",
+              backoff > 1 ? "; no gain: the next waits for growth x" : "",
               backoff > 1 ? std::to_string(backoff) : "");
     ++counters_.global_runs;
     counters_.global_ms_last = ms;
@@ -380,6 +384,48 @@ void MapOptimizer::adjustGlobally(const std::set<int>& maps) {
     for (int64_t e : edges_of_node_[id]) seeds.push_back(e);
   OptimizedPoses ignored;
   if (!seeds.empty() && !cancel_) solveGraph(&ignored, seeds);
+}
+
+std::string MapOptimizer::checkBundle(const std::vector<std::pair<int64_t, SE3>>& proposed) {
+  const double max_t = config_.ba.max_edge_change_m, max_deg = config_.ba.max_edge_change_deg;
+  if (!(max_t > 0.0) && !(max_deg > 0.0)) return "";
+  std::unordered_map<int64_t, const SE3*> moved;
+  for (const auto& [id, T] : proposed) moved[id] = &T;
+  const auto poseOf = [&](int64_t id) -> std::optional<SE3> {
+    const auto it = moved.find(id);
+    if (it != moved.end()) return *it->second;
+    return graph_.pose(id);
+  };
+  const std::vector<int64_t>& disabled = graph_.disabledEdges();
+  for (const auto& [id, T] : proposed) {
+    std::set<int64_t> shared;
+    for (const auto& [other, n] : landmarks_.covisible(id)) shared.insert(other);
+    for (int64_t e_id : edges_of_node_[id]) {
+      const PoseGraphEdge* e = graph_.edge(e_id);
+      if (!e || !shared.count(e->from == id ? e->to : e->from)) continue;
+      if (std::binary_search(disabled.begin(), disabled.end(), e_id)) continue;
+      const std::optional<SE3> from = poseOf(e->from), to = poseOf(e->to);
+      if (!from || !to) continue;
+      const SE3 change = e->T_from_to.inverse() * (from->inverse() * *to);
+      const double t = change.translation().norm(), deg = se3::rotationAngle(change) * 180.0 / M_PI;
+      if ((max_t > 0.0 && t > max_t) || (max_deg > 0.0 && deg > max_deg))
+        return "it would change edge " + std::to_string(e_id) + " (" + std::to_string(e->from) + "-" +
+               std::to_string(e->to) + ", keyframes sharing landmarks) by " + std::to_string(t) + " m and " +
+               std::to_string(deg) + " deg";
+    }
+  }
+  return "";
+}
+
+bool MapOptimizer::countBundle(const BundleResult& r, const char* kind) {
+  if (r.refused) {
+    ++counters_.refused;
+    log::warn("optimiser: ", kind, " bundle adjustment of ", r.report.frames, " keyframes",
+              r.report.out_of_time ? " (out of time)" : "", " refused: ", r.error);
+  }
+  counters_.parts_kept += r.parts_kept;
+  counters_.part_shift_m_max = std::max(counters_.part_shift_m_max, r.part_shift_m);
+  return r.ok;
 }
 
 void MapOptimizer::applyBundle(const BundleResult& r) {

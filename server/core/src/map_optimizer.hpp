@@ -19,6 +19,8 @@
 #include <memory>
 #include <mutex>
 #include <set>
+#include <string>
+#include <utility>
 #include <vector>
 
 #include "rgbdmap/ba/landmark_map.hpp"
@@ -104,6 +106,10 @@ class MapOptimizer {
   bool grownEnough(int map) const;
   void adjustNewKeyframes(const std::vector<int64_t>& ids);
   void adjustGlobally(const std::set<int>& maps);
+  /// Refuses an adjustment that moves an edge between covisible keyframes beyond max_edge_change_*.
+  std::string checkBundle(const std::vector<std::pair<int64_t, SE3>>& proposed);
+  /// Counts a finished adjustment (refused, parts kept); true when it was applied.
+  bool countBundle(const BundleResult& r, const char* kind);
   void applyBundle(const BundleResult& r);
   void publish(uint64_t revision, bool solved, const OptimizedPoses& solve);
   bool isLargeCycle(const PoseGraphEdge& e) const;
@@ -112,6 +118,9 @@ class MapOptimizer {
   MapOptimizerConfig config_;
   Callback callback_;
   std::atomic<bool> cancel_{false};
+  const BundleCheck check_ = [this](const std::vector<std::pair<int64_t, SE3>>& proposed) {
+    return checkBundle(proposed);
+  };
 
   mutable std::mutex mutex_;  ///< pending_, revisions, stopping_, due_
   OptimizerBatch pending_;

@@ -109,6 +109,10 @@ const ConfigTable<BundleAdjustmentConfig>& bundleAdjustmentConfigTable() {
                "wait)")
           .add("global_when_idle_s", &B::global_when_idle_s, R::closed(0.0, 3600.0),
                "a global BA of a changed map once no keyframe came for this long (0: only on request)")
+          .add("max_edge_change_m", &B::max_edge_change_m, R::closed(0.0, 1000.0),
+               "an adjustment that changes the relative pose of two keyframes sharing landmarks by more "
+               "than this is refused (a solve gone wrong; 0: no check)")
+          .add("max_edge_change_deg", &B::max_edge_change_deg, R::closed(0.0, 180.0), "the same in rotation")
           .nest("", &B::landmarks, landmarkMapConfigTable());
   return table;
 }

@@ -7,6 +7,7 @@
 #include <unordered_set>
 
 #include "graph_internal.hpp"
+#include "rgbdmap/common/union_find.hpp"
 #include "rgbdmap/graph/pose_graph_cost.hpp"
 #include "rgbdmap/graph/pose_graph_residual.hpp"
 
@@ -43,31 +44,6 @@ SE3 unpackPose(const double* pose7) {
   const Eigen::Quaterniond q(pose7[3], pose7[0], pose7[1], pose7[2]);
   return se3::fromQuatTrans(q, Eigen::Map<const Vec3>(pose7 + 4));
 }
-
-namespace {
-
-/// Disjoint sets of node indices (path halving); the root of a set is its smallest index.
-class UnionFind {
- public:
-  explicit UnionFind(size_t n) : parent_(n) { std::iota(parent_.begin(), parent_.end(), size_t{0}); }
-  size_t find(size_t i) {
-    while (parent_[i] != i) i = parent_[i] = parent_[parent_[i]];
-    return i;
-  }
-  /// Joins the sets of a and b; false when they were one set already.
-  bool join(size_t a, size_t b) {
-    a = find(a);
-    b = find(b);
-    if (a == b) return false;
-    parent_[std::max(a, b)] = std::min(a, b);
-    return true;
-  }
-
- private:
-  std::vector<size_t> parent_;
-};
-
-}  // namespace
 
 namespace graph_detail {
 

@@ -19,7 +19,9 @@
 // outlier observations leave the tracks. Plain structs in and out; not thread-safe (one owner thread).
 #include <atomic>
 #include <cstdint>
+#include <functional>
 #include <memory>
+#include <string>
 #include <unordered_map>
 #include <utility>
 #include <vector>
@@ -56,6 +58,10 @@ struct LandmarkMapConfig {
   /// A keyframe with fewer observations in an adjustment is held there (too weakly constrained to move:
   /// e.g. a keyframe restored after a restart that only new tracks reach).
   int min_frame_observations = 30;
+  /// Two keyframes of an adjustment sharing this many of its landmarks are one part of it. A part with no
+  /// held keyframe (e.g. a room that only odometry steps join to the rest of a global BA) has no gauge in
+  /// the adjustment: its placement as a whole is kept, only its shape refined (0: no such correction).
+  int part_link_landmarks = 3;
 
   std::string validate() const;  ///< "" when valid, else every problem ("; "-separated)
 };
@@ -86,7 +92,16 @@ struct BundleResult {
   std::vector<int64_t> weak;  ///< keyframes held for too few observations (min_frame_observations): their
                               ///< relative poses to the others are not refined
   int outliers_removed = 0;   ///< observations that left their tracks
+  /// Parts of the window no held keyframe observes (LandmarkMapConfig::part_link_landmarks), put back
+  /// where they were as a whole, and the largest such correction (how far the solve let them drift).
+  int parts_kept = 0;
+  double part_shift_m = 0.0, part_shift_deg = 0.0;
+  bool refused = false;  ///< the BundleCheck refused the outcome: nothing was applied (error says why)
 };
+
+/// Judges a bundle adjustment's outcome before it is applied: the new poses of the keyframes it moved.
+/// Returns "" to apply it, else why not (nothing is applied then).
+using BundleCheck = std::function<std::string(const std::vector<std::pair<int64_t, SE3>>& T_map_kf)>;
 
 struct LandmarkStats {
   int64_t keyframes = 0, landmarks = 0, observations = 0;
@@ -121,9 +136,12 @@ class LandmarkMap {
 
   /// Local BA around `id`; `anchor` (the map's anchor keyframe, -1 for none) stays fixed if in the window.
   /// `cancel` stops it (the poses are then left as they were).
-  BundleResult localAdjust(int64_t id, int64_t anchor = -1, const std::atomic<bool>* cancel = nullptr);
+  /// `check` (optional) may refuse the outcome.
+  BundleResult localAdjust(int64_t id, int64_t anchor = -1, const std::atomic<bool>* cancel = nullptr,
+                           const BundleCheck& check = {});
   /// Global BA over every keyframe of `map_id`; `anchor` (a keyframe of it) stays fixed.
-  BundleResult globalAdjust(int map_id, int64_t anchor, const std::atomic<bool>* cancel = nullptr);
+  BundleResult globalAdjust(int map_id, int64_t anchor, const std::atomic<bool>* cancel = nullptr,
+                            const BundleCheck& check = {});
 
   /// Keyframes sharing at least min_covisibility landmarks with `id`, most shared first.
   std::vector<std::pair<int64_t, int>> covisible(int64_t id) const;
@@ -163,8 +181,9 @@ class LandmarkMap {
   Window localWindow(int64_t id, int64_t anchor) const;
   Window globalWindow(int map_id, int64_t anchor) const;
   BaProblem problemOf(const Window& w) const;
+  void keepUnheldParts(const BaProblem& p, BaSolution* s, BundleResult* out) const;
   BundleResult solveAndApply(const Window& w, int second_iterations, double max_time_s, bool rolling_shutter,
-                             const std::atomic<bool>* cancel);
+                             const std::atomic<bool>* cancel, const BundleCheck& check);
 
   LandmarkMapConfig config_;
   std::unordered_map<int64_t, Keyframe> keyframes_;

@@ -85,6 +85,13 @@ struct BundleAdjustmentStats {
   /// Global BAs that ended at their time limit without lowering the error (a map too large for the
   /// observation cap); each doubles the growth its map must reach before the next one (up to 64x).
   int64_t global_fruitless = 0;
+  /// Adjustments whose outcome was refused (BundleAdjustmentConfig::max_edge_change_m / _deg): nothing
+  /// applied.
+  int64_t refused = 0;
+  /// Parts of adjustments that no held keyframe observed, put back where they were as a whole
+  /// (LandmarkMapConfig::part_link_landmarks), and the largest such correction so far.
+  int64_t parts_kept = 0;
+  double part_shift_m_max = 0.0;
   int64_t edges_in_tracks = 0;   ///< loop edges whose inlier matches are in the tracks
   int64_t edges_taken_back = 0;  ///< of those, taken out again when the pose graph disabled the edge
   LandmarkStats landmarks;

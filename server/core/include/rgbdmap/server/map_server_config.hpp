@@ -37,6 +37,12 @@ struct BundleAdjustmentConfig {
   /// A map changed since its last global BA gets one once no keyframe came for this long (0: only when
   /// asked, e.g. by waitIdle).
   double global_when_idle_s = 2.0;
+  /// An adjustment that changes the relative pose of two keyframes sharing landmarks (an edge between
+  /// them) by more than this is refused, nothing applied: shared landmarks hold such a relative pose to
+  /// centimetres, and a change this large is a solve gone wrong (a global BA out of time in a
+  /// 5,000-keyframe map moved 187 of them by up to 11.8 m). 0: no check.
+  double max_edge_change_m = 0.5;
+  double max_edge_change_deg = 15.0;
 };
 
 struct MapServerConfig {
