@@ -14,7 +14,7 @@
 // work. Thread CPU comes from /proc/self/task (clock ticks, 10 ms); heap_MB is what malloc has handed out and
 // not taken back (mallinfo2, every arena), next to the RSS; srv_MB is heap_MB without the bench's rooms.
 //   build/bin/bench_map_growth [--keyframes 20000] [--per-lap 60] [--revisit-every 4] [--width 320]
-//                              [--height 240] [--no-occupancy] [--max-minutes M] [--map-dir DIR]
+//                              [--height 240] [--no-occupancy] [--max-minutes M] [--map-dir DIR] [--log-info]
 // Exits 1 when a keyframe was not acknowledged or the run stopped at --max-minutes.
 #include <dirent.h>
 #include <malloc.h>
@@ -56,6 +56,7 @@ struct Options {
   int revisit_every = 4;
   int width = 320, height = 240;
   bool occupancy = true;
+  bool log_info = false;  ///< the server's info log (global BAs, results that moved many keyframes)
   double max_minutes = 0.0;
   std::string map_dir;
   std::string config;  ///< YAML whose keys override the bench's server configuration
@@ -83,6 +84,8 @@ bool parse(int argc, char** argv, Options* o) {
       o->config = argv[++i];
     } else if (a == "--no-occupancy") {
       o->occupancy = false;
+    } else if (a == "--log-info") {
+      o->log_info = true;
     } else {
       return false;
     }
@@ -204,11 +207,11 @@ int main(int argc, char** argv) {
     std::fprintf(stderr,
                  "usage: bench_map_growth [--keyframes N>=10] [--per-lap K>=8] [--revisit-every R>=1] "
                  "[--width W] [--height H] [--no-occupancy] [--max-minutes M] [--map-dir DIR] [--config FILE "
-                 "(server.yaml keys to override)]\n");
+                 "(server.yaml keys to override)] [--log-info]\n");
     return 2;
   }
   cv::setNumThreads(1);
-  log::setLevel(log::Level::kWarn);
+  log::setLevel(o.log_info ? log::Level::kInfo : log::Level::kWarn);
   World world(o.per_lap, o.width, o.height);
   // A room's textures take ~100 MB of the bench's own heap (up to 4 rooms are kept): measured once here,
   // before the server starts, and taken off the heap to give the server's share (srv_MB).

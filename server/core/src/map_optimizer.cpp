@@ -188,6 +188,7 @@ bool MapOptimizer::solveGraph(OptimizedPoses* out, const std::vector<int64_t>& s
     if (local.cancelled) return false;
     if (local.accepted) {
       ++local_solves_;
+      causes_.insert("local solve");
       graph_stale_ = true;
       out->report.solves = 1;
       out->report.iterations = local.iterations;
@@ -212,6 +213,7 @@ bool MapOptimizer::solveGraph(OptimizedPoses* out, const std::vector<int64_t>& s
     return false;
   }
   out->report = *report;
+  causes_.insert("whole-graph solve");
   graph_stale_ = false;
   for (auto& [id, w] : waiting_) w.checked = true;  // the solve judged every edge added so far
   refreshMaps();
@@ -228,6 +230,7 @@ bool MapOptimizer::needsSolve(const OptimizerBatch& b, std::vector<int64_t>* see
     for (int64_t id : moved.moved_nodes) landmarks_.setPose(id, map_of_[id], *graph_.pose(id));
     check = moved.changed_edges;
     merges_aligned_ += moved.moved_nodes.empty() ? 0 : 1;
+    if (!moved.moved_nodes.empty()) causes_.insert("merge");
   }
   std::vector<int64_t> loops;
   for (const PoseGraphEdge& e : b.edges) {
@@ -311,6 +314,7 @@ void MapOptimizer::adjustNewKeyframes(const std::vector<int64_t>& ids) {
       ++counters_.local_failures;
       continue;
     }
+    causes_.insert("local BA");
     applyBundle(r);
   }
 }
@@ -349,6 +353,7 @@ void MapOptimizer::adjustGlobally(const std::set<int>& maps) {
     changed_maps_.erase(map);
     counters_.out_of_time += r.report.out_of_time ? 1 : 0;
     if (!countBundle(r, "global")) continue;
+    causes_.insert(r.report.out_of_time ? "global BA (out of time)" : "global BA");
     // Stopped by its time limit without lowering the error: a map this large is more than the observation
     // cap can move in that time; the next one waits for twice the growth (reset by one that helps).
     int& backoff = global_backoff_[map];
@@ -467,6 +472,30 @@ void MapOptimizer::applyBundle(const BundleResult& r) {
               " deg");
 }
 
+void MapOptimizer::logMoves(const std::map<int64_t, SE3>& poses) {
+  // Diagnostic (info): which work moved many keyframes beyond the octree's default rebuild thresholds
+  // (3 cm, 0.02 rad). Both maps are ordered by node id.
+  size_t moved = 0;
+  double worst = 0.0;
+  auto last = published_.begin();
+  for (const auto& [id, T] : poses) {
+    while (last != published_.end() && last->first < id) ++last;
+    if (last == published_.end() || last->first != id) continue;
+    const SE3 delta = last->second.inverse() * T;
+    const double t = delta.translation().norm();
+    if (t > 0.03 || se3::rotationAngle(delta) > 0.02) ++moved;
+    worst = std::max(worst, t);
+  }
+  if (moved > 0 && moved * 10 >= poses.size()) {
+    std::string causes;
+    for (const std::string& c : causes_) causes += (causes.empty() ? "" : ", ") + c;
+    log::info("optimiser: a result moved ", moved, " of ", poses.size(),
+              " keyframes beyond 3 cm or 0.02 rad (up to ", worst, " m) after: ", causes);
+  }
+  causes_.clear();
+  published_ = poses;
+}
+
 void MapOptimizer::publish(uint64_t revision, bool solved, const OptimizedPoses& solve) {
   auto out = std::make_shared<MapOptimization>();
   out->revision = revision;
@@ -475,6 +504,7 @@ void MapOptimizer::publish(uint64_t revision, bool solved, const OptimizedPoses&
   out->graph.revision = revision;
   out->graph.ok = true;
   out->graph.T_map_kf = graph_.poses();
+  logMoves(out->graph.T_map_kf);
   out->graph.disabled_edges = graph_.disabledEdges();
   out->graph.components = graph_.components();
   counters_.landmarks = landmarks_.stats();

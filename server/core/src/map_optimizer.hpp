@@ -112,6 +112,8 @@ class MapOptimizer {
   bool countBundle(const BundleResult& r, const char* kind);
   void applyBundle(const BundleResult& r);
   void publish(uint64_t revision, bool solved, const OptimizedPoses& solve);
+  /// Logs (info) a result that moved a tenth of the keyframes or more, with the work that moved them.
+  void logMoves(const std::map<int64_t, SE3>& poses);
   bool isLargeCycle(const PoseGraphEdge& e) const;
   std::vector<int64_t> odometryNeighbours(int64_t id) const;
 
@@ -146,6 +148,8 @@ class MapOptimizer {
   std::map<int64_t, EdgeMatches> in_tracks_;  ///< matches of edges in the tracks
   std::map<int, int> added_since_global_;     ///< map id -> keyframes added since its last global BA
   std::set<int> changed_maps_;                ///< maps changed since their last global BA
+  std::set<std::string> causes_;              ///< work done since the last result (logMoves)
+  std::map<int64_t, SE3> published_;          ///< poses of the last result (logMoves)
   std::map<int, int> global_backoff_;         ///< map id -> growth factor after fruitless global BAs
   BundleAdjustmentStats counters_;
   int solves_skipped_ = 0;
