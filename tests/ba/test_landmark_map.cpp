@@ -311,6 +311,37 @@ TEST(LandmarkMap, APartNoHeldKeyframeObservesKeepsItsPlacement) {
   EXPECT_TRUE(kept.poses[0].isApprox(start[0], 1e-12)) << "the anchor moved";
 }
 
+// Issue #15: an odometry step between two parts that share no landmark, given to the global BA as a prior,
+// joins them: the part without a held keyframe is placed by it (not kept where it was), its shape refined.
+TEST(LandmarkMap, APriorBetweenPartsPlacesTheUnheldOne) {
+  BaSceneOptions o;
+  o.keyframes = 12;
+  const BaScene s = makeBaScene(o);
+  const std::vector<SE3> start = perturbed(s, 0.02, 0.01, 16);
+  constexpr int kSplit = 6;
+  const auto run = [&](bool with_prior) {
+    LandmarkMap map;
+    for (int k = 0; k < o.keyframes; ++k) EXPECT_TRUE(map.addKeyframe(sceneKeyframe(s, k, start[k])));
+    for (int k = 0; k < o.keyframes; ++k)
+      for (int j = std::max(k < kSplit ? 0 : kSplit, k - 3); j < k; ++j) map.addMatches(trueMatches(s, k, j));
+    std::vector<BundlePrior> priors;
+    if (with_prior)  // the true step 5 -> 6, sigma 1 cm / 0.6 deg
+      priors.push_back({kSplit - 1, kSplit, s.T_map_kf[kSplit - 1].inverse() * s.T_map_kf[kSplit],
+                        (Vec6() << 100, 100, 100, 100, 100, 100).finished().asDiagonal()});
+    const BundleResult r = map.globalAdjust(0, 0, nullptr, {}, priors);
+    EXPECT_TRUE(r.ok) << r.error;
+    return std::make_pair(r, positionRms(s.T_map_kf, posesOf(map, s.T_map_kf.size())));
+  };
+  const auto [kept, kept_rms] = run(false);
+  const auto [joined, joined_rms] = run(true);
+  std::printf("[ measured ] two parts: keyframe rms %.4f m kept in place, %.5f m joined by a prior\n",
+              kept_rms, joined_rms);
+  EXPECT_EQ(kept.parts_kept, 1);
+  EXPECT_EQ(joined.parts_kept, 0) << "the prior did not join the parts";
+  EXPECT_LT(joined_rms, 0.5 * kept_rms) << "the prior did not place the unheld part";
+  EXPECT_LT(joined_rms, 0.005);
+}
+
 // A BundleCheck sees the outcome before it is applied and can refuse it: nothing changes then.
 TEST(LandmarkMap, ARefusedAdjustmentChangesNothing) {
   BaSceneOptions o;

@@ -46,8 +46,44 @@ std::string checkProblem(const BaProblem& p) {
         !(std::abs(o.row_fraction) <= 1.0))
       return "observation not finite or out of range";
   }
+  for (const BaPosePrior& q : p.priors)
+    if (q.frame_a < 0 || q.frame_a >= nf || q.frame_b < 0 || q.frame_b >= nf || q.frame_a == q.frame_b ||
+        !se3::isValid(q.T_a_b, 1e-4) || !q.sqrt_information.allFinite())
+      return "pose prior out of range or not finite";
   return "";
 }
+
+/// A pose prior for Ceres: the same residual. As the observation costs do, it gives its Jacobians in the
+/// tangent of BaPoseManifold (the left perturbation exp(d) * T_kf_map) in the first 6 of the 7 columns (the
+/// manifold's PlusJacobian is that selection); here by central differences (a few priors per adjustment).
+class PosePriorCost final : public ceres::SizedCostFunction<6, 7, 7> {
+ public:
+  explicit PosePriorCost(const BaPosePrior& prior) : prior_(prior) {}
+  bool Evaluate(double const* const* parameters, double* residuals, double** jacobians) const override {
+    const SE3 Ta = paramsToPose(parameters[0]), Tb = paramsToPose(parameters[1]);
+    Eigen::Map<Vec6> r(residuals);
+    r = posePriorResidual(prior_, Ta, Tb);
+    if (!jacobians) return r.allFinite();
+    constexpr double kStep = 1e-6;
+    for (int side = 0; side < 2; ++side) {
+      if (!jacobians[side]) continue;
+      Eigen::Map<Eigen::Matrix<double, 6, 7, Eigen::RowMajor>> J(jacobians[side]);
+      J.setZero();
+      for (int i = 0; i < 6; ++i) {
+        const Vec6 d = Vec6::Unit(i) * kStep;
+        const Vec6 plus = side == 0 ? posePriorResidual(prior_, se3::exp(d) * Ta, Tb)
+                                    : posePriorResidual(prior_, Ta, se3::exp(d) * Tb);
+        const Vec6 minus = side == 0 ? posePriorResidual(prior_, se3::exp(-d) * Ta, Tb)
+                                     : posePriorResidual(prior_, Ta, se3::exp(-d) * Tb);
+        J.col(i) = (plus - minus) / (2.0 * kStep);
+      }
+    }
+    return r.allFinite();
+  }
+
+ private:
+  BaPosePrior prior_;
+};
 
 double sigmaOf(const BaObservation& o, const BaSolveConfig& c) {
   return c.pixel_sigma * std::pow(c.scale_factor, o.octave);
@@ -101,6 +137,11 @@ class CeresBundle {
         rolling_shutter_.push_back(w);
       }
       free_frames_ += fixed ? 0 : 1;
+    }
+    for (const BaPosePrior& q : p.priors) {
+      if (!pose_added[q.frame_a] || !pose_added[q.frame_b]) continue;
+      problem_.AddResidualBlock(new PosePriorCost(q), nullptr, s->poses[q.frame_a].data(),
+                                s->poses[q.frame_b].data());
     }
   }
 
@@ -218,6 +259,10 @@ void runSolves(const BaProblem& problem, const BaSolveConfig& config, const std:
 }
 
 }  // namespace
+
+Vec6 posePriorResidual(const BaPosePrior& prior, const SE3& T_a_map, const SE3& T_b_map) {
+  return prior.sqrt_information * se3::log(prior.T_a_b.inverse() * T_a_map * T_b_map.inverse());
+}
 
 Result<BaSolution> solveBundle(const BaProblem& problem, const BaSolveConfig& config,
                                const std::atomic<bool>* cancel) {

@@ -21,6 +21,7 @@ struct LandmarkMap::Window {
   std::vector<int64_t> free, fixed, points;
   int max_track = 0;                  ///< observations taken per landmark, spread over its observers (0: all)
   std::vector<int64_t> selected_for;  ///< with max_track: per point, the keyframe whose observation stays
+  std::vector<BundlePrior> priors;
 };
 
 namespace {
@@ -108,6 +109,7 @@ void LandmarkMap::keepUnheldParts(const BaProblem& p, BaSolution* s, BundleResul
         const uint64_t key = (static_cast<uint64_t>(a) << 32) | static_cast<uint32_t>(b);
         if (++shared[key] == config_.part_link_landmarks) parts.join(a, b);
       }
+  for (const BaPosePrior& q : p.priors) parts.join(q.frame_a, q.frame_b);
   std::vector<char> held(nf, 0);
   for (size_t f = 0; f < nf; ++f)
     if (p.frames[f].fixed && seen[f] > 0) held[parts.find(f)] = 1;
@@ -148,6 +150,15 @@ std::vector<std::pair<int64_t, int>> LandmarkMap::covisible(int64_t id) const {
     return a.second != b.second ? a.second > b.second : a.first < b.first;
   });
   return out;
+}
+
+int LandmarkMap::sharedLandmarks(int64_t a, int64_t b) const {
+  const auto ka = keyframes_.find(a);
+  if (ka == keyframes_.end() || !keyframes_.count(b)) return 0;
+  int n = 0;
+  for (int64_t l : ka->second.landmark)
+    if (l >= 0 && observes(landmarks_.at(l), b)) ++n;
+  return n;
 }
 
 std::vector<int64_t> LandmarkMap::keyframesOfMap(int map_id) const {
@@ -264,6 +275,11 @@ BaProblem LandmarkMap::problemOf(const Window& w) const {
     if (used == 0) continue;
     p.points.push_back({l_id, l.p_map});
   }
+  for (const BundlePrior& q : w.priors) {
+    const auto a = frame_index.find(q.from), b = frame_index.find(q.to);
+    if (a == frame_index.end() || b == frame_index.end() || a->second == b->second) continue;
+    p.priors.push_back({a->second, b->second, q.T_from_to, q.sqrt_information});
+  }
   // Too few observations to move a keyframe reliably: it holds still (and its rolling-shutter rotation).
   std::vector<int> seen(p.frames.size(), 0);
   for (const BaObservation& o : p.observations) ++seen[o.frame];
@@ -339,8 +355,9 @@ BundleResult LandmarkMap::localAdjust(int64_t id, int64_t anchor, const std::ato
 }
 
 BundleResult LandmarkMap::globalAdjust(int map_id, int64_t anchor, const std::atomic<bool>* cancel,
-                                       const BundleCheck& check) {
-  const Window w = globalWindow(map_id, anchor);
+                                       const BundleCheck& check, const std::vector<BundlePrior>& priors) {
+  Window w = globalWindow(map_id, anchor);
+  w.priors = priors;
   if (w.free.empty() || w.points.empty()) return failed("nothing to adjust");
   return solveAndApply(w, config_.global_max_iterations, config_.global_max_time_s,
                        config_.global_rolling_shutter, cancel, check);

@@ -153,6 +153,29 @@ SolveSummary SchurBundle::solveWith(int iterations, const std::atomic<bool>* can
       }
     }
   }
+  // Pose priors between frames in the problem; one whose two frames are both free adds a block (a, b).
+  struct PriorTerm {
+    const BaPosePrior* prior;
+    int a, b;        ///< frame unknowns of its poses (-1: held)
+    int block = -1;  ///< the (max, min) block when both are free
+  };
+  std::vector<PriorTerm> priors;
+  for (const BaPosePrior& q : p_.priors) {
+    if (!in_problem[q.frame_a] || !in_problem[q.frame_b]) continue;
+    PriorTerm t{&q, pose_free[q.frame_a] ? frame_var[q.frame_a] : -1,
+                pose_free[q.frame_b] ? frame_var[q.frame_b] : -1};
+    if (t.a >= 0 && t.b >= 0) {
+      const int hi = std::max(t.a, t.b), lo = std::min(t.a, t.b);
+      const uint64_t key = (static_cast<uint64_t>(hi) << 32) | static_cast<uint32_t>(lo);
+      const auto [it, added] = block_of.try_emplace(key, static_cast<int>(blocks.size()));
+      if (added) blocks.emplace_back(hi, lo);
+      t.block = it->second;
+    }
+    priors.push_back(t);
+  }
+  using Mat66 = Eigen::Matrix<double, 6, 6>;
+  AlignedVector<Mat66> prior_cross(priors.size());  // J_hi^T J_lo per prior with a block
+
   const int n = nv * D;
   const bool dense = n <= kDenseMaxUnknowns;
   Eigen::SparseMatrix<double> S_sparse;
@@ -257,6 +280,43 @@ SolveSummary SchurBundle::solveWith(int iterations, const std::atomic<bool>* can
       g_frame[a].noalias() += J_frame.transpose() * r;
       W[q].noalias() = J_frame.transpose() * J_point;
     }
+    for (size_t k = 0; k < priors.size(); ++k) {
+      const PriorTerm& t = priors[k];
+      const auto poseOf = [&](int f) {
+        SE3 T = SE3::Identity();
+        T.linear() = frames[f].R;
+        T.translation() = frames[f].t;
+        return T;
+      };
+      const SE3 Ta = poseOf(t.prior->frame_a), Tb = poseOf(t.prior->frame_b);
+      const Vec6 r = posePriorResidual(*t.prior, Ta, Tb);
+      if (!r.allFinite()) return std::numeric_limits<double>::infinity();
+      sum += r.squaredNorm();
+      if (!linearise) continue;
+      // Jacobians for the solver's left perturbation (T <- exp(d) T), by central differences.
+      constexpr double kStep = 1e-6;
+      Mat66 Ja = Mat66::Zero(), Jb = Mat66::Zero();
+      for (int i = 0; i < 6; ++i) {
+        const Vec6 d = Vec6::Unit(i) * kStep;
+        if (t.a >= 0)
+          Ja.col(i) = (posePriorResidual(*t.prior, se3::exp(d) * Ta, Tb) -
+                       posePriorResidual(*t.prior, se3::exp(-d) * Ta, Tb)) /
+                      (2.0 * kStep);
+        if (t.b >= 0)
+          Jb.col(i) = (posePriorResidual(*t.prior, Ta, se3::exp(d) * Tb) -
+                       posePriorResidual(*t.prior, Ta, se3::exp(-d) * Tb)) /
+                      (2.0 * kStep);
+      }
+      if (t.a >= 0) {
+        U[t.a].template topLeftCorner<6, 6>().noalias() += Ja.transpose() * Ja;
+        g_frame[t.a].template head<6>().noalias() += Ja.transpose() * r;
+      }
+      if (t.b >= 0) {
+        U[t.b].template topLeftCorner<6, 6>().noalias() += Jb.transpose() * Jb;
+        g_frame[t.b].template head<6>().noalias() += Jb.transpose() * r;
+      }
+      if (t.block >= 0) prior_cross[k] = t.a > t.b ? Ja.transpose() * Jb : Jb.transpose() * Ja;
+    }
     for (int f = 0; f < nf; ++f) {
       if (!in_problem[f] || !has_prior[f]) continue;
       sum += frames[f].w.squaredNorm() * prior_info;
@@ -289,6 +349,8 @@ SolveSummary SchurBundle::solveWith(int iterations, const std::atomic<bool>* can
       rhs.segment<D>(a * D) = -g_frame[a];
     }
     for (size_t k = nv; k < blocks.size(); ++k) S_blocks[k].setZero();
+    for (size_t k = 0; k < priors.size(); ++k)
+      if (priors[k].block >= 0) S_blocks[priors[k].block].template topLeftCorner<6, 6>() += prior_cross[k];
     size_t pair = 0;
     for (int j = 0; j < npv; ++j) {
       Mat3 Vd = V[j];

@@ -11,6 +11,7 @@
 
 #include "ingest_timings.hpp"
 #include "rgbdmap/common/logging.hpp"
+#include "rgbdmap/graph/pose_graph_residual.hpp"
 
 namespace rgbdmap {
 
@@ -347,7 +348,7 @@ void MapOptimizer::adjustGlobally(const std::set<int>& maps) {
     if (anchor == anchor_of_.end() || cancel_) continue;
     const auto t0 = std::chrono::steady_clock::now();
     const double cpu0 = threadCpuMs();
-    const BundleResult r = landmarks_.globalAdjust(map, anchor->second, &cancel_, check_);
+    const BundleResult r = landmarks_.globalAdjust(map, anchor->second, &cancel_, check_, stepPriors(map));
     const double ms = msSince(t0), cpu_ms = threadCpuMs() - cpu0;
     added_since_global_[map] = 0;
     changed_maps_.erase(map);
@@ -431,6 +432,25 @@ bool MapOptimizer::countBundle(const BundleResult& r, const char* kind) {
   counters_.parts_kept += r.parts_kept;
   counters_.part_shift_m_max = std::max(counters_.part_shift_m_max, r.part_shift_m);
   return r.ok;
+}
+
+std::vector<BundlePrior> MapOptimizer::stepPriors(int map) const {
+  std::vector<BundlePrior> out;
+  if (!config_.ba.global_step_priors) return out;
+  const std::vector<int64_t>& disabled = graph_.disabledEdges();
+  const auto inMap = [&](int64_t id) {
+    const auto it = map_of_.find(id);
+    return it != map_of_.end() && it->second == map && landmarks_.contains(id);
+  };
+  for (const PoseGraphEdge& e : graph_.edges()) {
+    if (!inMap(e.from) || !inMap(e.to) || std::binary_search(disabled.begin(), disabled.end(), e.id))
+      continue;
+    if (landmarks_.sharedLandmarks(e.from, e.to) >= config_.ba.landmarks.min_covisibility) continue;
+    Mat6 sqrt_information;
+    if (!sqrtInformation(residualInformation(e.T_from_to, e.information), &sqrt_information)) continue;
+    out.push_back({e.from, e.to, e.T_from_to, sqrt_information});
+  }
+  return out;
 }
 
 void MapOptimizer::applyBundle(const BundleResult& r) {

@@ -106,6 +106,9 @@ class MapOptimizer {
   bool grownEnough(int map) const;
   void adjustNewKeyframes(const std::vector<int64_t>& ids);
   void adjustGlobally(const std::set<int>& maps);
+  /// The enabled edges of `map` whose keyframes share too few landmarks for a BA to know their relative pose,
+  /// as priors for its global BA (BundleAdjustmentConfig::global_step_priors).
+  std::vector<BundlePrior> stepPriors(int map) const;
   /// Refuses an adjustment that moves an edge between covisible keyframes beyond max_edge_change_*.
   std::string checkBundle(const std::vector<std::pair<int64_t, SE3>>& proposed);
   /// Counts a finished adjustment (refused, parts kept); true when it was applied.

@@ -109,6 +109,9 @@ const ConfigTable<BundleAdjustmentConfig>& bundleAdjustmentConfigTable() {
                "wait)")
           .add("global_when_idle_s", &B::global_when_idle_s, R::closed(0.0, 3600.0),
                "a global BA of a changed map once no keyframe came for this long (0: only on request)")
+          .add("global_step_priors", &B::global_step_priors,
+               "a global BA takes the pose-graph edges its landmarks do not cover (odometry steps into an "
+               "unseen room) as relative-pose priors")
           .add("max_edge_change_m", &B::max_edge_change_m, R::closed(0.0, 1000.0),
                "an adjustment that changes the relative pose of two keyframes sharing landmarks by more "
                "than this is refused (a solve gone wrong; 0: no check)")

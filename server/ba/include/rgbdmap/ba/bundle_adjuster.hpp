@@ -66,11 +66,25 @@ struct BaObservation {
   double row_fraction = 0.0;  ///< the keypoint's sensor row from the middle, fraction of the height
 };
 
+/// A relative-pose prior between two frames: a pose-graph edge that no landmark of the adjustment covers
+/// (an odometry step into a room not seen before). Residual S * log(T_a_b^-1 * T_map_a^-1 * T_map_b), tangent
+/// order (rho, omega), as the pose graph's (pose_graph_residual.hpp): S is the upper Cholesky factor of the
+/// information in the residual's frame. Only frames with observations in the problem take part.
+struct BaPosePrior {
+  int frame_a = 0, frame_b = 0;  ///< indices into BaProblem::frames
+  SE3 T_a_b = SE3::Identity();   ///< measured pose of b in a
+  Mat6 sqrt_information = Mat6::Identity();
+};
+
 struct BaProblem {
   std::vector<BaFrame> frames;
   std::vector<BaPoint> points;
   std::vector<BaObservation> observations;
+  std::vector<BaPosePrior> priors;
 };
+
+/// The prior's whitened residual at frame poses T_a_map, T_b_map (the solvers' T_kf_map).
+Vec6 posePriorResidual(const BaPosePrior& prior, const SE3& T_a_map, const SE3& T_b_map);
 
 struct BaReport {
   int frames = 0, fixed_frames = 0, points = 0, observations = 0;

@@ -99,6 +99,15 @@ struct BundleResult {
   bool refused = false;  ///< the BundleCheck refused the outcome: nothing was applied (error says why)
 };
 
+/// A pose-graph edge a global BA takes as a relative-pose prior (BaPosePrior): residual
+/// S * log(T_from_to^-1 * T_map_from^-1 * T_map_to), S the upper Cholesky factor of its information in that
+/// residual's frame.
+struct BundlePrior {
+  int64_t from = 0, to = 0;
+  SE3 T_from_to = SE3::Identity();
+  Mat6 sqrt_information = Mat6::Identity();
+};
+
 /// Judges a bundle adjustment's outcome before it is applied: the new poses of the keyframes it moved.
 /// Returns "" to apply it, else why not (nothing is applied then).
 using BundleCheck = std::function<std::string(const std::vector<std::pair<int64_t, SE3>>& T_map_kf)>;
@@ -139,10 +148,14 @@ class LandmarkMap {
   /// `check` (optional) may refuse the outcome.
   BundleResult localAdjust(int64_t id, int64_t anchor = -1, const std::atomic<bool>* cancel = nullptr,
                            const BundleCheck& check = {});
-  /// Global BA over every keyframe of `map_id`; `anchor` (a keyframe of it) stays fixed.
+  /// Global BA over every keyframe of `map_id`; `anchor` (a keyframe of it) stays fixed. `priors`: edges
+  /// between its keyframes that its landmarks do not cover (those with an unknown keyframe are skipped);
+  /// keyframes they join are one part for keepUnheldParts.
   BundleResult globalAdjust(int map_id, int64_t anchor, const std::atomic<bool>* cancel = nullptr,
-                            const BundleCheck& check = {});
+                            const BundleCheck& check = {}, const std::vector<BundlePrior>& priors = {});
 
+  /// Landmarks keyframes a and b both observe (0 when either is unknown).
+  int sharedLandmarks(int64_t a, int64_t b) const;
   /// Keyframes sharing at least min_covisibility landmarks with `id`, most shared first.
   std::vector<std::pair<int64_t, int>> covisible(int64_t id) const;
   std::vector<int64_t> keyframesOfMap(int map_id) const;

@@ -41,6 +41,11 @@ struct BundleAdjustmentConfig {
   /// them) by more than this is refused, nothing applied: shared landmarks hold such a relative pose to
   /// centimetres, and a change this large is a solve gone wrong (a global BA out of time in a
   /// 5,000-keyframe map moved 187 of them by up to 11.8 m). 0: no check.
+  /// A global BA takes the pose-graph edges its landmarks do not cover (keyframes sharing fewer than
+  /// landmarks.min_covisibility: odometry steps into a room not seen before) as relative-pose priors, so its
+  /// optimum agrees with the pose graph's and a whole-graph solve after it has little left to move. Off until
+  /// measured beyond 2,400 keyframes and in the fleet (docs/scaling.md, stop 27).
+  bool global_step_priors = false;
   double max_edge_change_m = 0.5;
   double max_edge_change_deg = 15.0;
 };
