@@ -61,6 +61,16 @@ std::vector<SE3> perturbed(const BaScene& s, double sigma_t, double sigma_r, uns
   return out;
 }
 
+/// Adds the scene's keyframes at `start` and the true matches of each to the three before it; with `split`
+/// > 0, keyframes before and from `split` on are two parts sharing no match (a part per room).
+void addScene(LandmarkMap* map, const BaScene& s, const std::vector<SE3>& start, int split = 0) {
+  const int n = static_cast<int>(start.size());
+  for (int k = 0; k < n; ++k) EXPECT_TRUE(map->addKeyframe(sceneKeyframe(s, k, start[k])));
+  for (int k = 0; k < n; ++k)
+    for (int j = std::max(split > 0 && k >= split ? split : 0, k - 3); j < k; ++j)
+      map->addMatches(trueMatches(s, k, j));
+}
+
 std::vector<SE3> posesOf(const LandmarkMap& map, size_t n) {
   std::vector<SE3> out;
   for (size_t k = 0; k < n; ++k) out.push_back(*map.pose(static_cast<int64_t>(k)));
@@ -151,9 +161,7 @@ TEST(LandmarkMap, LocalAndGlobalAdjustmentRecoverPoses) {
   const BaScene s = makeBaScene(o);
   const std::vector<SE3> start = perturbed(s, 0.02, 0.01, 11);
   LandmarkMap map;
-  for (int k = 0; k < o.keyframes; ++k) ASSERT_TRUE(map.addKeyframe(sceneKeyframe(s, k, start[k])));
-  for (int k = 0; k < o.keyframes; ++k)
-    for (int j = std::max(0, k - 3); j < k; ++j) map.addMatches(trueMatches(s, k, j));
+  addScene(&map, s, start);
   const double rms0 = positionRms(s.T_map_kf, posesOf(map, s.T_map_kf.size()));
   const BundleResult local = map.localAdjust(o.keyframes - 1, 0);
   ASSERT_TRUE(local.ok) << local.error;
@@ -215,9 +223,7 @@ TEST(LandmarkMap, RollingShutterRotationIsEstimated) {
     config.solve.rolling_shutter = rolling_shutter;
     config.solve.rolling_shutter_sigma_rad = 0.05;  // a strong rolling shutter (0.03 rad) to recover
     LandmarkMap map(config);
-    for (int k = 0; k < o.keyframes; ++k) EXPECT_TRUE(map.addKeyframe(sceneKeyframe(s, k, start[k])));
-    for (int k = 0; k < o.keyframes; ++k)
-      for (int j = std::max(0, k - 3); j < k; ++j) map.addMatches(trueMatches(s, k, j));
+    addScene(&map, s, start);
     for (int round = 0; round < 2; ++round) EXPECT_TRUE(map.globalAdjust(0, 0).ok);
     // A rotation common to every keyframe's readout is nearly a gauge freedom of this scene (a vertical
     // stretch of a world seen from sideways-moving cameras): w is compared after removing the mean.
@@ -265,9 +271,7 @@ TEST(LandmarkMap, APartNoHeldKeyframeObservesKeepsItsPlacement) {
     LandmarkMapConfig config;
     config.part_link_landmarks = part_link_landmarks;
     LandmarkMap map(config);
-    for (int k = 0; k < o.keyframes; ++k) EXPECT_TRUE(map.addKeyframe(sceneKeyframe(s, k, start[k])));
-    for (int k = 0; k < o.keyframes; ++k)
-      for (int j = std::max(k < kSplit ? 0 : kSplit, k - 3); j < k; ++j) map.addMatches(trueMatches(s, k, j));
+    addScene(&map, s, start, kSplit);
     Run out{map.globalAdjust(0, 0), {}};
     out.poses = posesOf(map, s.T_map_kf.size());
     return out;
@@ -321,9 +325,7 @@ TEST(LandmarkMap, APriorBetweenPartsPlacesTheUnheldOne) {
   constexpr int kSplit = 6;
   const auto run = [&](bool with_prior) {
     LandmarkMap map;
-    for (int k = 0; k < o.keyframes; ++k) EXPECT_TRUE(map.addKeyframe(sceneKeyframe(s, k, start[k])));
-    for (int k = 0; k < o.keyframes; ++k)
-      for (int j = std::max(k < kSplit ? 0 : kSplit, k - 3); j < k; ++j) map.addMatches(trueMatches(s, k, j));
+    addScene(&map, s, start, kSplit);
     std::vector<BundlePrior> priors;
     if (with_prior)  // the true step 5 -> 6, sigma 1 cm / 0.6 deg
       priors.push_back({kSplit - 1, kSplit, s.T_map_kf[kSplit - 1].inverse() * s.T_map_kf[kSplit],
@@ -349,9 +351,7 @@ TEST(LandmarkMap, ARefusedAdjustmentChangesNothing) {
   const BaScene s = makeBaScene(o);
   const std::vector<SE3> start = perturbed(s, 0.02, 0.01, 15);
   LandmarkMap map;
-  for (int k = 0; k < o.keyframes; ++k) ASSERT_TRUE(map.addKeyframe(sceneKeyframe(s, k, start[k])));
-  for (int k = 0; k < o.keyframes; ++k)
-    for (int j = std::max(0, k - 3); j < k; ++j) map.addMatches(trueMatches(s, k, j));
+  addScene(&map, s, start);
   const int64_t landmark = map.landmarkOf(5, 0) >= 0 ? map.landmarkOf(5, 0) : map.landmarkOf(5, 1);
   ASSERT_GE(landmark, 0);
   const Vec3 p_before = *map.positionOf(landmark);
