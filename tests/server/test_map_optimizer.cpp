@@ -144,6 +144,7 @@ TEST(MapOptimizer, BundleAdjustmentBeatsThePoseGraphAlone) {
   EXPECT_LT(with_ba.rms_m, 0.004);
   EXPECT_GT(ba.local_runs, 0);
   EXPECT_GT(ba.global_runs, 0);
+  EXPECT_EQ(ba.refused, 0) << "a healthy adjustment was refused (ba.max_edge_change_*)";
   EXPECT_EQ(graph_only.result->ba.landmarks.landmarks, 0);
 }
 
@@ -221,22 +222,17 @@ TEST(MapOptimizer, AFalseLoopNeverEntersTheTracks) {
 TEST(MapOptimizer, AnAdjustmentThatMovesCovisibleKeyframesTooFarIsRefused) {
   const BaSynthScene s = scene();
   const Outcome graph_only = runScene(s, false, false);
-  const Outcome normal = runScene(s, true, false);
   const Outcome refused = runScene(s, true, false, [](MapOptimizerConfig* c) {
     c->ba.max_edge_change_m = 1e-6;
     c->ba.max_edge_change_deg = 1e-6;
   });
-  ASSERT_TRUE(graph_only.result && normal.result && refused.result);
-  std::printf(
-      "[ measured ] rms: pose graph %.5f m, BA %.5f m (%lld refused), every BA refused %.5f m (%lld)\n",
-      graph_only.rms_m, normal.rms_m, static_cast<long long>(normal.result->ba.refused), refused.rms_m,
-      static_cast<long long>(refused.result->ba.refused));
-  EXPECT_EQ(normal.result->ba.refused, 0);
+  ASSERT_TRUE(graph_only.result && refused.result);
+  std::printf("[ measured ] rms: pose graph %.5f m, every BA refused %.5f m (%lld refused)\n",
+              graph_only.rms_m, refused.rms_m, static_cast<long long>(refused.result->ba.refused));
   EXPECT_GT(refused.result->ba.local_runs, 0);
   EXPECT_GT(refused.result->ba.refused, refused.result->ba.local_runs) << "local and global BAs are refused";
   EXPECT_EQ(refused.result->ba.global_runs, 0) << "a refused global BA counts as not run";
   EXPECT_NEAR(refused.rms_m, graph_only.rms_m, 0.1 * graph_only.rms_m) << "a refused BA still moved poses";
-  EXPECT_LT(normal.rms_m, 0.5 * refused.rms_m);
 }
 
 struct GraphRun {
