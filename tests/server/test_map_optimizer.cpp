@@ -230,7 +230,10 @@ TEST(MapOptimizer, AnAdjustmentThatMovesCovisibleKeyframesTooFarIsRefused) {
   std::printf("[ measured ] rms: pose graph %.5f m, every BA refused %.5f m (%lld refused)\n",
               graph_only.rms_m, refused.rms_m, static_cast<long long>(refused.result->ba.refused));
   EXPECT_GT(refused.result->ba.local_runs, 0);
-  EXPECT_GT(refused.result->ba.refused, refused.result->ba.local_runs) << "local and global BAs are refused";
+  EXPECT_GT(refused.result->ba.refused, 0);
+  // A local BA can also fail for want of anything to adjust (how keyframes batch depends on timing): none
+  // may have been applied.
+  EXPECT_EQ(refused.result->ba.local_failures, refused.result->ba.local_runs) << "a local BA was applied";
   EXPECT_EQ(refused.result->ba.global_runs, 0) << "a refused global BA counts as not run";
   EXPECT_NEAR(refused.rms_m, graph_only.rms_m, 0.1 * graph_only.rms_m) << "a refused BA still moved poses";
 }

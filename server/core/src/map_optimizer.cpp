@@ -7,6 +7,7 @@
 #include <set>
 #include <string>
 #include <unordered_map>
+#include <unordered_set>
 #include <utility>
 
 #include "ingest_timings.hpp"
@@ -392,34 +393,47 @@ void MapOptimizer::adjustGlobally(const std::set<int>& maps) {
   if (!seeds.empty() && !cancel_) solveGraph(&ignored, seeds);
 }
 
-std::string MapOptimizer::checkBundle(const std::vector<std::pair<int64_t, SE3>>& proposed) {
-  const double max_t = config_.ba.max_edge_change_m, max_deg = config_.ba.max_edge_change_deg;
-  if (!(max_t > 0.0) && !(max_deg > 0.0)) return "";
+std::vector<MapOptimizer::CovisibleEdge> MapOptimizer::covisibleEdgeChanges(
+    const std::vector<std::pair<int64_t, SE3>>& poses) const {
   std::unordered_map<int64_t, const SE3*> moved;
-  for (const auto& [id, T] : proposed) moved[id] = &T;
+  for (const auto& [id, T] : poses) moved[id] = &T;
   const auto poseOf = [&](int64_t id) -> std::optional<SE3> {
     const auto it = moved.find(id);
     if (it != moved.end()) return *it->second;
     return graph_.pose(id);
   };
   const std::vector<int64_t>& disabled = graph_.disabledEdges();
-  for (const auto& [id, T] : proposed) {
-    std::set<int64_t> shared;
+  std::vector<CovisibleEdge> out;
+  std::unordered_set<int64_t> seen;
+  for (const auto& [id, T] : poses) {
+    std::unordered_set<int64_t> shared;
     for (const auto& [other, n] : landmarks_.covisible(id)) shared.insert(other);
-    for (int64_t e_id : edges_of_node_[id]) {
+    const auto edges = edges_of_node_.find(id);
+    if (edges == edges_of_node_.end()) continue;
+    for (int64_t e_id : edges->second) {
       const PoseGraphEdge* e = graph_.edge(e_id);
       if (!e || !shared.count(e->from == id ? e->to : e->from)) continue;
-      if (std::binary_search(disabled.begin(), disabled.end(), e_id)) continue;
+      if (std::binary_search(disabled.begin(), disabled.end(), e_id) || !seen.insert(e_id).second) continue;
       const std::optional<SE3> from = poseOf(e->from), to = poseOf(e->to);
       if (!from || !to) continue;
-      const SE3 change = e->T_from_to.inverse() * (from->inverse() * *to);
-      const double t = change.translation().norm(), deg = se3::rotationAngle(change) * 180.0 / M_PI;
-      if ((max_t > 0.0 && t > max_t) || (max_deg > 0.0 && deg > max_deg))
-        return "it would change edge " + std::to_string(e_id) + " (" + std::to_string(e->from) + "-" +
-               std::to_string(e->to) + ", keyframes sharing landmarks) by " + std::to_string(t) + " m and " +
-               std::to_string(deg) + " deg";
+      const SE3 measured = from->inverse() * *to;
+      const SE3 change = e->T_from_to.inverse() * measured;
+      out.push_back({e, measured, change.translation().norm(), se3::rotationAngle(change) * 180.0 / M_PI});
     }
   }
+  return out;
+}
+
+std::string MapOptimizer::checkBundle(const std::vector<std::pair<int64_t, SE3>>& proposed) {
+  checked_.moved.clear();
+  for (const auto& [id, T] : proposed) checked_.moved.push_back(id);
+  checked_.edges = covisibleEdgeChanges(proposed);  // applyBundle takes them if the outcome is applied
+  const double max_t = config_.ba.max_edge_change_m, max_deg = config_.ba.max_edge_change_deg;
+  for (const CovisibleEdge& c : checked_.edges)
+    if ((max_t > 0.0 && c.t > max_t) || (max_deg > 0.0 && c.deg > max_deg))
+      return "it would change edge " + std::to_string(c.edge->id) + " (" + std::to_string(c.edge->from) +
+             "-" + std::to_string(c.edge->to) + ", keyframes sharing landmarks) by " + std::to_string(c.t) +
+             " m and " + std::to_string(c.deg) + " deg";
   return "";
 }
 
@@ -456,34 +470,31 @@ std::vector<BundlePrior> MapOptimizer::stepPriors(int map) const {
 void MapOptimizer::applyBundle(const BundleResult& r) {
   std::set<int64_t> in(r.moved.begin(), r.moved.end());
   in.insert(r.fixed.begin(), r.fixed.end());
-  for (int64_t id : r.moved) graph_.setPose(id, *landmarks_.pose(id));
-  const std::vector<int64_t>& disabled = graph_.disabledEdges();
+  std::vector<std::pair<int64_t, SE3>> moved;
+  for (int64_t id : r.moved) {
+    graph_.setPose(id, *landmarks_.pose(id));
+    moved.emplace_back(id, *landmarks_.pose(id));
+  }
   // The edges at a moved keyframe whose other end the adjustment saw too, and shares landmarks with, take
   // its relative pose. Without shared landmarks the adjustment knows nothing of that relative pose (an
   // odometry step into a room not seen before): a global BA moved such steps by up to 2.2 m, and the
   // measurement, overwritten, no longer held the map together (issue #15, a room torn without a false loop).
+  // The check of this outcome (checkBundle) found them already.
+  const std::vector<CovisibleEdge> edges =
+      checked_.moved == r.moved ? std::move(checked_.edges) : covisibleEdgeChanges(moved);
+  checked_ = {};
   // Diagnostic: measurements moved by more than 5 cm or 2 deg.
   int far = 0, far_odometry = 0;
   double far_t = 0.0, far_deg = 0.0;
-  for (int64_t id : r.moved) {
-    std::set<int64_t> shared;
-    for (const auto& [other, n] : landmarks_.covisible(id)) shared.insert(other);
-    for (int64_t e_id : edges_of_node_[id]) {
-      const PoseGraphEdge* e = graph_.edge(e_id);
-      if (!e || !in.count(e->from) || !in.count(e->to)) continue;
-      if (!shared.count(e->from == id ? e->to : e->from)) continue;
-      if (std::binary_search(disabled.begin(), disabled.end(), e_id)) continue;
-      const SE3 measured = graph_.pose(e->from)->inverse() * *graph_.pose(e->to);
-      const SE3 change = e->T_from_to.inverse() * measured;
-      const double t = change.translation().norm(), deg = se3::rotationAngle(change) * 180.0 / M_PI;
-      if (t > 0.05 || deg > 2.0) {
-        ++far;
-        far_odometry += e->kind == EdgeKind::kOdometry ? 1 : 0;
-        far_t = std::max(far_t, t);
-        far_deg = std::max(far_deg, deg);
-      }
-      graph_.setEdgeMeasurement(e_id, measured);
+  for (const CovisibleEdge& c : edges) {
+    if (!in.count(c.edge->from) || !in.count(c.edge->to)) continue;
+    if (c.t > 0.05 || c.deg > 2.0) {
+      ++far;
+      far_odometry += c.edge->kind == EdgeKind::kOdometry ? 1 : 0;
+      far_t = std::max(far_t, c.t);
+      far_deg = std::max(far_deg, c.deg);
     }
+    graph_.setEdgeMeasurement(c.edge->id, c.measured);
   }
   if (far > 0)
     log::warn("optimiser: a bundle adjustment of ", r.report.frames, " keyframes",
@@ -494,7 +505,12 @@ void MapOptimizer::applyBundle(const BundleResult& r) {
 
 void MapOptimizer::logMoves(const std::map<int64_t, SE3>& poses) {
   // Diagnostic (info): which work moved many keyframes beyond the octree's default rebuild thresholds
-  // (3 cm, 0.02 rad). Both maps are ordered by node id.
+  // (3 cm, 0.02 rad). Both maps are ordered by node id. Nothing (no copy of every pose) when info is off.
+  if (log::level() > log::Level::kInfo) {
+    causes_.clear();
+    published_.clear();
+    return;
+  }
   size_t moved = 0;
   double worst = 0.0;
   auto last = published_.begin();

@@ -109,6 +109,15 @@ class MapOptimizer {
   /// The enabled edges of `map` whose keyframes share too few landmarks for a BA to know their relative pose,
   /// as priors for its global BA (BundleAdjustmentConfig::global_step_priors).
   std::vector<BundlePrior> stepPriors(int map) const;
+  /// An enabled edge at a keyframe of an adjustment whose two keyframes share landmarks: the relative pose
+  /// the adjustment's poses give it, and how far that is from its measurement.
+  struct CovisibleEdge {
+    const PoseGraphEdge* edge;
+    SE3 measured;
+    double t, deg;
+  };
+  /// The covisible edges at the keyframes of `poses` (their new poses; the graph's for the other end), once.
+  std::vector<CovisibleEdge> covisibleEdgeChanges(const std::vector<std::pair<int64_t, SE3>>& poses) const;
   /// Refuses an adjustment that moves an edge between covisible keyframes beyond max_edge_change_*.
   std::string checkBundle(const std::vector<std::pair<int64_t, SE3>>& proposed);
   /// Counts a finished adjustment (refused, parts kept); true when it was applied.
@@ -151,9 +160,13 @@ class MapOptimizer {
   std::map<int64_t, EdgeMatches> in_tracks_;  ///< matches of edges in the tracks
   std::map<int, int> added_since_global_;     ///< map id -> keyframes added since its last global BA
   std::set<int> changed_maps_;                ///< maps changed since their last global BA
-  std::set<std::string> causes_;              ///< work done since the last result (logMoves)
-  std::map<int64_t, SE3> published_;          ///< poses of the last result (logMoves)
-  std::map<int, int> global_backoff_;         ///< map id -> growth factor after fruitless global BAs
+  struct {
+    std::vector<int64_t> moved;        ///< the keyframes of the outcome checkBundle saw last
+    std::vector<CovisibleEdge> edges;  ///< its covisible edges, for applyBundle
+  } checked_;
+  std::set<std::string> causes_;       ///< work done since the last result (logMoves)
+  std::map<int64_t, SE3> published_;   ///< poses of the last result (logMoves)
+  std::map<int, int> global_backoff_;  ///< map id -> growth factor after fruitless global BAs
   BundleAdjustmentStats counters_;
   int solves_skipped_ = 0;
   int merges_aligned_ = 0;
