@@ -1,5 +1,8 @@
 // Occupancy map: geometry of the synthetic room, rebuilds after pose corrections, readers during rebuilds,
-// inserts during rebuilds, merging map ids, input checks.
+// inserts during rebuilds, merging map ids, input checks, kept clouds spilled to a file.
+#include <stdlib.h>
+#include <unistd.h>
+
 #include <atomic>
 #include <random>
 #include <thread>
@@ -201,6 +204,67 @@ TEST(OccupancyMap, APartialRebuildRecomputesOnlyWhereKeyframesMovedAndEqualsAWho
   EXPECT_EQ(map.stats().rebuilds, 2u);
   EXPECT_EQ(map.stats().partial_rebuilds, 1u);
   EXPECT_EQ(map.stats().last_rebuild_keyframes, all.size());
+}
+
+// Issue #15: kept clouds beyond clouds_in_memory go to the spill file and come back for rebuilds and exports
+// exactly as they were: the same trees after a partial and a whole rebuild, the same exported clouds.
+TEST(OccupancyMap, SpilledCloudsRebuildTheSameTreeAndExportTheSameClouds) {
+  const auto& kf = makeSynthKeyframes("sweep", 12);
+  char dir[] = "/tmp/rgbdmap_spill_XXXXXX";
+  ASSERT_NE(mkdtemp(dir), nullptr);
+  OccupancyMapConfig spilled_config = testConfig();
+  spilled_config.clouds_in_memory = 3;
+  spilled_config.spill_dir = dir;
+  OccupancyMap spilled(spilled_config), plain(testConfig());
+  ASSERT_EQ(spilled.spillError(), "");
+  insertAll(&spilled, kf, 0);
+  insertAll(&plain, kf, 0);
+  OccupancyMapStats s = spilled.stats();
+  EXPECT_EQ(s.clouds_spilled, 9u);
+  EXPECT_GT(s.spill_file_bytes, 0u);
+  EXPECT_LT(s.clouds_memory_bytes, plain.stats().clouds_memory_bytes / 3);
+  EXPECT_EQ(plain.stats().clouds_spilled, 0u);
+  const auto compare = [&] {
+    spilled.read(0, [&](const octomap::OcTree& a) {
+      plain.read(0, [&](const octomap::OcTree& b) { EXPECT_GT(expectSameLeaves(a, b), 10000u); });
+    });
+  };
+  // A loop correction of three keyframes (a partial rebuild), then of all (a whole one).
+  for (const size_t first : {size_t{9}, size_t{0}}) {
+    std::map<int64_t, std::pair<int, SE3>> moved;
+    for (size_t i = first; i < kf.clouds.size(); ++i)
+      moved[int64_t(i)] = {0, Eigen::Translation3d(0.0, 0.2, 0.0) * kf.T_world_cam[i]};
+    EXPECT_TRUE(spilled.updatePoses(moved));
+    EXPECT_TRUE(plain.updatePoses(moved));
+    ASSERT_TRUE(spilled.waitIdle(60.0));
+    ASSERT_TRUE(plain.waitIdle(60.0));
+    compare();
+  }
+  EXPECT_EQ(spilled.stats().partial_rebuilds, 1u);
+  EXPECT_EQ(spilled.stats().rebuilds, 2u);
+  const auto a = spilled.keptClouds(), b = plain.keptClouds();
+  ASSERT_EQ(a.size(), kf.clouds.size());
+  ASSERT_EQ(b.size(), kf.clouds.size());
+  for (size_t i = 0; i < a.size(); ++i) {
+    EXPECT_EQ(a[i].cloud->keyframe_id, b[i].cloud->keyframe_id);
+    EXPECT_EQ(a[i].cloud->points_cam, b[i].cloud->points_cam) << "keyframe " << i;
+    EXPECT_EQ(a[i].cloud->colors_rgb, b[i].cloud->colors_rgb) << "keyframe " << i;
+    EXPECT_TRUE(a[i].T_map_cam.isApprox(b[i].T_map_cam, 0.0));
+  }
+  EXPECT_EQ(spilled.stats().spill_failures, 0u);
+  EXPECT_EQ(rmdir(dir), 0) << "the spill file has no name: nothing is left in the directory";
+}
+
+TEST(OccupancyMap, WithoutASpillFileEveryCloudStaysInRam) {
+  const auto& kf = makeSynthKeyframes("sweep", 12);
+  OccupancyMapConfig config = testConfig();
+  config.clouds_in_memory = 3;
+  config.spill_dir = "/nonexistent/rgbdmap_spill";
+  OccupancyMap map(config);
+  EXPECT_NE(map.spillError().find("/nonexistent/rgbdmap_spill"), std::string::npos) << map.spillError();
+  insertAll(&map, kf, 0);
+  EXPECT_EQ(map.stats().clouds_spilled, 0u);
+  EXPECT_EQ(map.keptClouds().size(), kf.clouds.size());
 }
 
 TEST(OccupancyMap, ReadersNeverSeeAHalfBuiltTree) {

@@ -18,8 +18,11 @@ using Clock = std::chrono::steady_clock;
 
 double nowS() { return std::chrono::duration<double>(Clock::now().time_since_epoch()).count(); }
 
-OccupancyMapConfig withRebuildNice(OccupancyMapConfig config, int nice) {
-  config.rebuild_nice = nice;
+/// The map section as the server runs it: the rebuild thread's nice, old clouds spilled to the map directory.
+OccupancyMapConfig occupancyConfig(const MapServerConfig& server) {
+  OccupancyMapConfig config = server.occupancy;
+  config.rebuild_nice = server.background_nice;
+  config.spill_dir = server.map_dir;
   return config;
 }
 
@@ -40,8 +43,11 @@ MapWorker::MapWorker(const MapServerConfig& config, const MapStore& store, MapWo
     : config_(config),
       store_(store),
       publishers_(std::move(publishers)),
-      occupancy_(withRebuildNice(config.occupancy, config.background_nice)),
-      worker_(workerOptions(config, [this] { onStreamTick(); })) {}
+      occupancy_(occupancyConfig(config)),
+      worker_(workerOptions(config, [this] { onStreamTick(); })) {
+  if (!occupancy_.spillError().empty())
+    log::warn("map: every kept keyframe cloud stays in RAM: ", occupancy_.spillError());
+}
 
 MapWorker::~MapWorker() { stop(); }
 
@@ -229,6 +235,9 @@ void MapWorker::fillStats(MapServerStats* s) const {
   const OccupancyMapStats o = occupancy_.stats();
   s->map_tree_memory_bytes = o.tree_memory_bytes;
   s->map_clouds_memory_bytes = o.clouds_memory_bytes;
+  s->map_clouds_spilled = o.clouds_spilled;
+  s->map_spill_file_bytes = o.spill_file_bytes;
+  s->map_spill_failures = o.spill_failures;
   s->map_leaves = o.leaf_nodes;
   s->map_occupied_leaves = o.occupied_leaves;
   s->map_rebuilds = o.rebuilds;

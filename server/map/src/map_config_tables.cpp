@@ -28,7 +28,10 @@ const ConfigTable<OccupancyMapConfig>& occupancyMapConfigTable() {
                "depth pixel sampling step; 0: automatic (3 at 0.05 m, 1 at 0.02 m for fx 517)")
           .add("cloud_voxel_fraction", &C::cloud_voxel_fraction, R::closed(0.0, 1.0),
                "kept cloud reduced to one point per cube of this fraction of resolution_m")
-          .add("keep_colors", &C::keep_colors, "keep colours for map.ply");
+          .add("keep_colors", &C::keep_colors, "keep colours for map.ply")
+          .add("clouds_in_memory", &C::clouds_in_memory, R::closed(0, 1e8),
+               "the newest this many kept keyframe clouds stay in RAM, older ones go to an anonymous file in "
+               "server.map_dir and are read back for rebuilds and exports (0: all in RAM)");
   return table;
 }
 

@@ -1,8 +1,10 @@
 // OccupancyMap: inserts on the caller's thread, dirty-map bookkeeping, reads and statistics. The rebuild
 // worker is in occupancy_rebuild.cpp, streaming in map_stream.cpp.
+#include <algorithm>
 #include <cmath>
 #include <shared_mutex>
 
+#include "cloud_spill.hpp"
 #include "occupancy_map_slot.hpp"
 #include "scan_update.hpp"
 
@@ -18,6 +20,12 @@ bool finitePoints(const KeyframeCloud& cloud) {
 }  // namespace
 
 OccupancyMap::OccupancyMap(OccupancyMapConfig config) : config_(std::move(config)) {
+  if (!config_.spill_dir.empty() && config_.clouds_in_memory > 0) {
+    if (auto spill = detail::CloudSpill::open(config_.spill_dir))
+      spill_ = std::move(*spill);
+    else
+      spill_error_ = spill.error();
+  }
   rebuild_worker_.start();
 }
 
@@ -37,12 +45,13 @@ Status OccupancyMap::insert(KeyframeCloud cloud, int map_id, const SE3& T_map_ca
     std::lock_guard<std::mutex> lock(mutex_);
     if (entries_.count(id)) return Status::failure("keyframe " + std::to_string(id) + " already inserted");
     Entry& e = entries_[id];
-    e.cloud = std::make_shared<const KeyframeCloud>(std::move(cloud));
+    e.cloud.cloud = std::make_shared<const KeyframeCloud>(std::move(cloud));
+    in_memory_.push_back(id);
     e.map_id = map_id;
     e.T_map_cam = T_map_cam;
     e.order = next_order_++;
     e.box_cam.extend(Eigen::Vector3f::Zero());
-    for (const Eigen::Vector3f& p : e.cloud->points_cam) e.box_cam.extend(p);
+    for (const Eigen::Vector3f& p : e.cloud.cloud->points_cam) e.box_cam.extend(p);
     std::shared_ptr<Slot>& s = slots_[map_id];
     if (!s) {
       s = std::make_shared<Slot>(map_id);
@@ -51,7 +60,52 @@ Status OccupancyMap::insert(KeyframeCloud cloud, int map_id, const SE3& T_map_ca
     slot = s;
   }
   integrateInserted(id, slot);
+  spillOldClouds();
   return Status::success();
+}
+
+std::shared_ptr<const KeyframeCloud> OccupancyMap::load(int64_t keyframe_id,
+                                                        const CloudHandle& handle) const {
+  if (handle.cloud) return handle.cloud;
+  if (!spill_ || handle.spill_bytes == 0) {
+    ++spill_failures_;
+    return nullptr;
+  }
+  auto cloud = spill_->read({handle.spill_offset, handle.spill_bytes}, keyframe_id);
+  if (!cloud) {
+    ++spill_failures_;
+    return nullptr;
+  }
+  return std::move(*cloud);
+}
+
+void OccupancyMap::spillOldClouds() {
+  if (!spill_) return;
+  for (;;) {
+    int64_t id = 0;
+    std::shared_ptr<const KeyframeCloud> cloud;
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      if (in_memory_.size() <= config_.clouds_in_memory) return;
+      id = in_memory_.front();
+      const Entry& e = entries_.at(id);
+      if (e.inserting) return;  // the oldest is still being integrated: later
+      in_memory_.pop_front();
+      cloud = e.cloud.cloud;
+    }
+    // Written without the lock; readers meanwhile use the cloud in RAM, which stays until the record is
+    // complete. A failed write keeps it in RAM (counted).
+    const auto ref = spill_->write(*cloud);
+    std::lock_guard<std::mutex> lock(mutex_);
+    Entry& e = entries_.at(id);
+    if (!ref) {
+      ++spill_failures_;
+      continue;
+    }
+    e.cloud.spill_offset = ref->offset;
+    e.cloud.spill_bytes = ref->bytes;
+    e.cloud.cloud.reset();
+  }
 }
 
 void OccupancyMap::integrateInserted(int64_t keyframe_id, const std::shared_ptr<Slot>& slot) {
@@ -69,7 +123,7 @@ void OccupancyMap::integrateInserted(int64_t keyframe_id, const std::shared_ptr<
       if (isDirtyLocked(e.map_id)) markDirtyLocked(e.map_id);
       return;
     }
-    cloud = e.cloud;
+    cloud = e.cloud.cloud;  // in RAM: not spilled while inserting
     T_map_cam = e.T_map_cam;
   }
   const detail::ScanUpdate update =
@@ -193,10 +247,19 @@ uint64_t OccupancyMap::revision(int map_id) const {
 }
 
 std::vector<OccupancyMap::KeptCloud> OccupancyMap::keptClouds() const {
-  std::lock_guard<std::mutex> lock(mutex_);
+  std::vector<std::pair<int64_t, CloudHandle>> handles;
   std::vector<KeptCloud> out;
-  out.reserve(entries_.size());
-  for (const auto& [id, e] : entries_) out.push_back({e.cloud, e.map_id, e.T_map_cam});
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    handles.reserve(entries_.size());
+    out.reserve(entries_.size());
+    for (const auto& [id, e] : entries_) {
+      handles.emplace_back(id, e.cloud);
+      out.push_back({nullptr, e.map_id, e.T_map_cam});
+    }
+  }
+  for (size_t i = 0; i < out.size(); ++i) out[i].cloud = load(handles[i].first, handles[i].second);
+  out.erase(std::remove_if(out.begin(), out.end(), [](const KeptCloud& k) { return !k.cloud; }), out.end());
   return out;
 }
 
@@ -207,7 +270,14 @@ OccupancyMapStats OccupancyMap::stats() const {
     std::lock_guard<std::mutex> lock(mutex_);
     for (const auto& [id, slot] : slots_) slots.push_back(slot);
     s.keyframes = entries_.size();
-    for (const auto& [id, e] : entries_) s.clouds_memory_bytes += e.cloud->memoryBytes();
+    for (const auto& [id, e] : entries_) {
+      if (e.cloud.cloud)
+        s.clouds_memory_bytes += e.cloud.cloud->memoryBytes();
+      else
+        ++s.clouds_spilled;
+    }
+    s.spill_file_bytes = spill_ ? spill_->bytes() : 0;
+    s.spill_failures = spill_failures_.load();
     s.rebuilds = rebuilds_;
     s.partial_rebuilds = partial_rebuilds_;
     s.last_rebuild_keyframes = last_rebuild_keyframes_;

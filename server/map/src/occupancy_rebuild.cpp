@@ -9,6 +9,7 @@
 #include <tuple>
 #include <unordered_set>
 
+#include "cloud_spill.hpp"
 #include "occupancy_map_slot.hpp"
 #include "scan_update.hpp"
 
@@ -24,7 +25,7 @@ double threadCpuMs() {
 struct Job {
   uint64_t order;
   int64_t keyframe_id;
-  std::shared_ptr<const KeyframeCloud> cloud;
+  OccupancyMap::CloudHandle cloud;
   SE3 T_map_cam;
 };
 
@@ -147,7 +148,7 @@ bool OccupancyMap::rebuildPartly(int map_id) {
   struct Kf {
     uint64_t order;
     int64_t id;
-    std::shared_ptr<const KeyframeCloud> cloud;
+    CloudHandle cloud;
     Eigen::AlignedBox3f box_cam;
     SE3 T_old;  ///< integrated at (valid when was_in)
     SE3 T_new;  ///< current (valid when is_in)
@@ -197,12 +198,14 @@ bool OccupancyMap::rebuildPartly(int map_id) {
   for (const auto& [id, k] : kfs) {
     if (!k.moved) continue;
     if (stop_) return true;
+    const std::shared_ptr<const KeyframeCloud> cloud = load(id, k.cloud);
+    if (!cloud) continue;  // unreadable spilled cloud (counted): left as it is
     if (k.was_in) {
-      addCells(detail::computeScanUpdate(geometry, *k.cloud, k.T_old, config_.max_range_m), &cells);
+      addCells(detail::computeScanUpdate(geometry, *cloud, k.T_old, config_.max_range_m), &cells);
       ++cast;
     }
     if (k.is_in) {
-      detail::ScanUpdate u = detail::computeScanUpdate(geometry, *k.cloud, k.T_new, config_.max_range_m);
+      detail::ScanUpdate u = detail::computeScanUpdate(geometry, *cloud, k.T_new, config_.max_range_m);
       addCells(u, &cells);
       at_new.emplace(id, std::move(u));
       ++cast;
@@ -230,10 +233,10 @@ bool OccupancyMap::rebuildPartly(int map_id) {
     const auto it = at_new.find(k->id);
     if (it != at_new.end()) {
       detail::applyScanUpdate(scratch.get(), restrictTo(it->second, cells));
-    } else {
+    } else if (const std::shared_ptr<const KeyframeCloud> cloud = load(k->id, k->cloud)) {
       detail::applyScanUpdate(
           scratch.get(),
-          restrictTo(detail::computeScanUpdate(geometry, *k->cloud, k->T_new, config_.max_range_m), cells));
+          restrictTo(detail::computeScanUpdate(geometry, *cloud, k->T_new, config_.max_range_m), cells));
       ++cast;
     }
   }
@@ -251,11 +254,13 @@ bool OccupancyMap::rebuildPartly(int map_id) {
   }
   std::sort(late.begin(), late.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
   for (const auto& [order_, idT] : late) {
-    std::shared_ptr<const KeyframeCloud> cloud;
+    CloudHandle handle;
     {
       std::lock_guard<std::mutex> lock(mutex_);
-      cloud = entries_.at(idT.first).cloud;
+      handle = entries_.at(idT.first).cloud;
     }
+    const std::shared_ptr<const KeyframeCloud> cloud = load(idT.first, handle);
+    if (!cloud) continue;
     detail::applyScanUpdate(
         scratch.get(),
         restrictTo(detail::computeScanUpdate(geometry, *cloud, idT.second, config_.max_range_m), cells));
@@ -348,8 +353,11 @@ void OccupancyMap::rebuild(int map_id) {
   const auto integrate = [&](const std::vector<Job>& jobs) {
     for (const Job& job : jobs) {
       if (stop_) return false;
-      detail::applyScanUpdate(
-          tree.get(), detail::computeScanUpdate(*tree, *job.cloud, job.T_map_cam, config_.max_range_m));
+      // A spilled cloud that cannot be read back is left out (counted) but recorded as integrated: the map
+      // goes on without it rather than rebuilding forever.
+      if (const std::shared_ptr<const KeyframeCloud> cloud = load(job.keyframe_id, job.cloud))
+        detail::applyScanUpdate(tree.get(),
+                                detail::computeScanUpdate(*tree, *cloud, job.T_map_cam, config_.max_range_m));
       integrated[job.keyframe_id] = job.T_map_cam;
     }
     return true;

@@ -9,6 +9,7 @@
 #include <condition_variable>
 #include <cstddef>
 #include <cstdint>
+#include <deque>
 #include <functional>
 #include <map>
 #include <memory>
@@ -30,6 +31,9 @@
 
 namespace octomap {
 class OcTree;
+}
+namespace rgbdmap::detail {
+class CloudSpill;
 }
 
 namespace rgbdmap {
@@ -61,6 +65,12 @@ struct OccupancyMapConfig {
   /// touch while storing ~10x fewer points for rebuilds. 0 = no reduction.
   double cloud_voxel_fraction = 0.5;
   bool keep_colors = true;  ///< keep one RGB per kept point (for coloured exports); costs 3 bytes/point
+  /// The newest this many kept clouds stay in RAM; older ones are moved to an anonymous file in spill_dir
+  /// and read back when a rebuild or an export needs them (0: every cloud stays in RAM). Without a
+  /// spill_dir every cloud stays in RAM.
+  size_t clouds_in_memory = 2000;
+  /// Directory of the spill file (set by the server to its map directory; not a map: key). Empty: no spill.
+  std::string spill_dir;
   /// Changed leaves remembered for partial map streams (MapStream); older consumers get a full tree.
   size_t stream_journal_max_keys = 2'000'000;
 
@@ -104,7 +114,10 @@ struct OccupancyMapStats {
   size_t keyframes = 0;
   size_t leaf_nodes = 0, occupied_leaves = 0, free_leaves = 0;
   size_t tree_memory_bytes = 0;       ///< octomap::OcTree::memoryUsage() summed over the trees
-  size_t clouds_memory_bytes = 0;     ///< kept keyframe clouds
+  size_t clouds_memory_bytes = 0;     ///< kept keyframe clouds in RAM
+  size_t clouds_spilled = 0;          ///< kept clouds moved to the spill file (clouds_in_memory)
+  uint64_t spill_file_bytes = 0;      ///< the spill file's size
+  uint64_t spill_failures = 0;        ///< spill writes or reads that failed (a failed read skips the cloud)
   uint64_t rebuilds = 0;              ///< trees rebuilt and swapped in, or updated where keyframes moved
   uint64_t partial_rebuilds = 0;      ///< of them, updated only where keyframes moved
   size_t last_rebuild_keyframes = 0;  ///< clouds the last rebuild integrated (cast), moved ones twice
@@ -150,7 +163,11 @@ class OccupancyMap {
     int map_id = 0;
     SE3 T_map_cam = SE3::Identity();
   };
-  std::vector<KeptCloud> keptClouds() const;  ///< in keyframe id order; shares the clouds (no copies)
+  /// In keyframe id order; shares the clouds in RAM, reads the spilled ones back (a cloud that cannot be
+  /// read is left out and counted in spill_failures).
+  std::vector<KeptCloud> keptClouds() const;
+  /// Why clouds are not spilled although spill_dir is set (the spill file could not be opened), else "".
+  const std::string& spillError() const { return spill_error_; }
   const OccupancyMapConfig& config() const { return config_; }
 
   /// Stream bytes of map_id for a consumer that holds revision `since` (0 = nothing): the changed leaves
@@ -158,11 +175,16 @@ class OccupancyMap {
   /// full tree; otherwise the full tree. Fails if the map does not exist.
   Result<MapStreamChunk> streamSince(int map_id, uint64_t since) const;
 
+  /// A kept cloud: in RAM, or where it is in the spill file.
+  struct CloudHandle {
+    std::shared_ptr<const KeyframeCloud> cloud;
+    uint64_t spill_offset = 0, spill_bytes = 0;
+  };
   struct Slot;  // one map id's tree, its integrated poses and change journal (occupancy_map_detail.hpp)
 
  private:
   struct Entry {
-    std::shared_ptr<const KeyframeCloud> cloud;
+    CloudHandle cloud;
     int map_id = 0;
     SE3 T_map_cam = SE3::Identity();
     uint64_t order = 0;  ///< insertion order (rebuilds integrate in it)
@@ -171,6 +193,10 @@ class OccupancyMap {
     bool inserting = true;  ///< registered, its insert() has not integrated it yet
   };
   void integrateInserted(int64_t keyframe_id, const std::shared_ptr<Slot>& slot);
+  /// The cloud in RAM, or read back from the spill file (nullptr on a failed read, counted). No lock held.
+  std::shared_ptr<const KeyframeCloud> load(int64_t keyframe_id, const CloudHandle& handle) const;
+  /// Moves the oldest clouds in RAM beyond clouds_in_memory to the spill file (the caller's thread).
+  void spillOldClouds();
   bool isDirtyLocked(int map_id) const;
   void markDirtyLocked(int map_id);
   void rebuildNext();  ///< a task on rebuild_worker_: one per map id that became dirty
@@ -183,7 +209,11 @@ class OccupancyMap {
                            double cpu0);
 
   const OccupancyMapConfig config_;
-  mutable std::mutex mutex_;  ///< entries_, slots_, slots' integrated poses, dirty_, counters
+  std::unique_ptr<detail::CloudSpill> spill_;  ///< null: every cloud stays in RAM
+  std::string spill_error_;
+  mutable std::atomic<uint64_t> spill_failures_{0};
+  std::deque<int64_t> in_memory_;  ///< keyframes whose cloud is in RAM, oldest first (guarded by mutex_)
+  mutable std::mutex mutex_;       ///< entries_, slots_, slots' integrated poses, dirty_, counters
   std::map<int64_t, Entry> entries_;
   std::map<int, std::shared_ptr<Slot>> slots_;
   std::set<int> dirty_;            ///< every map id in it has a rebuildNext() task queued
