@@ -262,9 +262,10 @@ int main(int argc, char** argv) {
       "%dx%d, octree %s, store fdatasync on\n",
       o.keyframes, o.per_lap, plan.size(), *std::max_element(plan.begin(), plan.end()) + 1, o.revisit_every,
       o.width, o.height, o.occupancy ? "on" : "off");
-  std::printf("%5s %7s %6s | %s | %6s %8s %6s %8s %5s %8s | %7s %7s %7s %6s\n", "tenth", "kf", "wall_s",
+  // oct_lag: keyframes acknowledged but not yet in the octree (the map worker's backlog).
+  std::printf("%5s %7s %6s | %s | %6s %8s %6s %8s %5s %8s %7s | %7s %7s %7s %6s\n", "tenth", "kf", "wall_s",
               "CPU ms per keyframe: ingest decode  optim    map rebuild  other", "solves", "solve_ms",
-              "globBA", "gBA_ms", "rebld", "rebld_ms", "RSS_MB", "heap_MB", "srv_MB", "loops");
+              "globBA", "gBA_ms", "rebld", "rebld_ms", "oct_lag", "RSS_MB", "heap_MB", "srv_MB", "loops");
   std::fflush(stdout);
 
   std::mt19937 rng(17);
@@ -290,15 +291,16 @@ int main(int argc, char** argv) {
       return n > 0 ? 1e3 * d / n : 0.0;
     };
     std::printf(
-        "%5s %7d %6.0f | %28.1f %6.1f %6.1f %6.1f %7.1f %6.1f | %6d %8.0f %6lld %8.0f %5llu %8.0f | %7.0f "
-        "%7.0f %7.0f %6d\n",
+        "%5s %7d %6.0f | %28.1f %6.1f %6.1f %6.1f %7.1f %6.1f | %6d %8.0f %6lld %8.0f %5llu %8.0f %7lld | "
+        "%7.0f %7.0f %7.0f %6d\n",
         label.c_str(), s.keyframes, std::chrono::duration<double>(now - t_tenth).count(),
         per("rgbdmap-ingest"), per("rgbdmap-decode"), per("rgbdmap-optim"), per("rgbdmap-map"),
         per("rgbdmap-rebuild"), per("other") + per("rgbdmap-status") + per("rgbdmap-store"),
         s.graph_solves - before.graph_solves, s.last_optimize_ms,
         static_cast<long long>(s.ba.global_runs - before.ba.global_runs), s.ba.global_ms_last,
-        static_cast<unsigned long long>(s.map_rebuilds - before.map_rebuilds), s.map_last_rebuild_ms, rssMb(),
-        heapInUseMb(), heapInUseMb() - room_mb * static_cast<double>(world.roomsKept()), s.loops_accepted);
+        static_cast<unsigned long long>(s.map_rebuilds - before.map_rebuilds), s.map_last_rebuild_ms,
+        static_cast<long long>(s.keyframes) - static_cast<long long>(s.map_keyframes), rssMb(), heapInUseMb(),
+        heapInUseMb() - room_mb * static_cast<double>(world.roomsKept()), s.loops_accepted);
     std::fflush(stdout);
     cpu_before = cpu;
     before = s;
