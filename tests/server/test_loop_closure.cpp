@@ -6,6 +6,7 @@
 
 #include "rgbdmap/loop/loop_consistency.hpp"
 #include "rgbdmap/loop/loop_detector.hpp"
+#include "rgbdmap/vision/guided_matcher.hpp"
 
 namespace rgbdmap {
 namespace {
@@ -159,6 +160,46 @@ TEST(LoopVerify, RandomDescriptorNoiseIsRejectedWithAReason) {
   EXPECT_FALSE(v.edge.has_value());
   EXPECT_TRUE(v.rejection == LoopRejection::kTooFewMatches || v.rejection == LoopRejection::kRansacFailed)
       << toString(v.rejection) << " matches " << v.matches;
+}
+
+// Issue #15: which candidates are matched all against all (the costly path) is reported: without a prior,
+// and when matching by projection under the prior finds too few matches; not when it finds enough.
+TEST(LoopVerify, ReportsWhenItMatchesAllAgainstAll) {
+  std::mt19937 rng(12);
+  CameraIntrinsics k;
+  k.distortion = {0, 0, 0, 0, 0};
+  const PinholeCamera camera(k);
+  FrameFeatures a, noise;
+  for (FrameFeatures* f : {&a, &noise}) {
+    f->descriptors = randomDescriptors(400, &rng);
+    std::uniform_real_distribution<double> u(0.0, 1.0);
+    for (int i = 0; i < 400; ++i) {
+      f->keypoints.emplace_back(static_cast<float>(640 * u(rng)), static_cast<float>(480 * u(rng)), 31.f);
+      f->px.emplace_back(f->keypoints.back().pt.x, f->keypoints.back().pt.y);
+      f->depth_m.push_back(0.5 + 3 * u(rng));
+      f->p_cam.push_back(camera.backProject(f->px.back(), f->depth_m.back()));
+    }
+  }
+  const LoopVerifyConfig config;
+  const FeatureGrid grid(a, k.width, k.height);
+  const SE3 identity = SE3::Identity();
+  // The same view under the identity prior: matching by projection finds every feature.
+  const LoopVerification same =
+      verifyLoop(1, a, 2, a, camera, config, localThresholds(config, identity), &grid);
+  EXPECT_TRUE(same.had_prior);
+  EXPECT_FALSE(same.brute_force) << same.matches << " matches";
+  EXPECT_TRUE(same.edge.has_value()) << toString(same.rejection);
+  // No prior: all against all.
+  const LoopVerification blind =
+      verifyLoop(1, a, 2, a, camera, config, localThresholds(config, std::nullopt), &grid);
+  EXPECT_FALSE(blind.had_prior);
+  EXPECT_TRUE(blind.brute_force);
+  // Unrelated features under a prior: too few matches by projection, then all against all.
+  const LoopVerification fallback =
+      verifyLoop(1, a, 2, noise, camera, config, localThresholds(config, identity), &grid);
+  EXPECT_TRUE(fallback.had_prior);
+  EXPECT_TRUE(fallback.brute_force);
+  EXPECT_FALSE(fallback.edge.has_value());
 }
 
 TEST(LoopDetectorConfig, DefaultsAreValidAndBadValuesAreAllReported) {

@@ -351,6 +351,13 @@ int main(int argc, char** argv) {
   // keyframe (a cost paid once per quiet period, not per keyframe).
   const bool idle = server.waitIdle(1800.0);
   if (!idle) std::fprintf(stderr, "bench_map_growth: the server did not become idle within 30 min\n");
+  {
+    const MapServerStats l = server.stats();
+    std::printf(
+        "loop candidates verified: %d, matched all against all: %d without a prior pose, %d after too few "
+        "matches by projection\n",
+        l.loop_candidates, l.loop_brute_force_no_prior, l.loop_brute_force_fallback);
+  }
   std::printf("final refinement after the last keyframe, CPU ms in total (not per keyframe):\n");
   printRow("final", false);
   {

@@ -223,6 +223,8 @@ void IngestPipeline::addLiveLocked(const StoredKeyframe& stored, const FrameFeat
                               images ? images->depth : cv::Mat(), images ? images->color : cv::Mat(), true,
                               n.kf.keyframe_id});
   counters_.loop_candidates += loop_stats.candidates;
+  counters_.loop_brute_force_no_prior += loop_stats.brute_force_no_prior;
+  counters_.loop_brute_force_fallback += loop_stats.brute_force_fallback;
   timings_.addVerify(loop_stats.verify_ms);
   for (int r = 0; r < kLoopRejectionCount; ++r)
     counters_.loops_rejected_by_reason[r] += loop_stats.rejected_by_reason[r];

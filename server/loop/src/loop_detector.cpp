@@ -86,6 +86,7 @@ void LoopDetector::verifyCandidates(const LoopKeyframe& kf, const MeasuredPoses*
     const LoopVerification v = verifyLoop(kf.id, *kf.features, other.id, *other.features, camera,
                                           config_.verify, thresholdsFor(kf, c, other, measured), &grid);
     ++out->stats.rejected_by_reason[static_cast<int>(v.rejection)];
+    if (v.brute_force) ++(v.had_prior ? out->stats.brute_force_fallback : out->stats.brute_force_no_prior);
     if (v.edge) out->edges.push_back(*v.edge);
   }
   dropInconsistent(out);
@@ -160,6 +161,8 @@ void LoopDetector::accumulate(const LoopStats& s) {
   for (int r = 0; r < kLoopRejectionCount; ++r) totals_.rejected_by_reason[r] += s.rejected_by_reason[r];
   totals_.candidates += s.candidates;
   totals_.verified += s.verified;
+  totals_.brute_force_no_prior += s.brute_force_no_prior;
+  totals_.brute_force_fallback += s.brute_force_fallback;
   totals_.retrieval_ms += s.retrieval_ms;
   totals_.verify_ms += s.verify_ms;
   totals_.total_ms += s.total_ms;

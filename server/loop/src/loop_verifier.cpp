@@ -69,6 +69,7 @@ LoopVerification verifyLoop(int from_id, const FrameFeatures& from, int to_id, c
   LoopVerification v;
   std::vector<FeatureMatch> raw;
   if (from_grid && thresholds.T_from_to_prior && config.guided_radius_px > 0.0) {
+    v.had_prior = true;
     GuidedMatchConfig guided;
     guided.radius_px = config.guided_radius_px;
     guided.max_distance = config.matcher.max_distance;
@@ -79,6 +80,7 @@ LoopVerification verifyLoop(int from_id, const FrameFeatures& from, int to_id, c
     std::vector<char> to_mask(to.size());
     for (size_t i = 0; i < to_mask.size(); ++i) to_mask[i] = to.hasDepth(i);
     raw = matchDescriptors(from.descriptors, to.descriptors, config.matcher, &to_mask);
+    v.brute_force = true;
   }
   // cur = from (the new keyframe), ref = to (the candidate): RANSAC estimates T_from_to = T_cur_ref.
   const std::vector<PointMatch> matches = toPointMatches(from, to, raw, config.scale_factor);

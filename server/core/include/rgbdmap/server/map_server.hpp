@@ -102,6 +102,9 @@ struct MapServerStats {
   int loops_accepted = 0;  ///< verified by the detector and added to the graph
   int loops_disabled = 0;  ///< currently disabled by the graph's consistency check
   int loop_candidates = 0;
+  /// Of them, matched all against all (LoopStats): without a prior pose / after too few matches by
+  /// projection.
+  int loop_brute_force_no_prior = 0, loop_brute_force_fallback = 0;
   std::array<int, kLoopRejectionCount> loops_rejected_by_reason{};
   int optimizations = 0;  ///< optimiser results applied (pose-graph solves and bundle adjustments)
   int graph_solves = 0;   ///< of which with a pose-graph solve

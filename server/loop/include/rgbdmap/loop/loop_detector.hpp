@@ -64,6 +64,9 @@ struct LoopStats {
   std::array<int, kCandidateSourceCount> candidates_by_source{};  ///< a candidate counts for every source
   int candidates = 0;                                             ///< after dedup and cap
   int verified = 0;
+  /// Candidates matched all against all (the costly path, issue #15): without a prior pose, or because
+  /// matching by projection under the prior found too few matches.
+  int brute_force_no_prior = 0, brute_force_fallback = 0;
   std::array<int, kLoopRejectionCount> rejected_by_reason{};  ///< index = LoopRejection (0 unused)
   double retrieval_ms = 0.0;                                  ///< words + query + insert
   double verify_ms = 0.0;

@@ -84,6 +84,8 @@ struct LoopVerification {
   int matches = 0;
   int inliers = 0;
   double motion_measure = 0.0;  ///< E of the refined pose (0 if none was estimated)
+  bool had_prior = false;    ///< matched by projection under the prior pose first (a grid and a prior given)
+  bool brute_force = false;  ///< matched all against all: no prior, or too few matches by projection
 };
 
 /// E = k1 |t| + k2 |eulerRPY(R)| of a relative pose.
