@@ -140,21 +140,26 @@ TEST(BinaryWords, RetrievalRanksARevisitAboveUnrelatedKeyframesAndExcludesRecent
   EXPECT_NEAR(index.query(hasher.histogram(places[7]), {2, 0, 15, 1, 0.0})[0].score, 1.0, 1e-4);
 }
 
+/// n features with random descriptors at random pixels and depths (0.5-3.5 m) of a 640x480 camera.
+FrameFeatures randomFeatures(int n, const PinholeCamera& camera, std::mt19937* rng) {
+  FrameFeatures f;
+  f.descriptors = randomDescriptors(n, rng);
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  for (int i = 0; i < n; ++i) {
+    f.keypoints.emplace_back(static_cast<float>(640 * u(*rng)), static_cast<float>(480 * u(*rng)), 31.f);
+    f.px.emplace_back(f.keypoints.back().pt.x, f.keypoints.back().pt.y);
+    f.depth_m.push_back(0.5 + 3 * u(*rng));
+    f.p_cam.push_back(camera.backProject(f.px.back(), f.depth_m.back()));
+  }
+  return f;
+}
+
 TEST(LoopVerify, RandomDescriptorNoiseIsRejectedWithAReason) {
   std::mt19937 rng(11);
   CameraIntrinsics k;
   k.distortion = {0, 0, 0, 0, 0};
-  FrameFeatures a, b;
-  for (FrameFeatures* f : {&a, &b}) {
-    f->descriptors = randomDescriptors(800, &rng);
-    std::uniform_real_distribution<double> u(0.0, 1.0);
-    for (int i = 0; i < 800; ++i) {
-      f->keypoints.emplace_back(static_cast<float>(640 * u(rng)), static_cast<float>(480 * u(rng)), 31.f);
-      f->px.emplace_back(f->keypoints.back().pt.x, f->keypoints.back().pt.y);
-      f->depth_m.push_back(0.5 + 3 * u(rng));
-      f->p_cam.push_back(PinholeCamera(k).backProject(f->px.back(), f->depth_m.back()));
-    }
-  }
+  const FrameFeatures a = randomFeatures(800, PinholeCamera(k), &rng);
+  const FrameFeatures b = randomFeatures(800, PinholeCamera(k), &rng);
   const LoopVerification v = verifyLoop(1, a, 2, b, PinholeCamera(k), LoopVerifyConfig{},
                                         localThresholds(LoopVerifyConfig{}, std::nullopt));
   EXPECT_FALSE(v.edge.has_value());
@@ -169,17 +174,8 @@ TEST(LoopVerify, ReportsWhenItMatchesAllAgainstAll) {
   CameraIntrinsics k;
   k.distortion = {0, 0, 0, 0, 0};
   const PinholeCamera camera(k);
-  FrameFeatures a, noise;
-  for (FrameFeatures* f : {&a, &noise}) {
-    f->descriptors = randomDescriptors(400, &rng);
-    std::uniform_real_distribution<double> u(0.0, 1.0);
-    for (int i = 0; i < 400; ++i) {
-      f->keypoints.emplace_back(static_cast<float>(640 * u(rng)), static_cast<float>(480 * u(rng)), 31.f);
-      f->px.emplace_back(f->keypoints.back().pt.x, f->keypoints.back().pt.y);
-      f->depth_m.push_back(0.5 + 3 * u(rng));
-      f->p_cam.push_back(camera.backProject(f->px.back(), f->depth_m.back()));
-    }
-  }
+  const FrameFeatures a = randomFeatures(400, camera, &rng);
+  const FrameFeatures noise = randomFeatures(400, camera, &rng);
   const LoopVerifyConfig config;
   const FeatureGrid grid(a, k.width, k.height);
   const SE3 identity = SE3::Identity();
