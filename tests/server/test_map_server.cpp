@@ -178,6 +178,47 @@ TEST(MapServer, FeaturesExtractedByTheServerAreStoredAndSurviveARestart) {
   EXPECT_LE(slam, 0.55 * odo);
 }
 
+TEST(MapServer, FeaturesPagedOutOfRamAreReadBackFromTheStoreForLoopsAndBundleAdjustment) {
+  // The fleet's mode (features extracted by the server) with the features of only 4 keyframes in RAM: loop
+  // candidates, landmark tracks and BA windows read the others back from the store, and the map is as good
+  // as with all of them in RAM.
+  const OdometrySegment& seg = loopSegment(kLoopFrames, 0, kLoopFrames);
+  std::vector<msg::Keyframe> bare = seg.keyframes;
+  for (msg::Keyframe& kf : bare) {
+    kf.keypoints.clear();
+    kf.descriptors.clear();
+  }
+  const OdometrySegment stripped{seg.camera, seg.gt, bare};
+  const auto run = [&](size_t features_in_memory, const std::string& name) {
+    MapServerConfig config = serverTestConfig(freshDir(name));
+    config.features_in_memory = features_in_memory;
+    testing::ServerHarness h(config);
+    ScriptedRobot robot(*h.transport, "robot0", rgbdmap::testing::testKey(1), 100);
+    testing::driveRobot(*h.server, robot, stripped);
+    EXPECT_TRUE(h.server->waitIdle(30.0));
+    return std::make_pair(h.server->stats(), ateOf(seg.gt, testing::serverTrajectory(*h.server, "robot0")));
+  };
+  const auto [all, all_ate] = run(0, "features_all");
+  const auto [paged, paged_ate] = run(4, "features_paged");
+  std::printf(
+      "[ measured ] %zu keyframes, features in RAM all / 4: ATE %.4f / %.4f m, loops %d / %d, landmarks %lld "
+      "/ "
+      "%lld, features read back %llu\n",
+      bare.size(), all_ate, paged_ate, all.loops_accepted, paged.loops_accepted,
+      static_cast<long long>(all.ba.landmarks.landmarks),
+      static_cast<long long>(paged.ba.landmarks.landmarks),
+      static_cast<unsigned long long>(paged.features_loads));
+  EXPECT_EQ(all.features_loads, 0u);
+  EXPECT_EQ(paged.keyframes, static_cast<int>(bare.size()));
+  EXPECT_LE(paged.features_resident, 4u);
+  EXPECT_GT(paged.features_loads, bare.size()) << "loops and BA needed dropped features";
+  EXPECT_EQ(paged.features_load_failures, 0u);
+  EXPECT_EQ(paged.loop_features_unavailable, 0);
+  EXPECT_GE(paged.loops_accepted, all.loops_accepted * 9 / 10);
+  EXPECT_GE(paged.ba.landmarks.landmarks, all.ba.landmarks.landmarks * 9 / 10);
+  EXPECT_LE(paged_ate, 1.2 * all_ate + 0.001);
+}
+
 TEST(MapServer, AfterARestartARobotThatSaysNoHelloAgainStillGetsCorrections) {
   // Over LCM a robot that heard the killed server does not say Hello to the restarted one (issue #11,
   // faults.kill9.lcm: no PoseCorrections at all after the first kill -9): its keyframes name its session.

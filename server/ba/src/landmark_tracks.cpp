@@ -25,25 +25,32 @@ Status LandmarkMap::addKeyframe(LandmarkKeyframe keyframe) {
   Keyframe k;
   k.landmark.assign(n, -1);
   k.kf = std::move(keyframe);
+  if (cache_ && cache_->contains(k.kf.id)) k.kf.features.reset();  // the cache holds them
   keyframes_.emplace(k.kf.id, std::move(k));
   ++stats_.keyframes;
   return Status::success();
 }
 
-Vec3 LandmarkMap::pointOf(const Keyframe& k, int feature) const {
-  return k.kf.T_map_kf * k.kf.features->p_cam[feature];
+std::shared_ptr<const FrameFeatures> LandmarkMap::featuresOf(const Keyframe& k) const {
+  if (k.kf.features) return k.kf.features;
+  return cache_ ? cache_->get(k.kf.id) : nullptr;
+}
+
+Vec3 LandmarkMap::pointOf(const Keyframe& k, const FrameFeatures& f, int feature) const {
+  return k.kf.T_map_kf * f.p_cam[feature];
 }
 
 bool LandmarkMap::observes(const Landmark& l, int64_t keyframe) const {
   return std::any_of(l.obs.begin(), l.obs.end(), [&](const auto& o) { return o.first == keyframe; });
 }
 
-int64_t LandmarkMap::createLandmark(Keyframe& a, int fa, Keyframe& b, int fb) {
-  const bool da = a.kf.features->hasDepth(fa), db = b.kf.features->hasDepth(fb);
+int64_t LandmarkMap::createLandmark(Keyframe& a, const FrameFeatures& a_f, int fa, Keyframe& b,
+                                    const FrameFeatures& b_f, int fb) {
+  const bool da = a_f.hasDepth(fa), db = b_f.hasDepth(fb);
   if (!da && !db) return -1;
   Landmark l;
   l.reference = da ? a.kf.id : b.kf.id;
-  l.p_map = da ? pointOf(a, fa) : pointOf(b, fb);
+  l.p_map = da ? pointOf(a, a_f, fa) : pointOf(b, b_f, fb);
   l.obs = {{a.kf.id, fa}, {b.kf.id, fb}};
   const int64_t id = next_landmark_++;
   a.landmark[fa] = id;
@@ -103,9 +110,10 @@ bool LandmarkMap::fuse(int64_t into, int64_t from) {
   return true;
 }
 
-int LandmarkMap::link(Keyframe& a, int fa, Keyframe& b, int fb) {
+int LandmarkMap::link(Keyframe& a, const FrameFeatures& a_f, int fa, Keyframe& b, const FrameFeatures& b_f,
+                      int fb) {
   const int64_t la = a.landmark[fa], lb = b.landmark[fb];
-  if (la < 0 && lb < 0) return createLandmark(a, fa, b, fb) >= 0 ? 2 : 0;
+  if (la < 0 && lb < 0) return createLandmark(a, a_f, fa, b, b_f, fb) >= 0 ? 2 : 0;
   if (la >= 0 && lb < 0) return attach(la, b, fb) ? 1 : 0;
   if (lb >= 0 && la < 0) return attach(lb, a, fa) ? 1 : 0;
   return fuse(la, lb) ? 1 : 0;
@@ -117,10 +125,12 @@ int LandmarkMap::addMatches(const EdgeMatches& m) {
   Keyframe& a = ia->second;
   Keyframe& b = ib->second;
   if (a.kf.map_id != b.kf.map_id) return 0;
+  const std::shared_ptr<const FrameFeatures> a_f = featuresOf(a), b_f = featuresOf(b);
+  if (!a_f || !b_f) return 0;  // paged out and not readable back (counted by the cache)
   const int na = static_cast<int>(a.landmark.size()), nb = static_cast<int>(b.landmark.size());
   int added = 0;
   for (const auto& [fa, fb] : m.pairs)
-    if (fa >= 0 && fa < na && fb >= 0 && fb < nb) added += link(a, fa, b, fb);
+    if (fa >= 0 && fa < na && fb >= 0 && fb < nb) added += link(a, *a_f, fa, b, *b_f, fb);
   stats_.links_from_matches += added;
   return added;
 }
@@ -151,8 +161,8 @@ int LandmarkMap::descriptorDistance(const Landmark& l, const uint8_t* descriptor
   for (size_t j = 0; j < n; ++j) {
     if (j != 0 && j + 3 < n) continue;
     const auto& [kf, feature] = l.obs[j];
-    best = std::min(
-        best, hammingDistance(keyframes_.at(kf).kf.features->descriptors.ptr<uint8_t>(feature), descriptor));
+    const std::shared_ptr<const FrameFeatures> f = featuresOf(keyframes_.at(kf));
+    if (f) best = std::min(best, hammingDistance(f->descriptors.ptr<uint8_t>(feature), descriptor));
   }
   return best;
 }
@@ -161,7 +171,9 @@ int LandmarkMap::extendByProjection(int64_t id, const std::vector<int64_t>& seed
   const auto it = keyframes_.find(id);
   if (it == keyframes_.end()) return 0;
   Keyframe& k = it->second;
-  const FrameFeatures& f = *k.kf.features;
+  const std::shared_ptr<const FrameFeatures> features = featuresOf(k);
+  if (!features) return 0;  // paged out and not readable back (counted by the cache)
+  const FrameFeatures& f = *features;
   const FeatureGrid grid(f, k.kf.width, k.kf.height);
   const SE3 T_kf_map = k.kf.T_map_kf.inverse();
   const BaIntrinsics& cam = k.kf.camera;
@@ -193,7 +205,9 @@ int LandmarkMap::extendByProjection(int64_t id, const std::vector<int64_t>& seed
     if (p.z() <= 0.05) continue;
     const double u = cam.fx * p.x() / p.z() + cam.cx, v = cam.fy * p.y() / p.z() + cam.cy;
     const auto& ref = l.obs.front();
-    const int octave = keyframes_.at(ref.first).kf.features->keypoints[ref.second].octave;
+    const std::shared_ptr<const FrameFeatures> ref_f = featuresOf(keyframes_.at(ref.first));
+    if (!ref_f) continue;
+    const int octave = ref_f->keypoints[ref.second].octave;
     grid.query(u, v, config_.projection_radius_px * std::pow(config_.solve.scale_factor, octave), &nearby);
     int best = INT_MAX, second = INT_MAX, best_i = -1;
     for (int i : nearby) {

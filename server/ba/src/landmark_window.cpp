@@ -265,8 +265,11 @@ BaProblem LandmarkMap::problemOf(const Window& w) const {
     const auto in_window = [&](int64_t kf) { return frame_index.count(kf) > 0; };
     for (const auto& [kf, feature] : observationsTaken(l.obs, w.max_track, in_window, keep)) {
       const auto fi = frame_index.find(kf);
-      const LandmarkKeyframe& k = keyframes_.at(kf).kf;
-      const FrameFeatures& f = *k.features;
+      const Keyframe& kk = keyframes_.at(kf);
+      const LandmarkKeyframe& k = kk.kf;
+      const std::shared_ptr<const FrameFeatures> features = featuresOf(kk);
+      if (!features) continue;  // paged out and not readable back: its observations stay out
+      const FrameFeatures& f = *features;
       const double row = (f.keypoints[feature].pt.y - 0.5 * k.height) / k.height;
       p.observations.push_back(
           {fi->second, point, f.px[feature], f.keypoints[feature].octave, f.depth_m[feature], row});

@@ -357,6 +357,11 @@ int main(int argc, char** argv) {
         "loop candidates verified: %d, matched all against all: %d without a prior pose, %d after too few "
         "matches by projection\n",
         l.loop_candidates, l.loop_brute_force_no_prior, l.loop_brute_force_fallback);
+    std::printf(
+        "keyframe features: %zu in RAM (server.features_in_memory), %llu read back from the store, %llu "
+        "reads failed, %d loop candidates skipped for them\n",
+        l.features_resident, static_cast<unsigned long long>(l.features_loads),
+        static_cast<unsigned long long>(l.features_load_failures), l.loop_features_unavailable);
   }
   std::printf("final refinement after the last keyframe, CPU ms in total (not per keyframe):\n");
   printRow("final", false);

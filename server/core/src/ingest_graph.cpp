@@ -25,6 +25,7 @@ std::vector<LoopEdge> IngestPipeline::integrateLocked(const StoredKeyframe& stor
   joinSplitSuccessorLocked(node);
   // One copy of the features, shared by the loop detector and the bundle adjustment's landmark map.
   auto shared = std::make_shared<const FrameFeatures>(features);
+  features_->add(stored.node_id, shared);  // the cache decides how long they stay in RAM
   addToBatchLocked(node, shared);
   LoopKeyframe lk(static_cast<int>(stored.node_id), robot, node.kf.map_id, node.kf.T_map_kf,
                   std::move(shared));

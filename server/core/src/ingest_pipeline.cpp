@@ -23,7 +23,33 @@ IngestPipeline::IngestPipeline(const MapServerConfig& config, RobotRegistry& reg
       detector_(CameraIntrinsics{}, config.loop),
       hello_hold_(static_cast<size_t>(config.reorder_capacity), config.robot_queue_bytes),
       extractor_(config.features),
-      decode_extractor_(config.features) {}
+      decode_extractor_(config.features) {
+  features_ = std::make_shared<FeatureCache>(config.features_in_memory,
+                                             [this](int64_t id) { return loadFeatures(id); });
+  detector_.setFeatureCache(features_);
+}
+
+Result<FrameFeatures> IngestPipeline::loadFeatures(int64_t node_id) const {
+  using R = Result<FrameFeatures>;
+  if (!store_) return R::failure("no store");
+  Result<StoredKeyframe> read = store_->readKeyframe(node_id);
+  if (!read) return R::failure(read.error());
+  std::optional<CameraIntrinsics> camera;
+  {
+    std::lock_guard<std::mutex> lock(loader_mutex_);
+    if (const auto it = loader_cameras_.find(read->keyframe.robot_id); it != loader_cameras_.end())
+      camera = it->second;
+  }
+  if (!camera) return R::failure("no camera for robot " + read->keyframe.robot_id);
+  Result<FrameFeatures> f = featuresFromMessage(read->keyframe, PinholeCamera(*camera));
+  if (!f) log::error("server: features of keyframe ", node_id, " cannot be read back: ", f.error());
+  return f;
+}
+
+void IngestPipeline::setLoaderCamera(const std::string& robot_id, const CameraIntrinsics& camera) {
+  std::lock_guard<std::mutex> lock(loader_mutex_);
+  loader_cameras_.insert_or_assign(robot_id, camera);
+}
 
 void IngestPipeline::attach(MapStore* store, SubmitGraph submit) {
   std::lock_guard<std::mutex> lock(mutex_);
@@ -48,6 +74,7 @@ void IngestPipeline::onHello(const msg::Hello& hello) {
         log::error("server: ", s.error());
       }
       detector_.setRobotCamera(registry_.index(hello.robot_id), hello.camera);
+      setLoaderCamera(hello.robot_id, hello.camera);
       log::info("server: robot ", hello.robot_id, " (", hello.software_version, ") joined, session ",
                 hello.header.session);
     }
@@ -194,8 +221,15 @@ Result<IngestPipeline::Decoded> IngestPipeline::decode(OrbExtractor& extractor, 
   auto images = msg::decodeKeyframeImages(kf);
   if (!images) return Result<Decoded>::failure("images: " + images.error());
   if (needsServerFeatures(kf)) {
-    FrameFeatures features = extractServerFeatures(extractor, *images, camera);
-    return Decoded{std::move(*images), std::move(features)};
+    // Used as they are stored (float keypoints and depths): a restart, or the feature cache reading them
+    // back, gets exactly these.
+    msg::Keyframe as_stored;
+    as_stored.keyframe_id = kf.keyframe_id;
+    if (const Status s = putFeatures(extractServerFeatures(extractor, *images, camera), &as_stored); !s)
+      return Result<Decoded>::failure("extracted features: " + s.error());
+    auto features = featuresFromMessage(as_stored, PinholeCamera(camera));
+    if (!features) return Result<Decoded>::failure(features.error());
+    return Decoded{std::move(*images), std::move(*features)};
   }
   auto features = featuresFromMessage(kf, PinholeCamera(camera));
   if (!features) return Result<Decoded>::failure(features.error());
@@ -225,6 +259,7 @@ void IngestPipeline::addLiveLocked(const StoredKeyframe& stored, const FrameFeat
   counters_.loop_candidates += loop_stats.candidates;
   counters_.loop_brute_force_no_prior += loop_stats.brute_force_no_prior;
   counters_.loop_brute_force_fallback += loop_stats.brute_force_fallback;
+  counters_.loop_features_unavailable += loop_stats.features_unavailable;
   timings_.addVerify(loop_stats.verify_ms);
   for (int r = 0; r < kLoopRejectionCount; ++r)
     counters_.loops_rejected_by_reason[r] += loop_stats.rejected_by_reason[r];
@@ -292,6 +327,10 @@ MapServerStats IngestPipeline::stats() const {
   s.keyframes_waiting = static_cast<int>(reorder_.size());
   s.keyframes_held_for_hello = static_cast<int>(hello_hold_.held());
   s.keyframes_hold_dropped = hello_hold_.dropped();
+  const FeatureCacheStats fc = features_->stats();
+  s.features_resident = fc.resident;
+  s.features_loads = fc.loads;
+  s.features_load_failures = fc.load_failures;
   s.robots = registry_.stats();
   for (ServerRobotStats& r : s.robots) {
     const int robot = registry_.index(r.robot_id);

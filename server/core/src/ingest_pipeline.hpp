@@ -74,6 +74,8 @@ class IngestPipeline {
   void startFeeding(MapWorker* map_worker);
   /// After restore(): a first optimisation when loops were restored.
   void submitRestoredLoops();
+  /// The keyframes' features (for the optimiser's landmark map: MapOptimizerConfig::features).
+  const std::shared_ptr<FeatureCache>& featureCache() const { return features_; }
 
   // ---- the ingest worker
   void onHello(const msg::Hello& hello);
@@ -172,6 +174,10 @@ class IngestPipeline {
   /// cover it and may have been lost, or an optimisation when none covers it yet (no loop came after it).
   Published followHeartbeatsLocked(std::chrono::steady_clock::time_point now);
 
+  /// The cache's loader: the stored record read back, its features rebuilt with the robot's camera.
+  /// Called from the ingest or the optimiser thread without mutex_.
+  Result<FrameFeatures> loadFeatures(int64_t node_id) const;
+  void setLoaderCamera(const std::string& robot_id, const CameraIntrinsics& camera);
   // map_restore.cpp
   int restoreKeyframesLocked();  ///< returns the number skipped; keyframes may be stored out of chain order
   void restoreLoopsLocked();
@@ -183,6 +189,11 @@ class IngestPipeline {
   MapStore* store_ = nullptr;
   SubmitGraph submit_;
   MapWorker* map_worker_ = nullptr;  ///< null when occupancy is off
+  /// The features of every keyframe, shared by the loop detector and the optimiser's landmark map; the
+  /// newest used (features_in_memory) in RAM, the others read back from the store (loadFeatures).
+  std::shared_ptr<FeatureCache> features_;
+  mutable std::mutex loader_mutex_;                         ///< loader_cameras_ (not under mutex_)
+  std::map<std::string, CameraIntrinsics> loader_cameras_;  ///< the robots' cameras, for loadFeatures
 
   mutable std::mutex mutex_;  ///< everything below
   KeyframeIndex index_;

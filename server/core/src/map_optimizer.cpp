@@ -33,6 +33,7 @@ MapOptimizer::MapOptimizer(MapOptimizerConfig config, Callback callback)
       landmarks_(config_.ba.landmarks),
       worker_({"rgbdmap-optim", 0, config_.ba.global_when_idle_s > 0 ? 0.5 : 0.0, [this] { onIdle(); },
                config_.nice}) {
+  if (config_.features) landmarks_.setFeatureCache(config_.features);
   worker_.start();
 }
 

@@ -36,6 +36,8 @@ struct MapOptimizerConfig {
   PoseGraphConfig graph;
   BundleAdjustmentConfig ba;
   int nice = 0;  ///< the worker thread's nice above the process (server.background_nice)
+  /// Where the landmark map takes the keyframes' features from (null: the batches' copies are kept).
+  std::shared_ptr<FeatureCache> features;
 };
 
 /// What the ingest worker hands over after a keyframe (or a restore).

@@ -15,7 +15,10 @@ Status IngestPipeline::restore() {
   const auto loaded = registry_.load(store_->directory());
   if (!loaded) return Status::failure(loaded.error());
   for (const ServerRobotStats& r : registry_.stats())
-    if (r.camera) detector_.setRobotCamera(registry_.index(r.robot_id), *r.camera);
+    if (r.camera) {
+      detector_.setRobotCamera(registry_.index(r.robot_id), *r.camera);
+      setLoaderCamera(r.robot_id, *r.camera);
+    }
   const int skipped = restoreKeyframesLocked();
   restoreLoopsLocked();
   counters_.restored_keyframes = counters_.keyframes;
@@ -33,21 +36,24 @@ Status IngestPipeline::restore() {
 int IngestPipeline::restoreKeyframesLocked() {
   int skipped = 0;
   const auto now = std::chrono::steady_clock::now();
-  for (const StoredKeyframe& stored : store_->keyframes()) {
-    const auto camera = registry_.camera(stored.keyframe.robot_id);
-    auto features = camera
-                        ? featuresFromMessage(stored.keyframe, PinholeCamera(*camera))
-                        : Result<FrameFeatures>::failure("no camera for robot " + stored.keyframe.robot_id);
-    const bool in_order = stored.node_id >= next_node_id_;
-    if (in_order) next_node_id_ = stored.node_id + 1;  // never reused, even when skipped
+  for (const StoredKeyframe& listed : store_->keyframes()) {
+    // The in-memory list has no features: each record is read back (and verified again) from disk.
+    Result<StoredKeyframe> read = store_->readKeyframe(listed.node_id);
+    const auto camera = registry_.camera(listed.keyframe.robot_id);
+    auto features = !read ? Result<FrameFeatures>::failure(read.error())
+                    : camera
+                        ? featuresFromMessage(read->keyframe, PinholeCamera(*camera))
+                        : Result<FrameFeatures>::failure("no camera for robot " + listed.keyframe.robot_id);
+    const bool in_order = listed.node_id >= next_node_id_;
+    if (in_order) next_node_id_ = listed.node_id + 1;  // never reused, even when skipped
     if (!features || !in_order) {
       ++skipped;
-      log::error("server: stored keyframe ", stored.node_id,
+      log::error("server: stored keyframe ", listed.node_id,
                  " skipped: ", !in_order ? "node id out of order" : features.error());
       continue;
     }
-    noteSeen(keyOf(stored));
-    placeLocked({stored, std::move(*features), now}, nullptr, false);
+    noteSeen(keyOf(listed));
+    placeLocked({listed, std::move(*features), now}, nullptr, false);
   }
   giveUpWaitingLocked(now, 0.0, false);
   return skipped;

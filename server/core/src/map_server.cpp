@@ -110,7 +110,7 @@ void MapServer::Impl::startWorkers() {
     map_worker->start();
   }
   optimizer = std::make_unique<MapOptimizer>(
-      MapOptimizerConfig{config.graph, config.ba, config.background_nice},
+      MapOptimizerConfig{config.graph, config.ba, config.background_nice, pipeline.featureCache()},
       [this](const std::shared_ptr<const MapOptimization>& result) { queue.pushOptimized(result); });
   queue.start();
   status.setStateSource([this] { return store->health().failed ? "store failed" : "running"; });

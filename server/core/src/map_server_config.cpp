@@ -48,6 +48,10 @@ const ConfigTable<C>& ownTable() {
                "per thread): under overload decode, ingest (storage, acknowledgements) and the map worker "
                "(slices) get the cores first, while optimisation and rebuilds batch their queued work; 0: "
                "all threads equal")
+          .add("server.features_in_memory", &C::features_in_memory, R::closed(0, 100000000),
+               "the features of this many keyframes (the most recently used, ~85 KB each at 1,000 "
+               "features) stay in RAM for loop closure and bundle adjustment; the others are read back "
+               "from the map store when needed; 0: all stay in RAM")
           .add("server.robot_keyframe_burst", &C::robot_keyframe_burst, R::closed(1.0, 1e6),
                "the bucket's size: keyframes a robot may send at once, e.g. the retransmissions of its whole "
                "send window (client max_pending) when its link comes back after an outage")

@@ -39,6 +39,20 @@ const PinholeCamera& LoopDetector::cameraOf(int robot_id) const {
   return it == robot_cameras_.end() ? default_camera_ : it->second;
 }
 
+void LoopDetector::setFeatureCache(std::shared_ptr<FeatureCache> cache) { cache_ = std::move(cache); }
+
+std::shared_ptr<const FrameFeatures> LoopDetector::featuresOf(const LoopKeyframe& kf) const {
+  if (kf.features) return kf.features;
+  return cache_ ? cache_->get(kf.id) : nullptr;
+}
+
+void LoopDetector::store(LoopKeyframe keyframe) {
+  // With a cache that knows them, the cache decides whether they stay in RAM.
+  if (cache_ && cache_->contains(keyframe.id)) keyframe.features.reset();
+  slot_of_.emplace(keyframe.id, keyframes_.size());
+  keyframes_.push_back(std::move(keyframe));
+}
+
 const LoopKeyframe* LoopDetector::find(int keyframe_id) const {
   const auto it = slot_of_.find(keyframe_id);
   return it == slot_of_.end() ? nullptr : &keyframes_[it->second];
@@ -83,7 +97,12 @@ void LoopDetector::verifyCandidates(const LoopKeyframe& kf, const MeasuredPoses*
   const FeatureGrid grid(*kf.features, camera.intrinsics().width, camera.intrinsics().height);
   for (const LoopCandidate& c : out->candidates) {
     const LoopKeyframe& other = keyframes_[slot_of_.at(c.keyframe_id)];
-    const LoopVerification v = verifyLoop(kf.id, *kf.features, other.id, *other.features, camera,
+    const std::shared_ptr<const FrameFeatures> other_features = featuresOf(other);
+    if (!other_features) {  // paged out and not readable back (counted by the cache)
+      ++out->stats.features_unavailable;
+      continue;
+    }
+    const LoopVerification v = verifyLoop(kf.id, *kf.features, other.id, *other_features, camera,
                                           config_.verify, thresholdsFor(kf, c, other, measured), &grid);
     ++out->stats.rejected_by_reason[static_cast<int>(v.rejection)];
     if (v.brute_force) ++(v.had_prior ? out->stats.brute_force_fallback : out->stats.brute_force_no_prior);
@@ -130,9 +149,8 @@ Result<LoopDetection> LoopDetector::addKeyframe(LoopKeyframe keyframe, const Mea
   verifyCandidates(keyframe, measured, &out);
   out.stats.verify_ms = msSince(t1);
 
-  slot_of_.emplace(keyframe.id, keyframes_.size());
   summaries_.push_back(summary);
-  keyframes_.push_back(std::move(keyframe));
+  store(std::move(keyframe));
   for (const LoopEdge& e : out.edges) accepted_.add(e);
   out.stats.total_ms = msSince(t0);
   accumulate(out.stats);
@@ -147,9 +165,8 @@ Status LoopDetector::restoreKeyframe(LoopKeyframe keyframe) {
   const int robot_sequence = robot_count_[keyframe.robot_id]++;
   index_.insert(keyframe.id, keyframe.robot_id, robot_sequence,
                 hasher_.histogram(keyframe.features->descriptors));
-  slot_of_.emplace(keyframe.id, keyframes_.size());
   summaries_.push_back({keyframe.id, keyframe.robot_id, keyframe.map_id, keyframe.T_map_kf});
-  keyframes_.push_back(std::move(keyframe));
+  store(std::move(keyframe));
   return Status::success();
 }
 
@@ -163,6 +180,7 @@ void LoopDetector::accumulate(const LoopStats& s) {
   totals_.verified += s.verified;
   totals_.brute_force_no_prior += s.brute_force_no_prior;
   totals_.brute_force_fallback += s.brute_force_fallback;
+  totals_.features_unavailable += s.features_unavailable;
   totals_.retrieval_ms += s.retrieval_ms;
   totals_.verify_ms += s.verify_ms;
   totals_.total_ms += s.total_ms;

@@ -29,6 +29,7 @@
 #include "rgbdmap/ba/bundle_adjuster.hpp"
 #include "rgbdmap/common/result.hpp"
 #include "rgbdmap/common/se3.hpp"
+#include "rgbdmap/vision/feature_cache.hpp"
 #include "rgbdmap/vision/features.hpp"
 
 namespace rgbdmap {
@@ -125,6 +126,10 @@ class LandmarkMap {
 
   /// Fails on a duplicate id, missing features, or arrays of different lengths.
   Status addKeyframe(LandmarkKeyframe keyframe);
+  /// Keyframes added from now on whose ids the cache knows keep their features only there (read back when
+  /// it dropped them). A keyframe whose features cannot be read back adds no observations and no
+  /// landmarks until they can. Null (the default): held here.
+  void setFeatureCache(std::shared_ptr<FeatureCache> cache) { cache_ = std::move(cache); }
   bool contains(int64_t id) const { return keyframes_.count(id) != 0; }
   /// Links the pairs into tracks (keyframes in one map only; pairs out of range are skipped). Returns the
   /// number of observations added or fused.
@@ -180,14 +185,18 @@ class LandmarkMap {
   struct Window;  // landmark_window.cpp
 
   // landmark_tracks.cpp
-  Vec3 pointOf(const Keyframe& k, int feature) const;  ///< back-projected feature (needs depth), map frame
+  /// The keyframe's features (from the cache when it holds them); null when they cannot be read back.
+  std::shared_ptr<const FrameFeatures> featuresOf(const Keyframe& k) const;
+  Vec3 pointOf(const Keyframe& k, const FrameFeatures& f, int feature) const;  ///< back-projected, map frame
   bool observes(const Landmark& l, int64_t keyframe) const;
-  int64_t createLandmark(Keyframe& a, int fa, Keyframe& b, int fb);
+  /// a_f, b_f: the features of a and b (featuresOf).
+  int64_t createLandmark(Keyframe& a, const FrameFeatures& a_f, int fa, Keyframe& b, const FrameFeatures& b_f,
+                         int fb);
   bool attach(int64_t landmark, Keyframe& k, int feature);
   void detach(int64_t landmark, int64_t keyframe);
   /// Merges `from` into `into` unless a keyframe sees both; true when merged.
   bool fuse(int64_t into, int64_t from);
-  int link(Keyframe& a, int fa, Keyframe& b, int fb);
+  int link(Keyframe& a, const FrameFeatures& a_f, int fa, Keyframe& b, const FrameFeatures& b_f, int fb);
   void eraseIfShort(int64_t landmark);
   int descriptorDistance(const Landmark& l, const uint8_t* descriptor) const;
   // landmark_window.cpp
@@ -203,6 +212,7 @@ class LandmarkMap {
   std::unordered_map<int64_t, Landmark> landmarks_;
   int64_t next_landmark_ = 0;
   LandmarkStats stats_;
+  std::shared_ptr<FeatureCache> cache_;
 };
 
 }  // namespace rgbdmap

@@ -105,6 +105,11 @@ struct MapServerStats {
   /// Of them, matched all against all (LoopStats): without a prior pose / after too few matches by
   /// projection.
   int loop_brute_force_no_prior = 0, loop_brute_force_fallback = 0;
+  /// Candidates skipped because their features could not be read back from the store (FeatureCache).
+  int loop_features_unavailable = 0;
+  /// Keyframe features (server.features_in_memory): in RAM, read back from the store, reads that failed.
+  size_t features_resident = 0;
+  uint64_t features_loads = 0, features_load_failures = 0;
   std::array<int, kLoopRejectionCount> loops_rejected_by_reason{};
   int optimizations = 0;  ///< optimiser results applied (pose-graph solves and bundle adjustments)
   int graph_solves = 0;   ///< of which with a pose-graph solve

@@ -76,6 +76,10 @@ struct MapServerConfig {
   /// thread): under overload decode, ingest (storage, acknowledgements) and the map worker (slices) get the
   /// cores first, and optimisation and rebuilds batch what queued meanwhile. 0: all threads equal.
   int background_nice = 5;
+  /// The features of this many keyframes (the most recently used; ~85 KB each at 1,000 features) stay in
+  /// RAM for loop closure and bundle adjustment; the others are read back from the map store when a loop
+  /// candidate, a BA window or a landmark track needs them. 0: all stay in RAM.
+  size_t features_in_memory = 4000;
   /// Checked from the compressed images' headers before decoding: the camera a robot announced (width *
   /// height) and each compressed depth or colour image; beyond, the keyframe is refused.
   size_t max_image_pixels = 2048 * 2048;

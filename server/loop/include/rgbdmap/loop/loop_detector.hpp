@@ -16,6 +16,7 @@
 #include "rgbdmap/loop/loop_candidates.hpp"
 #include "rgbdmap/loop/loop_consistency.hpp"
 #include "rgbdmap/loop/loop_verifier.hpp"
+#include "rgbdmap/vision/feature_cache.hpp"
 #include "rgbdmap/vision/features.hpp"
 
 namespace rgbdmap {
@@ -55,8 +56,8 @@ struct LoopKeyframe {
   int robot_id = 0;
   int map_id = 0;  ///< frame of T_map_kf (e.g. the robot's own map until maps are merged)
   SE3 T_map_kf = SE3::Identity();
-  /// With depth and 3-D points (client OrbExtractor); never null in a stored keyframe (addKeyframe and
-  /// restoreKeyframe refuse null).
+  /// With depth and 3-D points (client OrbExtractor); addKeyframe and restoreKeyframe refuse null. Null
+  /// in a stored keyframe only when a FeatureCache holds them (setFeatureCache).
   std::shared_ptr<const FrameFeatures> features;
 };
 
@@ -67,6 +68,8 @@ struct LoopStats {
   /// Candidates matched all against all (the costly path, issue #15): without a prior pose, or because
   /// matching by projection under the prior found too few matches.
   int brute_force_no_prior = 0, brute_force_fallback = 0;
+  /// Candidates skipped because their features were paged out and could not be read back (FeatureCache).
+  int features_unavailable = 0;
   std::array<int, kLoopRejectionCount> rejected_by_reason{};  ///< index = LoopRejection (0 unused)
   double retrieval_ms = 0.0;                                  ///< words + query + insert
   double verify_ms = 0.0;
@@ -85,6 +88,10 @@ class LoopDetector {
   LoopDetector(const CameraIntrinsics& default_camera, const LoopDetectorConfig& config = {});
 
   void setRobotCamera(int robot_id, const CameraIntrinsics& intrinsics);
+  /// Keyframes added from now on whose ids the cache knows (the caller adds them to it first) keep their
+  /// features only there: LoopKeyframe::features of a stored keyframe is then null, and a candidate's
+  /// features come from the cache (read back when it dropped them). Null (the default): held here.
+  void setFeatureCache(std::shared_ptr<FeatureCache> cache);
   /// Relative poses T_kf_other of keyframes near a new one, from measurements alone (odometry and verified
   /// loops along a few hops: PoseGraph::measuredPosesNear), by keyframe id.
   using MeasuredPoses = std::unordered_map<int64_t, SE3>;
@@ -102,6 +109,7 @@ class LoopDetector {
   bool updatePose(int keyframe_id, int map_id, const SE3& T_map_kf);
 
   size_t size() const { return keyframes_.size(); }
+  /// A stored keyframe; its `features` are null when a FeatureCache holds them.
   const LoopKeyframe* find(int keyframe_id) const;
   const LoopStats& totals() const { return totals_; }
 
@@ -114,6 +122,8 @@ class LoopDetector {
   const PinholeCamera& cameraOf(int robot_id) const;
   void dropInconsistent(LoopDetection* out) const;
   void accumulate(const LoopStats& s);
+  void store(LoopKeyframe keyframe);
+  std::shared_ptr<const FrameFeatures> featuresOf(const LoopKeyframe& kf) const;  ///< null: unavailable
 
   LoopDetectorConfig config_;
   PinholeCamera default_camera_;
@@ -127,6 +137,7 @@ class LoopDetector {
   LoopEdgeStore accepted_;                   ///< verified loop edges, for the consistency check
   std::mt19937 rng_;
   LoopStats totals_;
+  std::shared_ptr<FeatureCache> cache_;
 };
 
 }  // namespace rgbdmap

@@ -88,8 +88,9 @@ class MapStore {
   /// remain).
   Status appendLoops(const std::vector<StoredLoop>& loops);
 
-  /// Keyframes in append order WITHOUT images (images.depth and images.color empty; width, height and
-  /// colour codec kept) - the server keeps these in memory; images are read back on demand.
+  /// Keyframes in append order WITHOUT images and features (images.depth, images.color, keypoints and
+  /// descriptors empty; width, height and colour codec kept) - the server keeps these in memory; images
+  /// and features are read back on demand (readKeyframe).
   const std::vector<StoredKeyframe>& keyframes() const;
   const std::vector<StoredLoop>& loops() const;
   /// Reads one keyframe (with images) back from disk; fails for an unknown id or a record that no longer
