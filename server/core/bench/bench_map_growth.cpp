@@ -362,6 +362,10 @@ int main(int argc, char** argv) {
         "reads failed, %d loop candidates skipped for them\n",
         l.features_resident, static_cast<unsigned long long>(l.features_loads),
         static_cast<unsigned long long>(l.features_load_failures), l.loop_features_unavailable);
+    std::printf(
+        "freed heap given back (server.memory_trim_period_s): %llu trims, %.0f MB released, %.0f ms CPU\n",
+        static_cast<unsigned long long>(l.memory_trims),
+        static_cast<double>(l.memory_trim_released_bytes) / 1e6, l.memory_trim_cpu_ms);
   }
   std::printf("final refinement after the last keyframe, CPU ms in total (not per keyframe):\n");
   printRow("final", false);

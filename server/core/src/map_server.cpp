@@ -14,6 +14,7 @@
 #include "ingest_queue.hpp"
 #include "map_optimizer.hpp"
 #include "map_worker.hpp"
+#include "memory_trim.hpp"
 #include "rgbdmap/common/logging.hpp"
 #include "rgbdmap/proto/channels.hpp"
 #include "robot_publisher.hpp"
@@ -79,6 +80,7 @@ struct MapServer::Impl {
   std::unique_ptr<MapWorker> map_worker;  ///< null when occupancy is off
   std::unique_ptr<MapOptimizer> optimizer;
   std::unique_ptr<StoreRetry> store_retry;  ///< MapStore::recover() while the store is failed
+  std::unique_ptr<MemoryTrim> memory_trim;  ///< null when server.memory_trim_period_s is 0
   bool started = false;
 };
 
@@ -117,6 +119,10 @@ void MapServer::Impl::startWorkers() {
   status.start();
   store_retry = std::make_unique<StoreRetry>(config.store_retry_s, *store);
   store_retry->start();
+  if (config.memory_trim_period_s > 0.0) {
+    memory_trim = std::make_unique<MemoryTrim>(config.memory_trim_period_s);
+    memory_trim->start();
+  }
   started = true;
   pipeline.submitRestoredLoops();
 }
@@ -166,6 +172,7 @@ void MapServer::stop() {
   m.pipeline.onStop();
   m.status.stop();
   if (m.store_retry) m.store_retry->stop();
+  if (m.memory_trim) m.memory_trim->stop();
   if (m.map_worker) m.map_worker->stop();
 }
 
@@ -208,6 +215,12 @@ MapServerStats MapServer::stats() const {
   s.unknown_robot_messages = m.inbox.unknownRobot();
   s.rejects = m.inbox.rejectCounts();
   if (m.store) fillStoreStats(m.store->health(), &s);
+  if (m.memory_trim) {
+    const MemoryTrimStats t = m.memory_trim->stats();
+    s.memory_trims = t.trims;
+    s.memory_trim_released_bytes = t.released_bytes;
+    s.memory_trim_cpu_ms = t.cpu_ms;
+  }
   // Outside the server's state lock: counting the octree's leaves must not hold up the ingest worker.
   if (m.map_worker) m.map_worker->fillStats(&s);
   return s;

@@ -52,6 +52,10 @@ const ConfigTable<C>& ownTable() {
                "the features of this many keyframes (the most recently used, ~85 KB each at 1,000 "
                "features) stay in RAM for loop closure and bundle adjustment; the others are read back "
                "from the map store when needed; 0: all stay in RAM")
+          .add("server.memory_trim_period_s", &C::memory_trim_period_s, R::closed(0.0, 3600.0),
+               "every this many seconds the heap's freed pages go back to the kernel (malloc_trim): "
+               "without, the RSS stays at its high-water mark (an octree rebuild frees a whole tree); "
+               "0: never")
           .add("server.robot_keyframe_burst", &C::robot_keyframe_burst, R::closed(1.0, 1e6),
                "the bucket's size: keyframes a robot may send at once, e.g. the retransmissions of its whole "
                "send window (client max_pending) when its link comes back after an outage")

@@ -110,6 +110,11 @@ struct MapServerStats {
   /// Keyframe features (server.features_in_memory): in RAM, read back from the store, reads that failed.
   size_t features_resident = 0;
   uint64_t features_loads = 0, features_load_failures = 0;
+  /// Freed heap given back to the kernel (server.memory_trim_period_s): trims, RSS they released in all,
+  /// their CPU time.
+  uint64_t memory_trims = 0;
+  int64_t memory_trim_released_bytes = 0;
+  double memory_trim_cpu_ms = 0.0;
   std::array<int, kLoopRejectionCount> loops_rejected_by_reason{};
   int optimizations = 0;  ///< optimiser results applied (pose-graph solves and bundle adjustments)
   int graph_solves = 0;   ///< of which with a pose-graph solve

@@ -80,6 +80,9 @@ struct MapServerConfig {
   /// RAM for loop closure and bundle adjustment; the others are read back from the map store when a loop
   /// candidate, a BA window or a landmark track needs them. 0: all stay in RAM.
   size_t features_in_memory = 4000;
+  /// Every this many seconds the heap's freed pages go back to the kernel (malloc_trim): without, the RSS
+  /// stays at its high-water mark (an octree rebuild frees a whole tree). 0: never.
+  double memory_trim_period_s = 10.0;
   /// Checked from the compressed images' headers before decoding: the camera a robot announced (width *
   /// height) and each compressed depth or colour image; beyond, the keyframe is refused.
   size_t max_image_pixels = 2048 * 2048;
