@@ -46,7 +46,16 @@ void expectContent(const MapStore& store, const Sample& sample) {
     expectSameKeyframe(*read, sample.keyframes[i], true);
   }
   ASSERT_EQ(store.loops().size(), sample.loops.size());
-  for (size_t i = 0; i < sample.loops.size(); ++i) expectSameLoop(store.loops()[i], sample.loops[i]);
+  for (size_t i = 0; i < sample.loops.size(); ++i) {
+    // In memory without its pairs; they are read back from the record.
+    StoredLoop kept = store.loops()[i];
+    EXPECT_TRUE(kept.inlier_pairs.empty());
+    Result<std::vector<std::pair<int, int>>> pairs = store.readLoopPairs(i);
+    ASSERT_TRUE(pairs) << pairs.error();
+    kept.inlier_pairs = std::move(pairs).value();
+    expectSameLoop(kept, sample.loops[i]);
+  }
+  EXPECT_FALSE(store.readLoopPairs(sample.loops.size()));
 }
 
 TEST(MapStore, RoundTripKeyframesAndLoops) {
@@ -104,6 +113,7 @@ TEST(MapStore, LoopsAppendedTogetherReadBackLikeSingleOnes) {
     // One bad loop refuses the whole batch and writes nothing.
     EXPECT_FALSE(store->appendLoops({makeLoop(0, 1), makeLoop(0, 99)}).ok());
     EXPECT_EQ(store->loops().size(), sample.loops.size());
+    expectContent(*store, sample);  // the pairs of a batch read back from their places in it
   }
   auto store = openStore(tmp.dir());
   ASSERT_TRUE(store);

@@ -60,7 +60,9 @@ int IngestPipeline::restoreKeyframesLocked() {
 }
 
 void IngestPipeline::restoreLoopsLocked() {
-  for (const StoredLoop& loop : store_->loops()) {
+  const std::vector<StoredLoop>& loops = store_->loops();
+  for (size_t i = 0; i < loops.size(); ++i) {
+    const StoredLoop& loop = loops[i];
     if (!index_.validId(loop.from_node) || !index_.validId(loop.to_node)) {
       log::error("server: stored loop ", loop.from_node, "-", loop.to_node, " names unknown keyframes");
       continue;
@@ -72,7 +74,11 @@ void IngestPipeline::restoreLoopsLocked() {
     edge.information = loop.information;
     edge.inliers = loop.inliers;
     edge.motion_measure = loop.motion_measure;
-    edge.inlier_pairs = loop.inlier_pairs;  // the landmark tracks come back with them
+    // The landmark tracks come back with the pairs; without them the edge still constrains the graph.
+    if (Result<std::vector<std::pair<int, int>>> pairs = store_->readLoopPairs(i))
+      edge.inlier_pairs = std::move(pairs).value();
+    else
+      log::error("server: stored loop ", loop.from_node, "-", loop.to_node, ": ", pairs.error());
     if (const Status s = addLoopEdgeLocked(edge); !s) {
       log::error("server: stored loop: ", s.error());
       continue;

@@ -47,7 +47,8 @@ struct MapStore::State {
   store::UniqueFd lock;
   LogFile keyframe_log, loop_log;
   std::vector<StoredKeyframe> keyframes;
-  std::vector<StoredLoop> loops;
+  std::vector<StoredLoop> loops;             ///< without their inlier pairs (readLoopPairs)
+  std::vector<RecordLocation> loop_records;  ///< loops[i]'s record in loop_log (guarded by index_mutex)
   MapStoreRecovery recovery;
 
   std::mutex append_mutex;  ///< serialises appends and recover(); guards `failed`
@@ -64,6 +65,13 @@ struct MapStore::State {
   Status load(LogFile* log, store::RecordType type, const store::RecordVisitor& visit);
   Status loadKeyframes();
   Status loadLoops();
+  /// Keeps a loop in memory without its pairs (they are read back from its record).
+  void keepLoop(StoredLoop loop, const RecordLocation& record) {
+    loop.inlier_pairs = {};
+    loops.push_back(std::move(loop));
+    std::lock_guard<std::mutex> lock(index_mutex);
+    loop_records.push_back(record);
+  }
   Status append(LogFile* log, const msg::Bytes& record);
   // recover(): caller holds append_mutex
   Status cutToEnd(LogFile* log);
@@ -106,15 +114,16 @@ Status MapStore::State::loadKeyframes() {
 }
 
 Status MapStore::State::loadLoops() {
-  return load(&loop_log, store::RecordType::kLoop, [this](int64_t, const uint8_t* payload, size_t size) {
-    Result<StoredLoop> loop = store::decodeLoopPayload(payload, size);
-    if (!loop) return Status::failure(loop.error());
-    if (!index.count(loop->from_node) || !index.count(loop->to_node))
-      return Status::failure("loop " + std::to_string(loop->from_node) + " -> " +
-                             std::to_string(loop->to_node) + " refers to a node that is not stored");
-    loops.push_back(loop.value());
-    return Status::success();
-  });
+  return load(
+      &loop_log, store::RecordType::kLoop, [this](int64_t offset, const uint8_t* payload, size_t size) {
+        Result<StoredLoop> loop = store::decodeLoopPayload(payload, size);
+        if (!loop) return Status::failure(loop.error());
+        if (!index.count(loop->from_node) || !index.count(loop->to_node))
+          return Status::failure("loop " + std::to_string(loop->from_node) + " -> " +
+                                 std::to_string(loop->to_node) + " refers to a node that is not stored");
+        keepLoop(std::move(loop).value(), {offset, static_cast<int64_t>(store::kRecordHeaderSize + size)});
+        return Status::success();
+      });
 }
 
 Status MapStore::State::append(LogFile* log, const msg::Bytes& record) {
@@ -248,9 +257,10 @@ Status MapStore::appendLoop(const StoredLoop& loop) {
   if (!payload) return Status::failure(payload.error());
   for (int64_t node : {loop.from_node, loop.to_node})
     if (!s.hasNode(node)) return Status::failure("loop refers to unknown node id " + std::to_string(node));
-  if (Status st = s.append(&s.loop_log, store::frameRecord(store::RecordType::kLoop, *payload)); !st)
-    return st;
-  s.loops.push_back(loop);
+  const msg::Bytes record = store::frameRecord(store::RecordType::kLoop, *payload);
+  const int64_t offset = s.loop_log.end;
+  if (Status st = s.append(&s.loop_log, record); !st) return st;
+  s.keepLoop(loop, {offset, static_cast<int64_t>(record.size())});
   return Status::success();
 }
 
@@ -260,16 +270,19 @@ Status MapStore::appendLoops(const std::vector<StoredLoop>& loops) {
   std::lock_guard<std::mutex> lock(s.append_mutex);
   if (!s.failed.empty()) return s.failedStatus();
   msg::Bytes records;
+  std::vector<RecordLocation> where;
+  const int64_t offset = s.loop_log.end;
   for (const StoredLoop& loop : loops) {
     Result<msg::Bytes> payload = store::encodeLoopPayload(loop);
     if (!payload) return Status::failure(payload.error());
     for (int64_t node : {loop.from_node, loop.to_node})
       if (!s.hasNode(node)) return Status::failure("loop refers to unknown node id " + std::to_string(node));
     const msg::Bytes record = store::frameRecord(store::RecordType::kLoop, *payload);
+    where.push_back({offset + static_cast<int64_t>(records.size()), static_cast<int64_t>(record.size())});
     records.insert(records.end(), record.begin(), record.end());
   }
   if (Status st = s.append(&s.loop_log, records); !st) return st;
-  s.loops.insert(s.loops.end(), loops.begin(), loops.end());
+  for (size_t i = 0; i < loops.size(); ++i) s.keepLoop(loops[i], where[i]);
   return Status::success();
 }
 
@@ -321,6 +334,31 @@ Result<StoredKeyframe> MapStore::readKeyframe(int64_t node_id) const {
   if (k->node_id != node_id)
     return R::failure(context + "record holds node id " + std::to_string(k->node_id));
   return k;
+}
+
+Result<std::vector<std::pair<int, int>>> MapStore::readLoopPairs(size_t i) const {
+  using R = Result<std::vector<std::pair<int, int>>>;
+  RecordLocation where;
+  {
+    std::lock_guard<std::mutex> lock(state_->index_mutex);
+    if (i >= state_->loop_records.size()) return R::failure("no stored loop " + std::to_string(i));
+    where = state_->loop_records[i];
+  }
+  const LogFile& log = state_->loop_log;
+  msg::Bytes bytes(static_cast<size_t>(where.size));
+  if (Status s = store::readAt(log.fd.get(), bytes.data(), bytes.size(), where.offset, log.path); !s)
+    return R::failure(s.error());
+  const std::string context =
+      "loop " + std::to_string(i) + " at offset " + std::to_string(where.offset) + " of '" + log.path + "': ";
+  const std::optional<store::RecordHeader> header = store::parseRecordHeader(bytes.data());
+  if (!header || header->payload_size + store::kRecordHeaderSize != bytes.size())
+    return R::failure(context + "record header no longer verifies");
+  const uint8_t* payload = bytes.data() + store::kRecordHeaderSize;
+  if (Status s = store::verifyRecord(*header, store::RecordType::kLoop, payload); !s)
+    return R::failure(context + s.error());
+  Result<StoredLoop> loop = store::decodeLoopPayload(payload, header->payload_size);
+  if (!loop) return R::failure(context + loop.error());
+  return std::move(loop->inlier_pairs);
 }
 
 const std::vector<StoredKeyframe>& MapStore::keyframes() const { return state_->keyframes; }

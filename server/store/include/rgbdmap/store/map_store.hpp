@@ -92,7 +92,12 @@ class MapStore {
   /// descriptors empty; width, height and colour codec kept) - the server keeps these in memory; images
   /// and features are read back on demand (readKeyframe).
   const std::vector<StoredKeyframe>& keyframes() const;
+  /// Loops in append order WITHOUT their inlier pairs (empty): those are read back on demand
+  /// (readLoopPairs), so the list costs ~0.4 KB per loop instead of a few KB with its pairs.
   const std::vector<StoredLoop>& loops() const;
+  /// The inlier pairs of loops()[i], read back from disk; fails for an index out of range or a record
+  /// that no longer verifies. Thread-safe with respect to concurrent appends.
+  Result<std::vector<std::pair<int, int>>> readLoopPairs(size_t i) const;
   /// Reads one keyframe (with images) back from disk; fails for an unknown id or a record that no longer
   /// verifies. Thread-safe with respect to concurrent appends.
   Result<StoredKeyframe> readKeyframe(int64_t node_id) const;
