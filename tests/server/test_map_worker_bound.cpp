@@ -53,5 +53,67 @@ TEST(MapWorkerBound, JobsBeyondTheBoundReadTheirImagesBackAndAllAreInserted) {
   std::filesystem::remove_all(dir);
 }
 
+TEST(MapWorkerBound, PoseUpdatesQueuedBehindAKeyframeCoalesceAndReachTheKeyframesQueuedAfterIt) {
+  // Each pose update holds the whole map's poses: a worker behind by thousands of keyframes must hold one,
+  // not one per optimisation, and still insert every keyframe at its newest pose.
+  const testing::OdometrySegment& seg = testing::loopSegment(testing::kLoopFrames, 0, testing::kLoopFrames);
+  ASSERT_GE(seg.keyframes.size(), 4u);
+  const std::string dir = testing::freshDir("map_worker_poses");
+  auto store = MapStore::open(dir);
+  ASSERT_TRUE(store) << store.error();
+  MapServerConfig config = testing::serverTestConfig(dir);
+  config.map_stream_period_s = 0.0;
+  MapWorker worker(config, **store, {});
+  const auto original = [&](int i) { return seg.keyframes[static_cast<size_t>(i)].T_odom_cam; };
+  const auto moved = [&](int i, int epoch) {  // what optimisation `epoch` made of keyframe i
+    return SE3(Eigen::Translation3d(0.01 * epoch, -0.005 * epoch, 0.0)) * original(i);
+  };
+  const auto add = [&](int i, uint64_t epoch) {
+    const Result<DecodedImages> images = msg::decodeKeyframeImages(seg.keyframes[static_cast<size_t>(i)]);
+    ASSERT_TRUE(images) << images.error();
+    MapKeyframeJob job;
+    job.node_id = i;
+    job.robot_id = "robot0";
+    job.T_map_kf = original(i);
+    job.camera = seg.camera;
+    job.depth = images->depth;
+    job.color = images->color;
+    job.live = false;
+    job.pose_epoch = epoch;
+    worker.addKeyframe(std::move(job));
+  };
+  const auto update = [&](int count, int epoch) {
+    std::vector<MapNodePose> poses;
+    for (int i = 0; i < count; ++i) poses.push_back({i, 0, moved(i, epoch)});
+    worker.updatePoses(std::move(poses), static_cast<uint64_t>(epoch));
+  };
+  // Queued before the worker runs, as behind a slow octree: keyframe 0, update 1, keyframe 1 (made after
+  // update 1), update 2, keyframe 2 (made before update 2 reached the ingest: epoch 1), update 3 (knows
+  // keyframe 3 too), keyframe 3 (made after update 3: its own pose is the newest).
+  add(0, 0);
+  update(1, 1);
+  add(1, 1);
+  update(2, 2);
+  add(2, 1);
+  update(4, 3);
+  add(3, 3);
+  MapServerStats s;
+  worker.fillStats(&s);
+  EXPECT_EQ(s.map_pose_updates_coalesced, 2u) << "updates 1 and 2 are replaced by 3 before they run";
+  worker.start();
+  ASSERT_TRUE(worker.waitIdle(120.0));
+  for (int i = 0; i < 4; ++i) {
+    const std::optional<MapNodePose> p = worker.insertedPose(i);
+    ASSERT_TRUE(p) << "keyframe " << i << " not inserted";
+    const SE3 expected = i < 3 ? moved(i, 3) : original(i);
+    EXPECT_TRUE(p->T_map_kf.matrix().isApprox(expected.matrix(), 1e-12))
+        << "keyframe " << i << " at\n"
+        << p->T_map_kf.matrix() << "\nexpected\n"
+        << expected.matrix();
+  }
+  worker.stop();
+  std::filesystem::remove_all(dir);
+}
+
 }  // namespace
 }  // namespace rgbdmap

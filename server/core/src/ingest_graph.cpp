@@ -163,8 +163,9 @@ void IngestPipeline::onOptimized(const MapOptimization& result) {
   const auto loops = buildLoopEdges(index_.nodes(), graph_.edges(), graph_.disabledEdges(), robots,
                                     counters_.graph_revision, config_.loop_edges_max);
   std::vector<MapNodePose> map_poses = mapPosesLocked();
+  const uint64_t epoch = ++map_pose_epoch_;
   lock.unlock();
-  if (map_worker_) map_worker_->updatePoses(std::move(map_poses));
+  if (map_worker_) map_worker_->updatePoses(std::move(map_poses), epoch);
   for (const auto& [robot, c] : corrections) {
     log::debug("server: corrections to ", robot, ": ", c.keyframes.size(), " keyframes");
     publisher_.publish(robot, c);

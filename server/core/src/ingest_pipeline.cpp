@@ -255,7 +255,7 @@ void IngestPipeline::addLiveLocked(const StoredKeyframe& stored, const FrameFeat
   if (map_worker_ && camera)
     map_worker_->addKeyframe({n.kf.node_id, n.kf.robot_id, n.kf.map_id, n.kf.T_map_kf, *camera,
                               images ? images->depth : cv::Mat(), images ? images->color : cv::Mat(), true,
-                              n.kf.keyframe_id});
+                              n.kf.keyframe_id, map_pose_epoch_});
   counters_.loop_candidates += loop_stats.candidates;
   counters_.loop_brute_force_no_prior += loop_stats.brute_force_no_prior;
   counters_.loop_brute_force_fallback += loop_stats.brute_force_fallback;

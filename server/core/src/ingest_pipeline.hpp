@@ -189,6 +189,7 @@ class IngestPipeline {
   MapStore* store_ = nullptr;
   SubmitGraph submit_;
   MapWorker* map_worker_ = nullptr;  ///< null when occupancy is off
+  uint64_t map_pose_epoch_ = 0;      ///< pose updates sent to map_worker_ (MapKeyframeJob::pose_epoch)
   /// The features of every keyframe, shared by the loop detector and the optimiser's landmark map; the
   /// newest used (features_in_memory) in RAM, the others read back from the store (loadFeatures).
   std::shared_ptr<FeatureCache> features_;

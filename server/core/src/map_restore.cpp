@@ -96,8 +96,16 @@ void IngestPipeline::startFeeding(MapWorker* map_worker) {
   for (const IndexedNode& n : index_.nodes()) {
     const auto camera = n.valid ? registry_.camera(n.kf.robot_id) : std::nullopt;
     if (!camera) continue;
-    map_worker_->addKeyframe(
-        {n.kf.node_id, n.kf.robot_id, n.kf.map_id, n.kf.T_map_kf, *camera, {}, {}, false, n.kf.keyframe_id});
+    map_worker_->addKeyframe({n.kf.node_id,
+                              n.kf.robot_id,
+                              n.kf.map_id,
+                              n.kf.T_map_kf,
+                              *camera,
+                              {},
+                              {},
+                              false,
+                              n.kf.keyframe_id,
+                              map_pose_epoch_});
   }
 }
 

@@ -74,8 +74,25 @@ void MapWorker::addKeyframe(MapKeyframeJob job) {
   });
 }
 
-void MapWorker::updatePoses(std::vector<MapNodePose> poses) {
-  worker_.post([this, poses = std::move(poses)] { applyPoses(poses); });
+void MapWorker::updatePoses(std::vector<MapNodePose> poses, uint64_t epoch) {
+  {
+    std::lock_guard<std::mutex> lock(poses_mutex_);
+    pending_poses_ = std::move(poses);  // the whole map's poses: the newest update replaces older ones
+    pending_epoch_ = epoch;
+    if (poses_queued_) {
+      ++pose_updates_coalesced_;
+      return;
+    }
+    poses_queued_ = true;
+  }
+  worker_.post([this] { applyPendingPoses(); });
+}
+
+std::optional<MapNodePose> MapWorker::insertedPose(int64_t node_id) const {
+  std::lock_guard<std::mutex> lock(state_mutex_);
+  const auto it = nodes_.find(node_id);
+  if (it == nodes_.end()) return std::nullopt;
+  return MapNodePose{node_id, it->second.map_id, it->second.T_map_kf};
 }
 
 bool MapWorker::waitIdle(double timeout_s) const {
@@ -112,6 +129,13 @@ bool MapWorker::readBackImages(MapKeyframeJob& job) const {
 
 void MapWorker::insertKeyframe(MapKeyframeJob& job) {
   const double cpu0 = threadCpuMs();
+  if (const auto early = early_poses_.find(job.node_id); early != early_poses_.end()) {
+    if (early_epoch_ > job.pose_epoch) {  // an update applied before its turn knows a newer pose
+      job.map_id = early->second.map_id;
+      job.T_map_kf = early->second.T_map_kf;
+    }
+    early_poses_.erase(early);
+  }
   if (job.depth.empty() && !readBackImages(job)) return;  // restored: read the images back from the store
   auto cloud =
       makerFor(job.robot_id, job.camera).make(job.node_id, job.depth, job.camera.depth_scale, job.color);
@@ -142,13 +166,28 @@ void MapWorker::insertKeyframe(MapKeyframeJob& job) {
   publishSlice(job.robot_id);
 }
 
-void MapWorker::applyPoses(const std::vector<MapNodePose>& poses) {
+void MapWorker::applyPendingPoses() {
+  std::vector<MapNodePose> poses;
+  uint64_t epoch = 0;
+  {
+    std::lock_guard<std::mutex> lock(poses_mutex_);
+    poses.swap(pending_poses_);
+    epoch = pending_epoch_;
+    poses_queued_ = false;
+  }
+  // This update may be newer than keyframes queued behind it (it replaced the ones before them): they take
+  // their poses from it when they come.
+  early_poses_.clear();
+  early_epoch_ = epoch;
   std::map<int64_t, std::pair<int, SE3>> update;
   {
     std::lock_guard<std::mutex> lock(state_mutex_);
     for (const MapNodePose& p : poses) {
       const auto it = nodes_.find(p.node_id);
-      if (it == nodes_.end()) continue;
+      if (it == nodes_.end()) {
+        early_poses_.emplace(p.node_id, p);
+        continue;
+      }
       it->second.map_id = p.map_id;
       it->second.T_map_kf = p.T_map_kf;
       update.emplace(p.node_id, std::make_pair(p.map_id, p.T_map_kf));
@@ -245,6 +284,7 @@ void MapWorker::fillStats(MapServerStats* s) const {
   std::lock_guard<std::mutex> lock(state_mutex_);
   s->map_keyframes = inserted_;
   s->map_images_deferred = images_deferred_.load();
+  s->map_pose_updates_coalesced = pose_updates_coalesced_.load();
   s->map_insert_ms_median = insert_ms_.median();
   s->slice_ms_median = slice_ms_.median();
   s->slices_sent = slices_sent_;

@@ -4,7 +4,7 @@
 // acknowledgements.
 //   - keyframes (decoded images, or read back from the store on restart) -> KeyframeCloud -> OccupancyMap;
 //   - optimised poses, in queue order after the keyframes they move -> OccupancyMap::updatePoses (the
-//     rebuild itself runs on OccupancyMap's own background worker);
+//     rebuild itself runs on OccupancyMap's own background worker); updates not applied yet coalesce;
 //   - after a live keyframe of robot R (at most every slice_period_s): R's slice at R's newest keyframe,
 //     published to R;
 //   - a MapUpdate of each robot's map to that robot (full on first send and after a rebuild or a change of
@@ -16,7 +16,9 @@
 #include <map>
 #include <memory>
 #include <mutex>
+#include <optional>
 #include <string>
+#include <unordered_map>
 #include <vector>
 
 #include <opencv2/core.hpp>
@@ -40,6 +42,9 @@ struct MapKeyframeJob {
   cv::Mat color;         ///< CV_8UC3 BGR or empty
   bool live = true;      ///< a just-received keyframe (a slice follows); false when restored
   int keyframe_id = -1;  ///< the robot's id of it (MapUpdate::robot_keyframe_id)
+  /// The epoch of the newest pose update (updatePoses) taken before T_map_kf was: a later one knows a
+  /// newer pose of it.
+  uint64_t pose_epoch = 0;
 };
 
 struct MapNodePose {
@@ -70,7 +75,13 @@ class MapWorker {
   void stop();  ///< abandons queued work; idempotent
 
   void addKeyframe(MapKeyframeJob job);
-  void updatePoses(std::vector<MapNodePose> poses);
+  /// Every keyframe's pose as of `epoch` (increasing, > 0). Updates not applied yet coalesce: the newest
+  /// replaces them (each holds the whole map's poses, and a worker behind by thousands of keyframes would
+  /// otherwise hold one copy per optimisation). Poses of keyframes queued but not inserted yet are kept
+  /// for them and used when they are newer than the job's (MapKeyframeJob::pose_epoch).
+  void updatePoses(std::vector<MapNodePose> poses, uint64_t epoch);
+  /// The pose a keyframe is inserted at now (after the pose updates applied), if it is.
+  std::optional<MapNodePose> insertedPose(int64_t node_id) const;
   /// Queue empty, nothing in progress and no octree rebuild pending; false on timeout.
   bool waitIdle(double timeout_s) const;
   /// Queues a map stream publication (what the stream period does) behind the work already queued.
@@ -92,7 +103,7 @@ class MapWorker {
 
   bool readBackImages(MapKeyframeJob& job) const;  ///< a restored keyframe's images, from the store
   void insertKeyframe(MapKeyframeJob& job);
-  void applyPoses(const std::vector<MapNodePose>& poses);
+  void applyPendingPoses();
   void publishSlice(const std::string& robot_id);
   void publishStreams();
   void onStreamTick();  ///< the worker's period: publishStreams() when a keyframe came in or it is time
@@ -107,8 +118,11 @@ class MapWorker {
   std::map<std::string, std::pair<CameraIntrinsics, std::unique_ptr<KeyframeCloudMaker>>> makers_;
   std::map<std::string, StreamState> streams_;
   std::map<std::string, double> last_slice_s_;  ///< steady-clock seconds of each robot's last slice
-  bool stream_dirty_ = false;                   ///< a keyframe was inserted since the last publishStreams
-  double last_stream_s_ = 0.0;                  ///< steady-clock seconds of the last publishStreams
+  /// Poses of the newest update applied, for keyframes not inserted then (node id -> pose).
+  std::unordered_map<int64_t, MapNodePose> early_poses_;
+  uint64_t early_epoch_ = 0;    ///< that update's epoch
+  bool stream_dirty_ = false;   ///< a keyframe was inserted since the last publishStreams
+  double last_stream_s_ = 0.0;  ///< steady-clock seconds of the last publishStreams
 
   // shared with readers (stats, outputs)
   mutable std::mutex state_mutex_;
@@ -121,6 +135,12 @@ class MapWorker {
   size_t inserted_ = 0;
   std::atomic<size_t> queued_images_{0};      ///< queued jobs that carry decoded images
   std::atomic<uint64_t> images_deferred_{0};  ///< jobs queued without them (kMaxQueuedImages)
+
+  std::mutex poses_mutex_;                  ///< the three below
+  std::vector<MapNodePose> pending_poses_;  ///< the newest pose update, not applied yet
+  uint64_t pending_epoch_ = 0;
+  bool poses_queued_ = false;  ///< a task that applies pending_poses_ is queued
+  std::atomic<uint64_t> pose_updates_coalesced_{0};
   uint64_t slices_sent_ = 0, map_updates_sent_ = 0, map_bytes_sent_ = 0;
 
   SerialWorker worker_;  ///< keyframes and pose updates in order, the map stream as its period; last member

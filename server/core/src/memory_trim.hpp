@@ -3,7 +3,8 @@
 // octree rebuild frees the old tree's millions of nodes, bundle adjustments and feature read-backs free
 // large blocks, and the process's RSS stays at its high-water mark (measured: 8.4 GB RSS over 4.9 GB of
 // live heap at 14,000 keyframes). Every period_s, malloc_trim(0) releases the free pages of every arena.
-// A periodic SerialWorker ("rgbdmap-trim"); a trim takes milliseconds (it walks the arenas' free lists).
+// A periodic SerialWorker ("rgbdmap-trim"). A trim walks the arenas' free lists: ~240 ms of CPU per trim
+// with a 4-8 GB heap (20,000 keyframes: 317 trims, 76 s of CPU in 45 min, ~3 % of a core).
 #include <atomic>
 #include <cstdint>
 

@@ -160,13 +160,14 @@ struct MapServerStats {
   double verify_ms_median = 0.0;      ///< of which geometric verification of the candidates
   int restored_keyframes = 0, restored_loops = 0;  ///< from the map directory at start
   /// Occupancy map (zero when occupancy_enabled is false).
-  size_t map_keyframes = 0;            ///< keyframes inserted into the octree (restored ones included)
-  uint64_t map_images_deferred = 0;    ///< queued for the octree without images (read back: memory bound)
-  size_t map_tree_memory_bytes = 0;    ///< OcTree::memoryUsage() over all maps
-  size_t map_clouds_memory_bytes = 0;  ///< kept keyframe clouds in RAM (for rebuilds and map.ply)
-  size_t map_clouds_spilled = 0;       ///< kept clouds in the spill file (map.clouds_in_memory)
-  uint64_t map_spill_file_bytes = 0;   ///< its size
-  uint64_t map_spill_failures = 0;     ///< spill writes or reads that failed
+  size_t map_keyframes = 0;          ///< keyframes inserted into the octree (restored ones included)
+  uint64_t map_images_deferred = 0;  ///< queued for the octree without images (read back: memory bound)
+  uint64_t map_pose_updates_coalesced = 0;  ///< pose updates replaced by a newer one before they were applied
+  size_t map_tree_memory_bytes = 0;         ///< OcTree::memoryUsage() over all maps
+  size_t map_clouds_memory_bytes = 0;       ///< kept keyframe clouds in RAM (for rebuilds and map.ply)
+  size_t map_clouds_spilled = 0;            ///< kept clouds in the spill file (map.clouds_in_memory)
+  uint64_t map_spill_file_bytes = 0;        ///< its size
+  uint64_t map_spill_failures = 0;          ///< spill writes or reads that failed
   size_t map_leaves = 0, map_occupied_leaves = 0;
   uint64_t map_rebuilds = 0;
   double map_last_rebuild_ms = 0.0;
