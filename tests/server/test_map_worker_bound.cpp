@@ -13,33 +13,55 @@
 namespace rgbdmap {
 namespace {
 
+/// A map directory with an open store and a test configuration without a periodic map stream.
+struct WorkerSetup {
+  explicit WorkerSetup(const std::string& name) : dir(testing::freshDir(name)) {
+    auto opened = MapStore::open(dir);
+    EXPECT_TRUE(opened) << opened.error();
+    if (opened) store = std::move(opened).value();
+    config = testing::serverTestConfig(dir);
+    config.map_stream_period_s = 0.0;
+  }
+  ~WorkerSetup() {
+    store.reset();
+    std::filesystem::remove_all(dir);
+  }
+  std::string dir;
+  std::unique_ptr<MapStore> store;
+  MapServerConfig config;
+};
+
+/// Keyframe i of the segment as a map job with its decoded images (no slices: no publishers here).
+MapKeyframeJob jobFor(const testing::OdometrySegment& seg, size_t i) {
+  const Result<DecodedImages> images = msg::decodeKeyframeImages(seg.keyframes[i]);
+  EXPECT_TRUE(images) << images.error();
+  MapKeyframeJob job;
+  job.node_id = static_cast<int64_t>(i);
+  job.robot_id = "robot0";
+  job.T_map_kf = seg.keyframes[i].T_odom_cam;
+  job.camera = seg.camera;
+  if (images) {
+    job.depth = images->depth;
+    job.color = images->color;
+  }
+  job.live = false;
+  return job;
+}
+
 TEST(MapWorkerBound, JobsBeyondTheBoundReadTheirImagesBackAndAllAreInserted) {
   const testing::OdometrySegment& seg = testing::loopSegment(testing::kLoopFrames, 0, testing::kLoopFrames);
   const size_t n = std::min<size_t>(seg.keyframes.size(), MapWorker::kMaxQueuedImages + 8);
   ASSERT_GT(n, MapWorker::kMaxQueuedImages);
-  const std::string dir = testing::freshDir("map_worker_bound");
-  auto store = MapStore::open(dir);
-  ASSERT_TRUE(store) << store.error();
-  MapServerConfig config = testing::serverTestConfig(dir);
-  config.map_stream_period_s = 0.0;
-  MapWorker worker(config, **store, {});
+  WorkerSetup setup("map_worker_bound");
+  ASSERT_TRUE(setup.store);
+  MapWorker worker(setup.config, *setup.store, {});
   for (size_t i = 0; i < n; ++i) {
     StoredKeyframe stored;
     stored.node_id = static_cast<int64_t>(i);
     stored.session = 1;
     stored.keyframe = seg.keyframes[i];
-    ASSERT_TRUE((*store)->appendKeyframe(stored));
-    const Result<DecodedImages> images = msg::decodeKeyframeImages(seg.keyframes[i]);
-    ASSERT_TRUE(images) << images.error();
-    MapKeyframeJob job;
-    job.node_id = stored.node_id;
-    job.robot_id = "robot0";
-    job.T_map_kf = seg.keyframes[i].T_odom_cam;
-    job.camera = seg.camera;
-    job.depth = images->depth;
-    job.color = images->color;
-    job.live = false;  // no slices: no publishers here
-    worker.addKeyframe(std::move(job));
+    ASSERT_TRUE(setup.store->appendKeyframe(stored));
+    worker.addKeyframe(jobFor(seg, i));
   }
   MapServerStats s;
   worker.fillStats(&s);
@@ -50,7 +72,6 @@ TEST(MapWorkerBound, JobsBeyondTheBoundReadTheirImagesBackAndAllAreInserted) {
   EXPECT_EQ(s.map_keyframes, n) << "a job without images was left out";
   EXPECT_GT(s.map_occupied_leaves, 1000u);
   worker.stop();
-  std::filesystem::remove_all(dir);
 }
 
 TEST(MapWorkerBound, PoseUpdatesQueuedBehindAKeyframeCoalesceAndReachTheKeyframesQueuedAfterIt) {
@@ -58,27 +79,15 @@ TEST(MapWorkerBound, PoseUpdatesQueuedBehindAKeyframeCoalesceAndReachTheKeyframe
   // not one per optimisation, and still insert every keyframe at its newest pose.
   const testing::OdometrySegment& seg = testing::loopSegment(testing::kLoopFrames, 0, testing::kLoopFrames);
   ASSERT_GE(seg.keyframes.size(), 4u);
-  const std::string dir = testing::freshDir("map_worker_poses");
-  auto store = MapStore::open(dir);
-  ASSERT_TRUE(store) << store.error();
-  MapServerConfig config = testing::serverTestConfig(dir);
-  config.map_stream_period_s = 0.0;
-  MapWorker worker(config, **store, {});
+  WorkerSetup setup("map_worker_poses");
+  ASSERT_TRUE(setup.store);
+  MapWorker worker(setup.config, *setup.store, {});
   const auto original = [&](int i) { return seg.keyframes[static_cast<size_t>(i)].T_odom_cam; };
   const auto moved = [&](int i, int epoch) {  // what optimisation `epoch` made of keyframe i
     return SE3(Eigen::Translation3d(0.01 * epoch, -0.005 * epoch, 0.0)) * original(i);
   };
   const auto add = [&](int i, uint64_t epoch) {
-    const Result<DecodedImages> images = msg::decodeKeyframeImages(seg.keyframes[static_cast<size_t>(i)]);
-    ASSERT_TRUE(images) << images.error();
-    MapKeyframeJob job;
-    job.node_id = i;
-    job.robot_id = "robot0";
-    job.T_map_kf = original(i);
-    job.camera = seg.camera;
-    job.depth = images->depth;
-    job.color = images->color;
-    job.live = false;
+    MapKeyframeJob job = jobFor(seg, static_cast<size_t>(i));
     job.pose_epoch = epoch;
     worker.addKeyframe(std::move(job));
   };
@@ -112,7 +121,6 @@ TEST(MapWorkerBound, PoseUpdatesQueuedBehindAKeyframeCoalesceAndReachTheKeyframe
         << expected.matrix();
   }
   worker.stop();
-  std::filesystem::remove_all(dir);
 }
 
 }  // namespace

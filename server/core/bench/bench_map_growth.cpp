@@ -374,10 +374,12 @@ int main(int argc, char** argv) {
     std::printf(
         "map worker: octree insertion %.1f ms CPU per keyframe (median), slice %.1f ms (median, %llu sent), "
         "%llu keyframes queued without their images (read back from the store: the worker was behind), %llu "
+        "pose updates replaced by a newer one before they were applied, %llu "
         "map updates (%.1f MB); kept clouds %.0f MB in RAM, %zu spilled (file %.0f MB, %llu failures), "
         "octrees %.0f MB\n",
         m.map_insert_ms_median, m.slice_ms_median, static_cast<unsigned long long>(m.slices_sent),
         static_cast<unsigned long long>(m.map_images_deferred),
+        static_cast<unsigned long long>(m.map_pose_updates_coalesced),
         static_cast<unsigned long long>(m.map_updates_sent), static_cast<double>(m.map_bytes_sent) / 1e6,
         static_cast<double>(m.map_clouds_memory_bytes) / 1e6, m.map_clouds_spilled,
         static_cast<double>(m.map_spill_file_bytes) / 1e6,

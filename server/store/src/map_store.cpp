@@ -39,6 +39,29 @@ void dropPayload(StoredKeyframe* k) {
   msg::Bytes().swap(k->keyframe.descriptors);
 }
 
+/// A record read back from a log: its bytes, the payload after the header, verified (header and CRC).
+struct ReadRecord {
+  msg::Bytes bytes;
+  uint32_t payload_size = 0;
+  const uint8_t* payload() const { return bytes.data() + store::kRecordHeaderSize; }
+};
+
+/// Reads the record at `where` and verifies it is one of `type`; errors start with `context`.
+Result<ReadRecord> readRecord(const LogFile& log, const RecordLocation& where, store::RecordType type,
+                              const std::string& context) {
+  using R = Result<ReadRecord>;
+  ReadRecord r;
+  r.bytes.resize(static_cast<size_t>(where.size));
+  if (Status s = store::readAt(log.fd.get(), r.bytes.data(), r.bytes.size(), where.offset, log.path); !s)
+    return R::failure(s.error());
+  const std::optional<store::RecordHeader> header = store::parseRecordHeader(r.bytes.data());
+  if (!header || header->payload_size + store::kRecordHeaderSize != r.bytes.size())
+    return R::failure(context + "record header no longer verifies");
+  if (Status s = store::verifyRecord(*header, type, r.payload()); !s) return R::failure(context + s.error());
+  r.payload_size = header->payload_size;
+  return r;
+}
+
 }  // namespace
 
 struct MapStore::State {
@@ -318,18 +341,11 @@ Result<StoredKeyframe> MapStore::readKeyframe(int64_t node_id) const {
     where = it->second;
   }
   const LogFile& log = state_->keyframe_log;
-  msg::Bytes bytes(static_cast<size_t>(where.size));
-  if (Status s = store::readAt(log.fd.get(), bytes.data(), bytes.size(), where.offset, log.path); !s)
-    return R::failure(s.error());
   const std::string context = "keyframe " + std::to_string(node_id) + " at offset " +
                               std::to_string(where.offset) + " of '" + log.path + "': ";
-  const std::optional<store::RecordHeader> header = store::parseRecordHeader(bytes.data());
-  if (!header || header->payload_size + store::kRecordHeaderSize != bytes.size())
-    return R::failure(context + "record header no longer verifies");
-  const uint8_t* payload = bytes.data() + store::kRecordHeaderSize;
-  if (Status s = store::verifyRecord(*header, store::RecordType::kKeyframe, payload); !s)
-    return R::failure(context + s.error());
-  Result<StoredKeyframe> k = store::decodeKeyframePayload(payload, header->payload_size);
+  Result<ReadRecord> record = readRecord(log, where, store::RecordType::kKeyframe, context);
+  if (!record) return R::failure(record.error());
+  Result<StoredKeyframe> k = store::decodeKeyframePayload(record->payload(), record->payload_size);
   if (!k) return R::failure(context + k.error());
   if (k->node_id != node_id)
     return R::failure(context + "record holds node id " + std::to_string(k->node_id));
@@ -345,18 +361,11 @@ Result<std::vector<std::pair<int, int>>> MapStore::readLoopPairs(size_t i) const
     where = state_->loop_records[i];
   }
   const LogFile& log = state_->loop_log;
-  msg::Bytes bytes(static_cast<size_t>(where.size));
-  if (Status s = store::readAt(log.fd.get(), bytes.data(), bytes.size(), where.offset, log.path); !s)
-    return R::failure(s.error());
   const std::string context =
       "loop " + std::to_string(i) + " at offset " + std::to_string(where.offset) + " of '" + log.path + "': ";
-  const std::optional<store::RecordHeader> header = store::parseRecordHeader(bytes.data());
-  if (!header || header->payload_size + store::kRecordHeaderSize != bytes.size())
-    return R::failure(context + "record header no longer verifies");
-  const uint8_t* payload = bytes.data() + store::kRecordHeaderSize;
-  if (Status s = store::verifyRecord(*header, store::RecordType::kLoop, payload); !s)
-    return R::failure(context + s.error());
-  Result<StoredLoop> loop = store::decodeLoopPayload(payload, header->payload_size);
+  Result<ReadRecord> record = readRecord(log, where, store::RecordType::kLoop, context);
+  if (!record) return R::failure(record.error());
+  Result<StoredLoop> loop = store::decodeLoopPayload(record->payload(), record->payload_size);
   if (!loop) return R::failure(context + loop.error());
   return std::move(loop->inlier_pairs);
 }
