@@ -138,17 +138,23 @@ TEST(MapServer, RestartOnTheSameMapDirectoryLosesNoAcknowledgedKeyframe) {
   EXPECT_LE(slam, 0.55 * odo) << "a restart must not cost accuracy";
 }
 
+/// The segment's keyframes as a robot sends them by default (link.send_features: false).
+OdometrySegment withoutFeatures(const OdometrySegment& seg) {
+  OdometrySegment stripped{seg.camera, seg.gt, seg.keyframes};
+  for (msg::Keyframe& kf : stripped.keyframes) {
+    kf.keypoints.clear();
+    kf.descriptors.clear();
+  }
+  return stripped;
+}
+
 // Keyframes sent without features (the robot's default, link.send_features: false): the server extracts
 // them from the decoded colour, stores them with the keyframe, and a restarted server reads them back
 // (landmark tracks, loop closure and the accuracy of the synthetic loop as with the robot's features).
 TEST(MapServer, FeaturesExtractedByTheServerAreStoredAndSurviveARestart) {
   const OdometrySegment& seg = loopSegment(kLoopFrames, 0, kLoopFrames);
-  std::vector<msg::Keyframe> bare = seg.keyframes;
-  for (msg::Keyframe& kf : bare) {
-    kf.keypoints.clear();
-    kf.descriptors.clear();
-  }
-  OdometrySegment stripped{seg.camera, seg.gt, bare};
+  const OdometrySegment stripped = withoutFeatures(seg);
+  const std::vector<msg::Keyframe>& bare = stripped.keyframes;
   const std::string dir = freshDir("server_features");
   const size_t half = bare.size() / 2;
   Harness h(dir);
@@ -183,12 +189,7 @@ TEST(MapServer, FeaturesPagedOutOfRamAreReadBackFromTheStoreForLoopsAndBundleAdj
   // candidates, landmark tracks and BA windows read the others back from the store, and the map is as good
   // as with all of them in RAM.
   const OdometrySegment& seg = loopSegment(kLoopFrames, 0, kLoopFrames);
-  std::vector<msg::Keyframe> bare = seg.keyframes;
-  for (msg::Keyframe& kf : bare) {
-    kf.keypoints.clear();
-    kf.descriptors.clear();
-  }
-  const OdometrySegment stripped{seg.camera, seg.gt, bare};
+  const OdometrySegment stripped = withoutFeatures(seg);
   const auto run = [&](size_t features_in_memory, const std::string& name) {
     MapServerConfig config = serverTestConfig(freshDir(name));
     config.features_in_memory = features_in_memory;
@@ -204,14 +205,14 @@ TEST(MapServer, FeaturesPagedOutOfRamAreReadBackFromTheStoreForLoopsAndBundleAdj
       "[ measured ] %zu keyframes, features in RAM all / 4: ATE %.4f / %.4f m, loops %d / %d, landmarks %lld "
       "/ "
       "%lld, features read back %llu\n",
-      bare.size(), all_ate, paged_ate, all.loops_accepted, paged.loops_accepted,
+      stripped.keyframes.size(), all_ate, paged_ate, all.loops_accepted, paged.loops_accepted,
       static_cast<long long>(all.ba.landmarks.landmarks),
       static_cast<long long>(paged.ba.landmarks.landmarks),
       static_cast<unsigned long long>(paged.features_loads));
   EXPECT_EQ(all.features_loads, 0u);
-  EXPECT_EQ(paged.keyframes, static_cast<int>(bare.size()));
+  EXPECT_EQ(paged.keyframes, static_cast<int>(stripped.keyframes.size()));
   EXPECT_LE(paged.features_resident, 4u);
-  EXPECT_GT(paged.features_loads, bare.size()) << "loops and BA needed dropped features";
+  EXPECT_GT(paged.features_loads, stripped.keyframes.size()) << "loops and BA needed dropped features";
   EXPECT_EQ(paged.features_load_failures, 0u);
   EXPECT_EQ(paged.loop_features_unavailable, 0);
   EXPECT_GE(paged.loops_accepted, all.loops_accepted * 9 / 10);
