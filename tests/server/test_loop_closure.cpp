@@ -1,6 +1,8 @@
 // Loop closure units: the motion measure E, candidate selection, binary-word retrieval, and verification
 // rejecting false candidates with a reason. End-to-end runs are in test_loop_closure_e2e.cpp.
+#include <map>
 #include <random>
+#include <set>
 
 #include <gtest/gtest.h>
 
@@ -138,6 +140,67 @@ TEST(BinaryWords, RetrievalRanksARevisitAboveUnrelatedKeyframesAndExcludesRecent
   q.robot_sequence = 30;  // place 42 is robot 0's 21st keyframe: within the 15 most recent
   for (const RetrievalHit& h : index.query(revisit, q)) EXPECT_NE(h.keyframe_id, 42);
   EXPECT_NEAR(index.query(hasher.histogram(places[7]), {2, 0, 15, 1, 0.0})[0].score, 1.0, 1e-4);
+}
+
+// Issue #15: posting lists are varint-coded gaps with counts. Scores equal a plain inverted index's (every
+// document's idf-weighted histogram intersection, by brute force), over gaps of one and of several varint
+// bytes (a word seen again after 200 or 20,000 documents) and counts of 1, 2 and 300.
+TEST(BinaryWords, CompressedPostingsScoreAsAPlainIndex) {
+  std::mt19937 rng(9);
+  const BinaryWordsConfig config;
+  BinaryWordIndex index(config);
+  std::vector<WordHistogram> docs;
+  std::uniform_int_distribution<uint32_t> word(0, 5000);
+  const int n = 20210;
+  for (int i = 0; i < n; ++i) {
+    std::set<uint32_t> words;
+    const bool rare = i == 3 || i == 203 || i == 20203 - 3;  // gaps of 200 and 19,997 for word 60,000
+    if (rare) words.insert(60000);
+    for (int k = 0; k < 20; ++k) words.insert(word(rng));
+    WordHistogram h;
+    for (uint32_t w : words) h.emplace_back(w, static_cast<uint16_t>(w % 7 == 0 ? 2 : w % 11 == 0 ? 300 : 1));
+    index.insert(i, 0, i, h);
+    docs.push_back(h);
+  }
+  EXPECT_EQ(index.postings(), [&] {
+    uint64_t p = 0;
+    for (const WordHistogram& h : docs) p += h.size();
+    return p;
+  }());
+  EXPECT_LT(index.memoryBytes(), index.postings() * 3 + 8'000'000) << "postings are not compact";
+  std::map<uint32_t, int> df;
+  for (const WordHistogram& h : docs)
+    for (const auto& [w, c] : h) ++df[w];
+  for (int probe : {3, 203, 7777, n - 1}) {
+    WordHistogram query = docs[probe];
+    RetrievalQuery q;
+    q.robot_id = 1;
+    q.top_n = 5;
+    const auto hits = index.query(query, q);
+    ASSERT_FALSE(hits.empty());
+    // The reference: the same score for every document, best first.
+    std::vector<std::pair<double, int>> ref;
+    double mass = 0.0;
+    std::map<uint32_t, double> weight;
+    for (const auto& [w, c] : query) {
+      const double idf = std::log((n + 1.0) / (df[w] + 1.0));
+      mass += idf * c;
+      if (df[w] <= config.stop_word_fraction * n) weight[w] = idf;
+    }
+    for (int d = 0; d < n; ++d) {
+      double score = 0.0;
+      for (const auto& [w, c] : docs[d]) {
+        const auto it = weight.find(w);
+        if (it == weight.end()) continue;
+        const auto qc = std::lower_bound(query.begin(), query.end(), std::make_pair(w, uint16_t{0}));
+        score += it->second * std::min(c, qc->second);
+      }
+      if (score > 0.0) ref.emplace_back(score / mass, d);
+    }
+    std::sort(ref.begin(), ref.end(), [](const auto& a, const auto& b) { return a.first > b.first; });
+    EXPECT_EQ(hits[0].keyframe_id, probe);
+    for (size_t i = 0; i < hits.size(); ++i) EXPECT_NEAR(hits[i].score, ref[i].first, 1e-4) << i;
+  }
 }
 
 /// n features with random descriptors at random pixels and depths (0.5-3.5 m) of a 640x480 camera.

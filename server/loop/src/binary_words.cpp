@@ -45,11 +45,48 @@ WordHistogram BinaryWordHasher::histogram(const cv::Mat& descriptors) const {
 BinaryWordIndex::BinaryWordIndex(const BinaryWordsConfig& config)
     : config_(config), postings_(BinaryWordHasher(config).wordCount()) {}
 
+namespace {
+
+void putVarint(uint32_t v, std::vector<uint8_t>* out) {
+  while (v >= 0x80) {
+    out->push_back(static_cast<uint8_t>(v | 0x80));
+    v >>= 7;
+  }
+  out->push_back(static_cast<uint8_t>(v));
+}
+
+/// Reads a varint written by putVarint (the lists are written here only, so they are well formed).
+uint32_t getVarint(const uint8_t*& p) {
+  uint32_t v = 0;
+  for (int shift = 0;; shift += 7) {
+    const uint8_t b = *p++;
+    v |= static_cast<uint32_t>(b & 0x7f) << shift;
+    if (!(b & 0x80)) return v;
+  }
+}
+
+}  // namespace
+
 void BinaryWordIndex::insert(int keyframe_id, int robot_id, int robot_sequence, const WordHistogram& words) {
   const auto doc = static_cast<uint32_t>(docs_.size());
   docs_.push_back({keyframe_id, robot_id, robot_sequence});
-  for (const auto& [word, count] : words)
-    if (word < postings_.size()) postings_[word].push_back({doc, count});
+  for (const auto& [word, count] : words) {
+    if (word >= postings_.size() || count == 0) continue;
+    PostingList& list = postings_[word];
+    const size_t capacity = list.bytes.capacity();
+    // Gaps from the previous document (the first: from 0); < 2^31 while there are fewer documents.
+    const uint32_t gap = list.df == 0 ? doc : doc - list.last_doc;
+    putVarint(gap << 1 | (count > 1 ? 1u : 0u), &list.bytes);
+    if (count > 1) putVarint(count, &list.bytes);
+    list.last_doc = doc;
+    ++list.df;
+    ++postings_count_;
+    list_bytes_ += list.bytes.capacity() - capacity;
+  }
+}
+
+size_t BinaryWordIndex::memoryBytes() const {
+  return postings_.capacity() * sizeof(PostingList) + docs_.capacity() * sizeof(Doc) + list_bytes_;
 }
 
 bool BinaryWordIndex::excluded(const Doc& d, const RetrievalQuery& q) const {
@@ -58,7 +95,7 @@ bool BinaryWordIndex::excluded(const Doc& d, const RetrievalQuery& q) const {
 
 double BinaryWordIndex::idf(uint32_t word, bool* stop) const {
   const double n_docs = static_cast<double>(docs_.size());
-  const double df = word < postings_.size() ? static_cast<double>(postings_[word].size()) : 0.0;
+  const double df = word < postings_.size() ? static_cast<double>(postings_[word].df) : 0.0;
   *stop = df == 0.0 || df > std::max(1.0, config_.stop_word_fraction * n_docs);
   return std::log((n_docs + 1.0) / (df + 1.0));
 }
@@ -72,7 +109,15 @@ std::vector<RetrievalHit> BinaryWordIndex::query(const WordHistogram& words, con
     const double w = idf(word, &stop);
     query_mass += w * count;
     if (stop) continue;
-    for (const Posting& p : postings_[word]) score[p.doc] += static_cast<float>(w * std::min(count, p.count));
+    const PostingList& list = postings_[word];
+    const uint8_t* p = list.bytes.data();
+    uint32_t doc = 0;
+    for (uint32_t i = 0; i < list.df; ++i) {
+      const uint32_t head = getVarint(p);
+      doc += head >> 1;
+      const uint32_t doc_count = (head & 1u) ? getVarint(p) : 1u;
+      score[doc] += static_cast<float>(w * std::min<uint32_t>(count, doc_count));
+    }
   }
   std::vector<RetrievalHit> hits;
   if (query_mass <= 0.0) return hits;

@@ -71,21 +71,30 @@ class BinaryWordIndex {
   std::vector<RetrievalHit> query(const WordHistogram& words, const RetrievalQuery& q) const;
 
   size_t size() const { return docs_.size(); }
+  /// Postings stored (one per word of each inserted histogram), and the heap the index holds (capacities).
+  uint64_t postings() const { return postings_count_; }
+  size_t memoryBytes() const;
 
  private:
   struct Doc {
     int keyframe_id, robot_id, robot_sequence;
   };
-  struct Posting {
-    uint32_t doc;
-    uint16_t count;
+  /// One word's posting list, compressed (issue #15: the index was ~36 KB per keyframe as 8-byte
+  /// postings): documents in insertion order, each as a varint of (gap to the previous document << 1 |
+  /// count > 1), followed by a varint of the count when it is more than 1. Most postings take one byte.
+  struct PostingList {
+    std::vector<uint8_t> bytes;
+    uint32_t last_doc = 0;
+    uint32_t df = 0;  ///< documents listed
   };
   bool excluded(const Doc& d, const RetrievalQuery& q) const;
   /// idf of a word; 0 for stop words (in more than stop_word_fraction of the documents).
   double idf(uint32_t word, bool* stop) const;
   BinaryWordsConfig config_;
-  std::vector<std::vector<Posting>> postings_;  ///< per word id
+  std::vector<PostingList> postings_;  ///< per word id
   std::vector<Doc> docs_;
+  uint64_t postings_count_ = 0;
+  size_t list_bytes_ = 0;  ///< capacity of every list's bytes
 };
 
 }  // namespace rgbdmap

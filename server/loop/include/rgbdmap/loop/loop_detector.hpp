@@ -109,6 +109,9 @@ class LoopDetector {
   bool updatePose(int keyframe_id, int map_id, const SE3& T_map_kf);
 
   size_t size() const { return keyframes_.size(); }
+  /// Heap of the retrieval index (its posting lists), the largest part of the detector that grows with the
+  /// map.
+  size_t retrievalIndexBytes() const { return index_.memoryBytes(); }
   /// A stored keyframe; its `features` are null when a FeatureCache holds them.
   const LoopKeyframe* find(int keyframe_id) const;
   const LoopStats& totals() const { return totals_; }
