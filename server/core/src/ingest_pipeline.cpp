@@ -331,6 +331,7 @@ MapServerStats IngestPipeline::stats() const {
   s.features_resident = fc.resident;
   s.features_loads = fc.loads;
   s.features_load_failures = fc.load_failures;
+  s.retrieval_index_bytes = detector_.retrievalIndexBytes();
   s.robots = registry_.stats();
   for (ServerRobotStats& r : s.robots) {
     const int robot = registry_.index(r.robot_id);

@@ -110,6 +110,8 @@ struct MapServerStats {
   /// Keyframe features (server.features_in_memory): in RAM, read back from the store, reads that failed.
   size_t features_resident = 0;
   uint64_t features_loads = 0, features_load_failures = 0;
+  /// Heap of the loop detector's retrieval index (binary-word posting lists), counted by capacity.
+  size_t retrieval_index_bytes = 0;
   /// Freed heap given back to the kernel (server.memory_trim_period_s): trims, RSS they released in all,
   /// their CPU time.
   uint64_t memory_trims = 0;
