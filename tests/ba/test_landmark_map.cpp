@@ -117,13 +117,53 @@ TEST(LandmarkMap, FusionConflictsAndRemoval) {
   map.addMatches(wrong);
   EXPECT_EQ(map.landmarkOf(0, m01.pairs[0].first), l0);
   EXPECT_DOUBLE_EQ(trackPurity(map, s, 100000), 1.0);
-  // Taking 2-3 back: keyframe 3 leaves the tracks it shared with 2.
+  // Taking 2-3 back, from the matches as the server keeps them (packed): keyframe 3 leaves the tracks it
+  // shared with 2.
   const EdgeMatches m23 = trueMatches(s, 2, 3);
-  EXPECT_GT(map.removeMatches(m23), 0);
+  const int64_t observations = map.stats().observations;
+  EXPECT_GT(map.removeMatches(PackedMatches::pack(m23).unpack()), 0);
+  EXPECT_LT(map.stats().observations, observations);
   for (const auto& [a, b] : m23.pairs) {
     const int64_t la = map.landmarkOf(2, a);
     EXPECT_TRUE(la < 0 || la != map.landmarkOf(3, b));
   }
+}
+
+// Issue #15: matches kept for long take 4 bytes a pair when every index fits 16 bits, and come back as they
+// went in, in order; others are kept as they came.
+TEST(LandmarkMap, PackedMatchesComeBackAsTheyWentIn) {
+  EdgeMatches m{7, 3, {{0, 0}, {65535, 1}, {12, 65535}, {999, 998}}};
+  const PackedMatches p = PackedMatches::pack(m);
+  EXPECT_EQ(p.packed.size(), 4u);
+  EXPECT_TRUE(p.wide.empty());
+  const EdgeMatches back = p.unpack();
+  EXPECT_EQ(back.from, 7);
+  EXPECT_EQ(back.to, 3);
+  EXPECT_EQ(back.pairs, m.pairs);
+  for (const auto& odd : {std::pair<int, int>{65536, 0}, {0, -1}}) {
+    EdgeMatches w = m;
+    w.pairs.push_back(odd);
+    const PackedMatches q = PackedMatches::pack(w);
+    EXPECT_TRUE(q.packed.empty());
+    EXPECT_EQ(q.unpack().pairs, w.pairs);
+  }
+}
+
+// The tracks' memory is reported (issue #15) and keyframe ids beyond 32 bits are refused (observations
+// hold them in 32 bits).
+TEST(LandmarkMap, ReportsItsMemoryAndRefusesKeyframeIdsBeyond32Bits) {
+  const BaScene s = makeBaScene({});
+  LandmarkMap map;
+  ASSERT_TRUE(map.addKeyframe(sceneKeyframe(s, 0, s.T_map_kf[0])));
+  ASSERT_TRUE(map.addKeyframe(sceneKeyframe(s, 1, s.T_map_kf[1])));
+  const int64_t empty = map.stats().memory_bytes;
+  EXPECT_GT(empty, 0);
+  ASSERT_GT(map.addMatches(trueMatches(s, 0, 1)), 0);
+  const LandmarkStats st = map.stats();
+  EXPECT_GE(st.memory_bytes - empty, st.landmarks * 56 + st.observations * 8);
+  LandmarkKeyframe big = sceneKeyframe(s, 2, s.T_map_kf[2]);
+  big.id = int64_t{1} << 32;
+  EXPECT_FALSE(map.addKeyframe(big));
 }
 
 TEST(LandmarkMap, KeyframesOfDifferentMapsShareNoLandmark) {

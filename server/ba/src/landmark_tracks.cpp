@@ -2,6 +2,8 @@
 #include <algorithm>
 #include <climits>
 #include <cmath>
+#include <stdexcept>
+#include <string>
 
 #include "rgbdmap/ba/landmark_map.hpp"
 #include "rgbdmap/vision/guided_matcher.hpp"
@@ -11,9 +13,58 @@ namespace rgbdmap {
 
 LandmarkMap::LandmarkMap(LandmarkMapConfig config) : config_(std::move(config)) {}
 
+PackedMatches PackedMatches::pack(EdgeMatches m) {
+  PackedMatches k;
+  k.from = m.from;
+  k.to = m.to;
+  const bool narrow = std::all_of(m.pairs.begin(), m.pairs.end(), [](const std::pair<int, int>& p) {
+    return p.first >= 0 && p.first <= 0xffff && p.second >= 0 && p.second <= 0xffff;
+  });
+  if (!narrow) {
+    k.wide = std::move(m.pairs);
+    return k;
+  }
+  k.packed.reserve(m.pairs.size());
+  for (const auto& [a, b] : m.pairs)
+    k.packed.push_back(static_cast<uint32_t>(a) << 16 | static_cast<uint32_t>(b));
+  return k;
+}
+
+EdgeMatches PackedMatches::unpack() const {
+  EdgeMatches m;
+  m.from = from;
+  m.to = to;
+  m.pairs = wide;
+  for (uint32_t p : packed) m.pairs.emplace_back(static_cast<int>(p >> 16), static_cast<int>(p & 0xffff));
+  return m;
+}
+
+LandmarkMap::Landmark& LandmarkMap::LandmarkTable::at(int64_t id) {
+  Landmark* l = find(id);
+  if (!l) throw std::out_of_range("landmark " + std::to_string(id));
+  return *l;
+}
+
+void LandmarkMap::LandmarkTable::add(int64_t id, Landmark l) {
+  if (id != static_cast<int64_t>(slots_.size())) throw std::logic_error("landmark ids out of order");
+  slots_.push_back(std::move(l));
+}
+
+void LandmarkMap::LandmarkTable::erase(int64_t id) {
+  Landmark& l = at(id);
+  l.reference = -1;
+  std::vector<Observation>().swap(l.obs);
+}
+
+size_t LandmarkMap::LandmarkTable::memoryBytes(size_t observations) const {
+  return slots_.size() * sizeof(Landmark) + observations * sizeof(Observation);
+}
+
 Status LandmarkMap::addKeyframe(LandmarkKeyframe keyframe) {
   if (keyframes_.count(keyframe.id))
     return Status::failure("duplicate keyframe " + std::to_string(keyframe.id));
+  if (keyframe.id < 0 || keyframe.id > INT32_MAX)  // observations hold keyframe ids in 32 bits
+    return Status::failure("keyframe id " + std::to_string(keyframe.id) + " out of range");
   const FrameFeatures* f = keyframe.features.get();
   if (!f) return Status::failure("keyframe " + std::to_string(keyframe.id) + ": no features");
   const size_t n = f->size();
@@ -26,6 +77,7 @@ Status LandmarkMap::addKeyframe(LandmarkKeyframe keyframe) {
   k.landmark.assign(n, -1);
   k.kf = std::move(keyframe);
   if (cache_ && cache_->contains(k.kf.id)) k.kf.features.reset();  // the cache holds them
+  feature_slots_ += static_cast<int64_t>(n);
   keyframes_.emplace(k.kf.id, std::move(k));
   ++stats_.keyframes;
   return Status::success();
@@ -48,14 +100,15 @@ int64_t LandmarkMap::createLandmark(Keyframe& a, const FrameFeatures& a_f, int f
                                     const FrameFeatures& b_f, int fb) {
   const bool da = a_f.hasDepth(fa), db = b_f.hasDepth(fb);
   if (!da && !db) return -1;
+  if (next_landmark_ >= INT32_MAX) return -1;  // keyframes hold landmark ids in 32 bits
   Landmark l;
   l.reference = da ? a.kf.id : b.kf.id;
   l.p_map = da ? pointOf(a, a_f, fa) : pointOf(b, b_f, fb);
-  l.obs = {{a.kf.id, fa}, {b.kf.id, fb}};
+  l.obs = {{static_cast<int32_t>(a.kf.id), fa}, {static_cast<int32_t>(b.kf.id), fb}};
   const int64_t id = next_landmark_++;
-  a.landmark[fa] = id;
-  b.landmark[fb] = id;
-  landmarks_.emplace(id, std::move(l));
+  a.landmark[fa] = static_cast<int32_t>(id);
+  b.landmark[fb] = static_cast<int32_t>(id);
+  landmarks_.add(id, std::move(l));
   ++stats_.landmarks;
   stats_.observations += 2;
   return id;
@@ -64,8 +117,8 @@ int64_t LandmarkMap::createLandmark(Keyframe& a, const FrameFeatures& a_f, int f
 bool LandmarkMap::attach(int64_t landmark, Keyframe& k, int feature) {
   Landmark& l = landmarks_.at(landmark);
   if (k.landmark[feature] >= 0 || observes(l, k.kf.id)) return false;
-  l.obs.emplace_back(k.kf.id, feature);
-  k.landmark[feature] = landmark;
+  l.obs.emplace_back(static_cast<int32_t>(k.kf.id), feature);
+  k.landmark[feature] = static_cast<int32_t>(landmark);
   ++stats_.observations;
   return true;
 }
@@ -82,11 +135,11 @@ void LandmarkMap::detach(int64_t landmark, int64_t keyframe) {
 }
 
 void LandmarkMap::eraseIfShort(int64_t landmark) {
-  const auto it = landmarks_.find(landmark);
-  if (it == landmarks_.end() || it->second.obs.size() >= 2) return;
-  for (const auto& [kf, feature] : it->second.obs) keyframes_.at(kf).landmark[feature] = -1;
-  stats_.observations -= static_cast<int64_t>(it->second.obs.size());
-  landmarks_.erase(it);
+  const Landmark* l = landmarks_.find(landmark);
+  if (!l || l->obs.size() >= 2) return;
+  for (const auto& [kf, feature] : l->obs) keyframes_.at(kf).landmark[feature] = -1;
+  stats_.observations -= static_cast<int64_t>(l->obs.size());
+  landmarks_.erase(landmark);
   --stats_.landmarks;
   ++stats_.landmarks_culled;
 }
@@ -102,7 +155,7 @@ bool LandmarkMap::fuse(int64_t into, int64_t from) {
   Landmark& gone = landmarks_.at(from);
   for (const auto& o : gone.obs) {
     keep.obs.push_back(o);
-    keyframes_.at(o.first).landmark[o.second] = into;
+    keyframes_.at(o.first).landmark[o.second] = static_cast<int32_t>(into);
   }
   landmarks_.erase(from);
   --stats_.landmarks;
@@ -198,9 +251,9 @@ int LandmarkMap::extendByProjection(int64_t id, const std::vector<int64_t>& seed
   std::vector<int> nearby;
   int added = 0;
   for (int64_t l_id : candidates) {
-    const auto lit = landmarks_.find(l_id);
-    if (lit == landmarks_.end() || observes(lit->second, id)) continue;
-    const Landmark& l = lit->second;
+    const Landmark* lit = landmarks_.find(l_id);
+    if (!lit || observes(*lit, id)) continue;
+    const Landmark& l = *lit;
     const Vec3 p = T_kf_map * l.p_map;
     if (p.z() <= 0.05) continue;
     const double u = cam.fx * p.x() / p.z() + cam.cx, v = cam.fy * p.y() / p.z() + cam.cy;

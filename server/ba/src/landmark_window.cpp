@@ -29,11 +29,10 @@ namespace {
 /// The observations of a landmark a window takes: those by its keyframes, at most `max_track` of them
 /// (0: all) spread evenly over the observers in keyframe order, always with keyframe `keep`'s (when it
 /// observes the landmark: the keyframe the landmark was selected for).
-template <typename InWindow>
-std::vector<std::pair<int64_t, int>> observationsTaken(const std::vector<std::pair<int64_t, int>>& obs,
-                                                       int max_track, const InWindow& in_window,
-                                                       int64_t keep) {
-  std::vector<std::pair<int64_t, int>> in;
+template <typename Observation, typename InWindow>
+std::vector<Observation> observationsTaken(const std::vector<Observation>& obs, int max_track,
+                                           const InWindow& in_window, int64_t keep) {
+  std::vector<Observation> in;
   for (const auto& o : obs)
     if (in_window(o.first)) in.push_back(o);
   if (max_track <= 0 || in.size() <= static_cast<size_t>(max_track)) return in;
@@ -49,7 +48,7 @@ std::vector<std::pair<int64_t, int>> observationsTaken(const std::vector<std::pa
       if ((p > k ? p - k : k - p) < (*nearest > k ? *nearest - k : k - *nearest)) nearest = &p;
     *nearest = k;  // the picks stay distinct: k lies between its neighbours' picks
   }
-  std::vector<std::pair<int64_t, int>> out;
+  std::vector<Observation> out;
   for (size_t p : picks) out.push_back(in[p]);
   return out;
 }
@@ -366,7 +365,13 @@ BundleResult LandmarkMap::globalAdjust(int map_id, int64_t anchor, const std::at
                        config_.global_rolling_shutter, cancel, check);
 }
 
-LandmarkStats LandmarkMap::stats() const { return stats_; }
+LandmarkStats LandmarkMap::stats() const {
+  LandmarkStats s = stats_;
+  s.memory_bytes = static_cast<int64_t>(landmarks_.memoryBytes(static_cast<size_t>(stats_.observations)) +
+                                        keyframes_.size() * sizeof(Keyframe)) +
+                   feature_slots_ * static_cast<int64_t>(sizeof(int32_t));
+  return s;
+}
 
 int64_t LandmarkMap::landmarkOf(int64_t keyframe, int feature) const {
   const auto it = keyframes_.find(keyframe);
@@ -376,14 +381,15 @@ int64_t LandmarkMap::landmarkOf(int64_t keyframe, int feature) const {
 }
 
 std::vector<std::pair<int64_t, int>> LandmarkMap::observationsOf(int64_t landmark) const {
-  const auto it = landmarks_.find(landmark);
-  return it == landmarks_.end() ? std::vector<std::pair<int64_t, int>>{} : it->second.obs;
+  const Landmark* l = landmarks_.find(landmark);
+  if (!l) return {};
+  return {l->obs.begin(), l->obs.end()};
 }
 
 std::optional<Vec3> LandmarkMap::positionOf(int64_t landmark) const {
-  const auto it = landmarks_.find(landmark);
-  if (it == landmarks_.end()) return std::nullopt;
-  return it->second.p_map;
+  const Landmark* l = landmarks_.find(landmark);
+  if (!l) return std::nullopt;
+  return l->p_map;
 }
 
 }  // namespace rgbdmap

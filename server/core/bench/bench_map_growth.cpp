@@ -362,6 +362,15 @@ int main(int argc, char** argv) {
         "reads failed, %d loop candidates skipped for them\n",
         l.features_resident, static_cast<unsigned long long>(l.features_loads),
         static_cast<unsigned long long>(l.features_load_failures), l.loop_features_unavailable);
+    const LandmarkStats& lm = l.ba.landmarks;
+    std::printf(
+        "landmark tracks: %lld keyframes, %lld landmarks, %lld observations (%.1f per landmark); retrieval "
+        "index %.0f MB (%.1f KB per keyframe)\n",
+        static_cast<long long>(lm.keyframes), static_cast<long long>(lm.landmarks),
+        static_cast<long long>(lm.observations),
+        lm.landmarks > 0 ? static_cast<double>(lm.observations) / static_cast<double>(lm.landmarks) : 0.0,
+        static_cast<double>(l.retrieval_index_bytes) / 1e6,
+        l.keyframes > 0 ? static_cast<double>(l.retrieval_index_bytes) / 1e3 / l.keyframes : 0.0);
     std::printf(
         "freed heap given back (server.memory_trim_period_s): %llu trims, %.0f MB released, %.0f ms CPU\n",
         static_cast<unsigned long long>(l.memory_trims),

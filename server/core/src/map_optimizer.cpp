@@ -268,8 +268,9 @@ bool MapOptimizer::updateTracks(bool* chains_joined) {
   for (int64_t id : disabled) {
     const auto it = in_tracks_.find(id);
     if (it == in_tracks_.end()) continue;
-    landmarks_.removeMatches(it->second);
-    waiting_[id] = {std::move(it->second), true};
+    EdgeMatches matches = it->second.unpack();
+    landmarks_.removeMatches(matches);
+    waiting_[id] = {std::move(matches), true};
     in_tracks_.erase(it);
     ++counters_.edges_taken_back;
   }
@@ -286,7 +287,7 @@ bool MapOptimizer::updateTracks(bool* chains_joined) {
     changed_maps_.insert(map_of_[e->from]);
     large = large || isLargeCycle(*e);
     *chains_joined = *chains_joined || chain_of_.at(e->from) != chain_of_.at(e->to);
-    in_tracks_[it->first] = std::move(it->second.matches);
+    in_tracks_[it->first] = PackedMatches::pack(std::move(it->second.matches));
     it = waiting_.erase(it);
     ++counters_.edges_in_tracks;
   }

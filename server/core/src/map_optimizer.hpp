@@ -158,10 +158,11 @@ class MapOptimizer {
     EdgeMatches matches;
     bool checked = false;  ///< a pose-graph solve has judged the edge since it came
   };
-  std::map<int64_t, Waiting> waiting_;        ///< matches of edges not in the tracks (yet)
-  std::map<int64_t, EdgeMatches> in_tracks_;  ///< matches of edges in the tracks
-  std::map<int, int> added_since_global_;     ///< map id -> keyframes added since its last global BA
-  std::set<int> changed_maps_;                ///< maps changed since their last global BA
+  std::map<int64_t, Waiting> waiting_;  ///< matches of edges not in the tracks (yet)
+  /// Matches of edges in the tracks, kept only to take them out again if the graph disables the edge.
+  std::map<int64_t, PackedMatches> in_tracks_;
+  std::map<int, int> added_since_global_;  ///< map id -> keyframes added since its last global BA
+  std::set<int> changed_maps_;             ///< maps changed since their last global BA
   struct {
     std::vector<int64_t> moved;        ///< the keyframes of the outcome checkBundle saw last
     std::vector<CovisibleEdge> edges;  ///< its covisible edges, for applyBundle

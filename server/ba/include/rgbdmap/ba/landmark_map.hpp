@@ -19,6 +19,7 @@
 // outlier observations leave the tracks. Plain structs in and out; not thread-safe (one owner thread).
 #include <atomic>
 #include <cstdint>
+#include <deque>
 #include <functional>
 #include <memory>
 #include <string>
@@ -83,6 +84,17 @@ struct EdgeMatches {
   std::vector<std::pair<int, int>> pairs;
 };
 
+/// EdgeMatches as kept for long (e.g. while an edge's matches are in the tracks, to take them out again):
+/// two 16-bit feature indices per pair when every index fits (keyframes have ~1,000 features), else the
+/// pairs as they came. Issue #15: ~13 KB per keyframe of the server's heap as pairs of ints.
+struct PackedMatches {
+  int64_t from = 0, to = 0;
+  std::vector<uint32_t> packed;
+  std::vector<std::pair<int, int>> wide;  ///< used instead when an index is negative or above 65,535
+  static PackedMatches pack(EdgeMatches m);
+  EdgeMatches unpack() const;  ///< the pairs in their original order
+};
+
 struct BundleResult {
   bool ok = false;
   std::string error;
@@ -118,6 +130,9 @@ struct LandmarkStats {
   int64_t links_from_matches = 0, links_from_projection = 0, fusions = 0;
   int64_t observations_rejected = 0;  ///< by bundle adjustments (outliers) and removed edges
   int64_t landmarks_culled = 0;
+  /// Heap of the tracks: landmark slots (erased ones too), observations and every keyframe's per-feature
+  /// landmark ids, by element size (allocator headers and vector slack not included).
+  int64_t memory_bytes = 0;
 };
 
 class LandmarkMap {
@@ -174,13 +189,33 @@ class LandmarkMap {
  private:
   struct Keyframe {
     LandmarkKeyframe kf;
-    std::vector<int64_t> landmark;  ///< per feature, -1 when none
+    std::vector<int32_t> landmark;  ///< per feature, -1 when none (landmark ids are held to int32)
     Vec3 w = Vec3::Zero();          ///< rolling-shutter rotation over the readout, estimated by BA (rad)
   };
+  /// (keyframe, feature): 8 bytes, keyframe ids are held to int32 (addKeyframe).
+  using Observation = std::pair<int32_t, int32_t>;
   struct Landmark {
     Vec3 p_map = Vec3::Zero();
-    std::vector<std::pair<int64_t, int>> obs;  ///< (keyframe, feature), at most one per keyframe
-    int64_t reference = 0;                     ///< first observer: the landmark moves with it
+    std::vector<Observation> obs;  ///< at most one per keyframe
+    int64_t reference = -1;        ///< first observer: the landmark moves with it; -1: erased
+  };
+  /// Landmarks by id (ids are dense: next_landmark_ counts them): a deque of slots, an erased one keeps
+  /// only its 56 bytes (issue #15: as an unordered_map each landmark cost a node and a bucket besides).
+  class LandmarkTable {
+   public:
+    Landmark* find(int64_t id) {
+      return id >= 0 && static_cast<size_t>(id) < slots_.size() && slots_[id].reference >= 0 ? &slots_[id]
+                                                                                             : nullptr;
+    }
+    const Landmark* find(int64_t id) const { return const_cast<LandmarkTable*>(this)->find(id); }
+    Landmark& at(int64_t id);  ///< throws std::out_of_range for an unknown or erased id
+    const Landmark& at(int64_t id) const { return const_cast<LandmarkTable*>(this)->at(id); }
+    void add(int64_t id, Landmark l);  ///< id == the number of slots so far
+    void erase(int64_t id);
+    size_t memoryBytes(size_t observations) const;
+
+   private:
+    std::deque<Landmark> slots_;
   };
   struct Window;  // landmark_window.cpp
 
@@ -209,8 +244,9 @@ class LandmarkMap {
 
   LandmarkMapConfig config_;
   std::unordered_map<int64_t, Keyframe> keyframes_;
-  std::unordered_map<int64_t, Landmark> landmarks_;
+  LandmarkTable landmarks_;
   int64_t next_landmark_ = 0;
+  int64_t feature_slots_ = 0;  ///< features of every keyframe (their landmark ids)
   LandmarkStats stats_;
   std::shared_ptr<FeatureCache> cache_;
 };
