@@ -135,10 +135,9 @@ void OccupancyMap::integrateInserted(int64_t keyframe_id, const std::shared_ptr<
   }
   {
     std::unique_lock<std::shared_mutex> tree_lock(slot->tree_mutex);
-    detail::applyScanUpdate(slot->tree.get(), update);
-    for (auto it = slot->tree->changedKeysBegin(); it != slot->tree->changedKeysEnd(); ++it)
-      slot->journal.record(it->first, revision);
-    slot->tree->resetChangeDetection();
+    std::vector<octomap::OcTreeKey> changed;
+    detail::applyScanUpdate(slot->tree.get(), update, &changed);
+    for (const octomap::OcTreeKey& key : changed) slot->journal.record(key, revision);
     if (slot->journal.size() > config_.stream_journal_max_keys ||
         slot->journal.entries > 2 * config_.stream_journal_max_keys) {
       slot->journal.clear();

@@ -227,7 +227,6 @@ bool OccupancyMap::rebuildPartly(int map_id) {
     if (k.is_in && (k.moved || mayTouch(geometry, k.box_cam, k.T_new, cells, lo, hi))) order.push_back(&k);
   std::sort(order.begin(), order.end(), [](const Kf* a, const Kf* b) { return a->order < b->order; });
   auto scratch = detail::makeTree(config_);
-  scratch->enableChangeDetection(false);
   for (const Kf* k : order) {
     if (stop_) return true;
     const auto it = at_new.find(k->id);
@@ -275,7 +274,6 @@ bool OccupancyMap::rebuildPartly(int map_id) {
     // The cells are replaced whole: readers see the tree before or after, never between.
     std::unique_lock<std::shared_mutex> tree_lock(slot->tree_mutex);
     octomap::OcTree* tree = slot->tree.get();
-    tree->enableChangeDetection(false);
     for (uint64_t c : cells) clearCell(tree, c);
     for (auto it = scratch->begin_leafs(), end = scratch->end_leafs(); it != end; ++it) {
       const float value = it->getLogOdds();
@@ -289,8 +287,6 @@ bool OccupancyMap::rebuildPartly(int map_id) {
                                                   static_cast<octomap::key_type>(base[2] + z)),
                                value, false);
     }
-    tree->enableChangeDetection(true);
-    tree->resetChangeDetection();
     slot->revision = revision;
     slot->journal.clear();  // deleted leaves are no change the journal could carry: consumers get it whole
     slot->journal_base = revision;
@@ -375,7 +371,6 @@ void OccupancyMap::rebuild(int map_id) {
   std::set<int64_t> done;
   for (const auto& [id, T] : integrated) done.insert(id);
   if (!integrate(collect(done))) return;  // keyframes inserted during the build
-  tree->resetChangeDetection();
   uint64_t revision = 0;
   {
     std::lock_guard<std::mutex> lock(mutex_);

@@ -98,10 +98,28 @@ ScanUpdate computeScanUpdate(const octomap::OcTree& geometry, const KeyframeClou
   return out;
 }
 
-void applyScanUpdate(octomap::OcTree* tree, const ScanUpdate& update) {
+void applyScanUpdate(octomap::OcTree* tree, const ScanUpdate& update,
+                     std::vector<octomap::OcTreeKey>* changed) {
   const float miss = tree->getProbMissLog(), hit = tree->getProbHitLog();
-  for (const octomap::OcTreeKey& k : update.free) tree->updateNode(k, miss, false);
-  for (const octomap::OcTreeKey& k : update.occupied) tree->updateNode(k, hit, false);
+  if (!changed) {
+    for (const octomap::OcTreeKey& k : update.free) tree->updateNode(k, miss, false);
+    for (const octomap::OcTreeKey& k : update.occupied) tree->updateNode(k, hit, false);
+    return;
+  }
+  const float clamp_min = tree->getClampingThresMinLog(), clamp_max = tree->getClampingThresMaxLog();
+  const auto apply = [&](const octomap::OcTreeKey& k, float delta) {
+    // As OctoMap's change detection: a leaf is changed when it is new or its occupancy flips. A leaf (or
+    // the pruned node holding it) already clamped in the update's direction does not change: updateNode
+    // would abort early too.
+    const octomap::OcTreeNode* before = tree->search(k);
+    if (before && (delta >= 0.0f ? before->getLogOdds() >= clamp_max : before->getLogOdds() <= clamp_min))
+      return;
+    const bool was_occupied = before && tree->isNodeOccupied(before);
+    const octomap::OcTreeNode* after = tree->updateNode(k, delta, false);
+    if (!before || (after && tree->isNodeOccupied(after) != was_occupied)) changed->push_back(k);
+  };
+  for (const octomap::OcTreeKey& k : update.free) apply(k, miss);
+  for (const octomap::OcTreeKey& k : update.occupied) apply(k, hit);
 }
 
 std::unique_ptr<octomap::OcTree> makeTree(const OccupancyMapConfig& config) {
@@ -110,7 +128,7 @@ std::unique_ptr<octomap::OcTree> makeTree(const OccupancyMapConfig& config) {
   tree->setProbMiss(config.prob_miss);
   tree->setClampingThresMin(config.clamp_min);
   tree->setClampingThresMax(config.clamp_max);
-  tree->enableChangeDetection(true);
+  tree->enableChangeDetection(false);
   return tree;
 }
 

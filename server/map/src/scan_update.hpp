@@ -21,10 +21,13 @@ struct ScanUpdate {
 /// max_range_m and no cell becomes occupied. Points outside the tree's key range are skipped.
 ScanUpdate computeScanUpdate(const octomap::OcTree& geometry, const KeyframeCloud& cloud,
                              const SE3& T_map_cam, double max_range_m);
-/// Applies the update (occupied after free); with change detection on, the tree records changed leaves.
-void applyScanUpdate(octomap::OcTree* tree, const ScanUpdate& update);
+/// Applies the update (occupied after free). `changed` (optional) receives the leaves it created or whose
+/// occupancy it flipped (OctoMap's change detection, without its hash set: issue #15 measured a fifth of the
+/// map thread in filling and clearing that set). The tree's own change detection stays off.
+void applyScanUpdate(octomap::OcTree* tree, const ScanUpdate& update,
+                     std::vector<octomap::OcTreeKey>* changed = nullptr);
 
-/// An empty tree with the config's resolution, sensor model and change detection on.
+/// An empty tree with the config's resolution and sensor model (OctoMap's change detection off).
 std::unique_ptr<octomap::OcTree> makeTree(const OccupancyMapConfig& config);
 
 }  // namespace rgbdmap::detail
