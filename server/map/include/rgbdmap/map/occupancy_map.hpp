@@ -68,7 +68,7 @@ struct OccupancyMapConfig {
   /// The newest this many kept clouds stay in RAM; older ones are moved to an anonymous file in spill_dir
   /// and read back when a rebuild or an export needs them (0: every cloud stays in RAM). Without a
   /// spill_dir every cloud stays in RAM.
-  size_t clouds_in_memory = 2000;
+  size_t clouds_in_memory = 1000;
   /// Directory of the spill file (set by the server to its map directory; not a map: key). Empty: no spill.
   std::string spill_dir;
   /// Changed leaves remembered for partial map streams (MapStream); older consumers get a full tree.
