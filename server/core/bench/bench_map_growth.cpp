@@ -364,12 +364,12 @@ int main(int argc, char** argv) {
         static_cast<unsigned long long>(l.features_load_failures), l.loop_features_unavailable);
     const LandmarkStats& lm = l.ba.landmarks;
     std::printf(
-        "landmark tracks: %lld keyframes, %lld landmarks, %lld observations (%.1f per landmark); retrieval "
-        "index %.0f MB (%.1f KB per keyframe)\n",
+        "landmark tracks: %lld keyframes, %lld landmarks, %lld observations (%.1f per landmark), %.0f MB; "
+        "retrieval index %.0f MB (%.1f KB per keyframe)\n",
         static_cast<long long>(lm.keyframes), static_cast<long long>(lm.landmarks),
         static_cast<long long>(lm.observations),
         lm.landmarks > 0 ? static_cast<double>(lm.observations) / static_cast<double>(lm.landmarks) : 0.0,
-        static_cast<double>(l.retrieval_index_bytes) / 1e6,
+        static_cast<double>(lm.memory_bytes) / 1e6, static_cast<double>(l.retrieval_index_bytes) / 1e6,
         l.keyframes > 0 ? static_cast<double>(l.retrieval_index_bytes) / 1e3 / l.keyframes : 0.0);
     std::printf(
         "freed heap given back (server.memory_trim_period_s): %llu trims, %.0f MB released, %.0f ms CPU\n",
@@ -385,7 +385,7 @@ int main(int argc, char** argv) {
         "%llu keyframes queued without their images (read back from the store: the worker was behind), %llu "
         "pose updates replaced by a newer one before they were applied, %llu "
         "map updates (%.1f MB); kept clouds %.0f MB in RAM, %zu spilled (file %.0f MB, %llu failures), "
-        "octrees %.0f MB\n",
+        "octrees %.0f MB, stream journals %.0f MB\n",
         m.map_insert_ms_median, m.slice_ms_median, static_cast<unsigned long long>(m.slices_sent),
         static_cast<unsigned long long>(m.map_images_deferred),
         static_cast<unsigned long long>(m.map_pose_updates_coalesced),
@@ -393,7 +393,7 @@ int main(int argc, char** argv) {
         static_cast<double>(m.map_clouds_memory_bytes) / 1e6, m.map_clouds_spilled,
         static_cast<double>(m.map_spill_file_bytes) / 1e6,
         static_cast<unsigned long long>(m.map_spill_failures),
-        static_cast<double>(m.map_tree_memory_bytes) / 1e6);
+        static_cast<double>(m.map_tree_memory_bytes) / 1e6, static_cast<double>(m.map_journal_bytes) / 1e6);
   }
   Trajectory estimate;
   for (const ServerKeyframe& k : server.keyframes()) estimate.push_back({k.timestamp, k.T_map_kf});

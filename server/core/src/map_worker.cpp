@@ -273,6 +273,7 @@ void MapWorker::publishStreams() {
 void MapWorker::fillStats(MapServerStats* s) const {
   const OccupancyMapStats o = occupancy_.stats();
   s->map_tree_memory_bytes = o.tree_memory_bytes;
+  s->map_journal_bytes = o.journal_bytes;
   s->map_clouds_memory_bytes = o.clouds_memory_bytes;
   s->map_clouds_spilled = o.clouds_spilled;
   s->map_spill_file_bytes = o.spill_file_bytes;

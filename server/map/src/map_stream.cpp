@@ -1,7 +1,9 @@
 // Map stream bytes: a full tree, or only the leaves changed since the consumer's revision; and the
 // receiver's side (applying either to its copy), plus the summary `rgbdmap view-map` prints.
+#include <algorithm>
 #include <optional>
 #include <shared_mutex>
+#include <tuple>
 
 #include "occupancy_map_slot.hpp"
 #include "rgbdmap/map/map_io.hpp"
@@ -32,13 +34,18 @@ Result<MapStreamChunk> OccupancyMap::streamSince(int map_id, uint64_t since) con
   if (since != 0 && since >= slot->journal_base && since <= slot->revision) {
     octomap::OcTree partial(slot->tree->getResolution());
     const auto& journal = slot->journal;
+    std::vector<octomap::OcTreeKey> keys;
     for (auto it = journal.by_revision.upper_bound(since); it != journal.by_revision.end(); ++it)
-      for (const octomap::OcTreeKey& key : it->second) {
-        if (journal.latest.at(key) != it->first) continue;  // listed again under a later revision
-        if (const octomap::OcTreeNode* node = slot->tree->search(key)) {
-          partial.setNodeValue(key, node->getLogOdds(), true);
-          ++changed;
-        }
+      keys.insert(keys.end(), it->second.begin(), it->second.end());
+    const auto less = [](const octomap::OcTreeKey& a, const octomap::OcTreeKey& b) {
+      return std::tie(a[0], a[1], a[2]) < std::tie(b[0], b[1], b[2]);
+    };
+    std::sort(keys.begin(), keys.end(), less);  // a leaf changed more than once since: taken once
+    keys.erase(std::unique(keys.begin(), keys.end()), keys.end());
+    for (const octomap::OcTreeKey& key : keys)
+      if (const octomap::OcTreeNode* node = slot->tree->search(key)) {
+        partial.setNodeValue(key, node->getLogOdds(), true);
+        ++changed;
       }
     if (Result<std::vector<uint8_t>> bytes = serializeTree(partial)) partial_bytes = std::move(*bytes);
     const size_t nodes = slot->tree->size();

@@ -137,9 +137,8 @@ void OccupancyMap::integrateInserted(int64_t keyframe_id, const std::shared_ptr<
     std::unique_lock<std::shared_mutex> tree_lock(slot->tree_mutex);
     std::vector<octomap::OcTreeKey> changed;
     detail::applyScanUpdate(slot->tree.get(), update, &changed);
-    for (const octomap::OcTreeKey& key : changed) slot->journal.record(key, revision);
-    if (slot->journal.size() > config_.stream_journal_max_keys ||
-        slot->journal.entries > 2 * config_.stream_journal_max_keys) {
+    slot->journal.record(changed, revision);
+    if (slot->journal.entries > 2 * config_.stream_journal_max_keys) {
       slot->journal.clear();
       slot->journal_base = revision;
     }
@@ -289,6 +288,7 @@ OccupancyMapStats OccupancyMap::stats() const {
     if (!slot->tree) continue;
     ++s.maps;
     s.tree_memory_bytes += slot->tree->memoryUsage();
+    s.journal_bytes += slot->journal.memoryBytes();
     for (auto it = slot->tree->begin_leafs(), end = slot->tree->end_leafs(); it != end; ++it) {
       ++s.leaf_nodes;
       if (slot->tree->isNodeOccupied(*it))

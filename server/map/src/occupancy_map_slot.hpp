@@ -4,7 +4,6 @@
 #include <memory>
 #include <mutex>
 #include <shared_mutex>
-#include <unordered_map>
 #include <vector>
 
 #include <octomap/OcTree.h>
@@ -23,25 +22,24 @@ struct OccupancyMap::Slot {
   mutable std::shared_mutex tree_mutex;   ///< readers shared; applying an update or a swap exclusive
   std::unique_ptr<octomap::OcTree> tree;  ///< nullptr until the first rebuild of a map created by a merge
   uint64_t revision = 0;
-  /// Changed leaves (new, or occupied <-> free) since journal_base with the revision that changed them,
-  /// also listed by revision so a stream reads only what changed after its consumer's revision (not the
-  /// whole journal); cleared on a swap or when it outgrows the config's cap.
+  /// Changed leaves (new, or occupied <-> free) since journal_base, listed under the revision that changed
+  /// them, so a stream reads only what changed after its consumer's revision (not the whole journal). A
+  /// leaf changed again is listed again (6 bytes an entry: issue #15 measured ~55 bytes an entry with a
+  /// hash map of each leaf's latest revision); a stream takes each leaf once. Cleared on a swap or when
+  /// its entries outgrow twice the config's cap.
   struct Journal {
-    std::unordered_map<octomap::OcTreeKey, uint64_t, octomap::OcTreeKey::KeyHash> latest;
-    std::map<uint64_t, std::vector<octomap::OcTreeKey>>
-        by_revision;     ///< a key under each revision that changed it
+    std::map<uint64_t, std::vector<octomap::OcTreeKey>> by_revision;
     size_t entries = 0;  ///< keys listed in by_revision
-    void record(const octomap::OcTreeKey& key, uint64_t revision) {
-      latest[key] = revision;
-      by_revision[revision].push_back(key);
-      ++entries;
+    void record(const std::vector<octomap::OcTreeKey>& keys, uint64_t revision) {
+      if (keys.empty()) return;
+      by_revision[revision] = keys;
+      entries += keys.size();
     }
     void clear() {
-      latest.clear();
       by_revision.clear();
       entries = 0;
     }
-    size_t size() const { return latest.size(); }
+    size_t memoryBytes() const { return entries * sizeof(octomap::OcTreeKey) + by_revision.size() * 72; }
   };
   Journal journal;
   uint64_t journal_base = 0;

@@ -166,6 +166,7 @@ struct MapServerStats {
   uint64_t map_images_deferred = 0;  ///< queued for the octree without images (read back: memory bound)
   uint64_t map_pose_updates_coalesced = 0;  ///< pose updates replaced by a newer one before they were applied
   size_t map_tree_memory_bytes = 0;         ///< OcTree::memoryUsage() over all maps
+  size_t map_journal_bytes = 0;             ///< the map streams' journals of changed leaves
   size_t map_clouds_memory_bytes = 0;       ///< kept keyframe clouds in RAM (for rebuilds and map.ply)
   size_t map_clouds_spilled = 0;            ///< kept clouds in the spill file (map.clouds_in_memory)
   uint64_t map_spill_file_bytes = 0;        ///< its size

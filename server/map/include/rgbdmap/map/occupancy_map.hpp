@@ -114,6 +114,7 @@ struct OccupancyMapStats {
   size_t keyframes = 0;
   size_t leaf_nodes = 0, occupied_leaves = 0, free_leaves = 0;
   size_t tree_memory_bytes = 0;       ///< octomap::OcTree::memoryUsage() summed over the trees
+  size_t journal_bytes = 0;           ///< the stream journals' keys (map streams' changed leaves)
   size_t clouds_memory_bytes = 0;     ///< kept keyframe clouds in RAM
   size_t clouds_spilled = 0;          ///< kept clouds moved to the spill file (clouds_in_memory)
   uint64_t spill_file_bytes = 0;      ///< the spill file's size
