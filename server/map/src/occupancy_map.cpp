@@ -137,7 +137,7 @@ void OccupancyMap::integrateInserted(int64_t keyframe_id, const std::shared_ptr<
     std::unique_lock<std::shared_mutex> tree_lock(slot->tree_mutex);
     std::vector<octomap::OcTreeKey> changed;
     detail::applyScanUpdate(slot->tree.get(), update, &changed);
-    slot->journal.record(changed, revision);
+    slot->journal.record(std::move(changed), revision);
     if (slot->journal.entries > 2 * config_.stream_journal_max_keys) {
       slot->journal.clear();
       slot->journal_base = revision;

@@ -4,6 +4,7 @@
 #include <memory>
 #include <mutex>
 #include <shared_mutex>
+#include <utility>
 #include <vector>
 
 #include <octomap/OcTree.h>
@@ -30,10 +31,10 @@ struct OccupancyMap::Slot {
   struct Journal {
     std::map<uint64_t, std::vector<octomap::OcTreeKey>> by_revision;
     size_t entries = 0;  ///< keys listed in by_revision
-    void record(const std::vector<octomap::OcTreeKey>& keys, uint64_t revision) {
+    void record(std::vector<octomap::OcTreeKey> keys, uint64_t revision) {
       if (keys.empty()) return;
-      by_revision[revision] = keys;
       entries += keys.size();
+      by_revision[revision] = std::move(keys);
     }
     void clear() {
       by_revision.clear();
