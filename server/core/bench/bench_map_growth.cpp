@@ -32,6 +32,7 @@
 #include <cmath>
 #include <condition_variable>
 #include <cstdio>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <map>
@@ -186,13 +187,17 @@ std::map<std::string, double> threadCpuByName() {
   return cpu;
 }
 
-double rssMb() {
+/// A field of /proc/self/status in MB ("VmRSS:" now, "VmHWM:" the peak so far).
+double statusMb(const char* field) {
   std::ifstream status("/proc/self/status");
   std::string line;
+  const size_t n = std::strlen(field);
   while (std::getline(status, line))
-    if (line.rfind("VmRSS:", 0) == 0) return std::atof(line.c_str() + 6) / 1024.0;
+    if (line.compare(0, n, field) == 0) return std::atof(line.c_str() + n) / 1024.0;
   return 0.0;
 }
+
+double rssMb() { return statusMb("VmRSS:"); }
 
 /// Bytes the process's heap has handed out and not freed (every malloc arena and mmapped chunks): RSS
 /// minus this is freed memory the allocator keeps, code, stacks and the rendering's textures.
@@ -349,14 +354,16 @@ int main(int argc, char** argv) {
   // What the map has left once the robot stops: the background work still queued, then the global
   // refinement of a quiet map (whole-graph solve, global BA) and the rebuilds it causes. In ms, not per
   // keyframe (a cost paid once per quiet period, not per keyframe).
+  const double peak_streaming_mb = statusMb("VmHWM:");  // the peak RSS while the keyframes came
   const bool idle = server.waitIdle(1800.0);
   if (!idle) std::fprintf(stderr, "bench_map_growth: the server did not become idle within 30 min\n");
   {
     const MapServerStats l = server.stats();
     std::printf(
         "loop candidates verified: %d, matched all against all: %d without a prior pose, %d after too few "
-        "matches by projection\n",
-        l.loop_candidates, l.loop_brute_force_no_prior, l.loop_brute_force_fallback);
+        "matches by projection (%d of those verified)\n",
+        l.loop_candidates, l.loop_brute_force_no_prior, l.loop_brute_force_fallback,
+        l.loop_brute_force_fallback_verified);
     std::printf(
         "keyframe features: %zu in RAM (server.features_in_memory), %llu read back from the store, %llu "
         "reads failed, %d loop candidates skipped for them\n",
@@ -434,6 +441,8 @@ int main(int argc, char** argv) {
   for (size_t k = 0; k < std::min<size_t>(8, worst.size()); ++k)
     std::printf(" %zu:%d %.3f m", worst[k], plan[worst[k]], lap_ate[worst[k]]);
   std::printf("\n");
+  std::printf("peak RSS (VmHWM): %.0f MB while the keyframes came, %.0f MB over the whole run\n",
+              peak_streaming_mb, statusMb("VmHWM:"));
   const MapServerStats s = server.stats();
   std::printf(
       "end: %d keyframes sent, %d stored, %d not acknowledged; loops %d (disabled %d), solves %d (%d kept "

@@ -259,6 +259,7 @@ void IngestPipeline::addLiveLocked(const StoredKeyframe& stored, const FrameFeat
   counters_.loop_candidates += loop_stats.candidates;
   counters_.loop_brute_force_no_prior += loop_stats.brute_force_no_prior;
   counters_.loop_brute_force_fallback += loop_stats.brute_force_fallback;
+  counters_.loop_brute_force_fallback_verified += loop_stats.brute_force_fallback_verified;
   counters_.loop_features_unavailable += loop_stats.features_unavailable;
   timings_.addVerify(loop_stats.verify_ms);
   for (int r = 0; r < kLoopRejectionCount; ++r)

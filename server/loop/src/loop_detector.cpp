@@ -106,6 +106,7 @@ void LoopDetector::verifyCandidates(const LoopKeyframe& kf, const MeasuredPoses*
                                           config_.verify, thresholdsFor(kf, c, other, measured), &grid);
     ++out->stats.rejected_by_reason[static_cast<int>(v.rejection)];
     if (v.brute_force) ++(v.had_prior ? out->stats.brute_force_fallback : out->stats.brute_force_no_prior);
+    if (v.brute_force && v.had_prior && v.edge) ++out->stats.brute_force_fallback_verified;
     if (v.edge) out->edges.push_back(*v.edge);
   }
   dropInconsistent(out);
@@ -180,6 +181,7 @@ void LoopDetector::accumulate(const LoopStats& s) {
   totals_.verified += s.verified;
   totals_.brute_force_no_prior += s.brute_force_no_prior;
   totals_.brute_force_fallback += s.brute_force_fallback;
+  totals_.brute_force_fallback_verified += s.brute_force_fallback_verified;
   totals_.features_unavailable += s.features_unavailable;
   totals_.retrieval_ms += s.retrieval_ms;
   totals_.verify_ms += s.verify_ms;

@@ -68,6 +68,8 @@ struct LoopStats {
   /// Candidates matched all against all (the costly path, issue #15): without a prior pose, or because
   /// matching by projection under the prior found too few matches.
   int brute_force_no_prior = 0, brute_force_fallback = 0;
+  /// Of the fallbacks, those the verification accepted (what bounding the fallback would lose at most).
+  int brute_force_fallback_verified = 0;
   /// Candidates skipped because their features were paged out and could not be read back (FeatureCache).
   int features_unavailable = 0;
   std::array<int, kLoopRejectionCount> rejected_by_reason{};  ///< index = LoopRejection (0 unused)
