@@ -258,7 +258,23 @@ TEST(LoopVerify, ReportsWhenItMatchesAllAgainstAll) {
       verifyLoop(1, a, 2, noise, camera, config, localThresholds(config, identity), &grid);
   EXPECT_TRUE(fallback.had_prior);
   EXPECT_TRUE(fallback.brute_force);
+  EXPECT_FALSE(fallback.fallback_refused);
   EXPECT_FALSE(fallback.edge.has_value());
+  // The same without the fallback (a keyframe's loop.max_fallbacks_per_keyframe spent): rejected for too
+  // few matches, not matched all against all; a candidate without a prior is still matched all against all,
+  // and one that matches by projection is not affected.
+  LoopThresholds spent = localThresholds(config, identity);
+  spent.allow_fallback = false;
+  const LoopVerification refused = verifyLoop(1, a, 2, noise, camera, config, spent, &grid);
+  EXPECT_TRUE(refused.fallback_refused);
+  EXPECT_FALSE(refused.brute_force);
+  EXPECT_EQ(refused.rejection, LoopRejection::kTooFewMatches);
+  LoopThresholds blind_spent = localThresholds(config, std::nullopt);
+  blind_spent.allow_fallback = false;
+  EXPECT_TRUE(verifyLoop(1, a, 2, a, camera, config, blind_spent, &grid).brute_force);
+  const LoopVerification same_spent = verifyLoop(1, a, 2, a, camera, config, spent, &grid);
+  EXPECT_FALSE(same_spent.fallback_refused);
+  EXPECT_TRUE(same_spent.edge.has_value());
 }
 
 TEST(LoopDetectorConfig, DefaultsAreValidAndBadValuesAreAllReported) {

@@ -361,9 +361,10 @@ int main(int argc, char** argv) {
     const MapServerStats l = server.stats();
     std::printf(
         "loop candidates verified: %d, matched all against all: %d without a prior pose, %d after too few "
-        "matches by projection (%d of those verified)\n",
+        "matches by projection (%d of those verified; %d more rejected without it, "
+        "loop.max_fallbacks_per_keyframe)\n",
         l.loop_candidates, l.loop_brute_force_no_prior, l.loop_brute_force_fallback,
-        l.loop_brute_force_fallback_verified);
+        l.loop_brute_force_fallback_verified, l.loop_fallbacks_skipped);
     std::printf(
         "keyframe features: %zu in RAM (server.features_in_memory), %llu read back from the store, %llu "
         "reads failed, %d loop candidates skipped for them\n",

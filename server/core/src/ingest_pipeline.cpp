@@ -260,6 +260,7 @@ void IngestPipeline::addLiveLocked(const StoredKeyframe& stored, const FrameFeat
   counters_.loop_brute_force_no_prior += loop_stats.brute_force_no_prior;
   counters_.loop_brute_force_fallback += loop_stats.brute_force_fallback;
   counters_.loop_brute_force_fallback_verified += loop_stats.brute_force_fallback_verified;
+  counters_.loop_fallbacks_skipped += loop_stats.fallbacks_skipped;
   counters_.loop_features_unavailable += loop_stats.features_unavailable;
   timings_.addVerify(loop_stats.verify_ms);
   for (int r = 0; r < kLoopRejectionCount; ++r)

@@ -82,6 +82,9 @@ const ConfigTable<LoopDetectorConfig>& loopDetectorConfigTable() {
                "candidates within this many graph hops are checked against the measured path (0: off)")
           .add("prior_max_nodes", &C::prior_max_nodes, R::closed(1, 1000000),
                "... of at most this many keyframes")
+          .add("max_fallbacks_per_keyframe", &C::max_fallbacks_per_keyframe, R::closed(0, 1000),
+               "candidates with a prior a keyframe may match all against all when matching by projection "
+               "finds too few, best retrieval score first (0: no limit)")
           .nest("words.", &C::words, binaryWordsConfigTable(), false)
           .nest("consistency.", &C::consistency, loopConsistencyConfigTable(), false);
   return table;

@@ -1,6 +1,8 @@
 #include "rgbdmap/loop/loop_detector.hpp"
 
+#include <algorithm>
 #include <chrono>
+#include <optional>
 
 #include "rgbdmap/loop/loop_config_tables.hpp"
 
@@ -95,20 +97,38 @@ void LoopDetector::verifyCandidates(const LoopKeyframe& kf, const MeasuredPoses*
                                     LoopDetection* out) const {
   const PinholeCamera& camera = cameraOf(kf.robot_id);
   const FeatureGrid grid(*kf.features, camera.intrinsics().width, camera.intrinsics().height);
-  for (const LoopCandidate& c : out->candidates) {
+  // With a fallback budget the candidates go best retrieval score first (then in their order), so the
+  // budget goes to the likeliest revisits; the edges come out in the same order as without one.
+  std::vector<size_t> order(out->candidates.size());
+  for (size_t i = 0; i < order.size(); ++i) order[i] = i;
+  const int budget = config_.max_fallbacks_per_keyframe;
+  if (budget > 0)
+    std::stable_sort(order.begin(), order.end(), [&](size_t a, size_t b) {
+      return out->candidates[a].retrieval_score > out->candidates[b].retrieval_score;
+    });
+  std::vector<std::optional<LoopEdge>> edges(order.size());
+  int fallbacks = 0;
+  for (size_t i : order) {
+    const LoopCandidate& c = out->candidates[i];
     const LoopKeyframe& other = keyframes_[slot_of_.at(c.keyframe_id)];
     const std::shared_ptr<const FrameFeatures> other_features = featuresOf(other);
     if (!other_features) {  // paged out and not readable back (counted by the cache)
       ++out->stats.features_unavailable;
       continue;
     }
-    const LoopVerification v = verifyLoop(kf.id, *kf.features, other.id, *other_features, camera,
-                                          config_.verify, thresholdsFor(kf, c, other, measured), &grid);
+    LoopThresholds thresholds = thresholdsFor(kf, c, other, measured);
+    thresholds.allow_fallback = budget <= 0 || fallbacks < budget;
+    const LoopVerification v =
+        verifyLoop(kf.id, *kf.features, other.id, *other_features, camera, config_.verify, thresholds, &grid);
     ++out->stats.rejected_by_reason[static_cast<int>(v.rejection)];
     if (v.brute_force) ++(v.had_prior ? out->stats.brute_force_fallback : out->stats.brute_force_no_prior);
+    if (v.brute_force && v.had_prior) ++fallbacks;
     if (v.brute_force && v.had_prior && v.edge) ++out->stats.brute_force_fallback_verified;
-    if (v.edge) out->edges.push_back(*v.edge);
+    if (v.fallback_refused) ++out->stats.fallbacks_skipped;
+    edges[i] = v.edge;
   }
+  for (const std::optional<LoopEdge>& e : edges)
+    if (e) out->edges.push_back(*e);
   dropInconsistent(out);
   out->stats.verified = static_cast<int>(out->edges.size());
   out->stats.rejected_by_reason[0] = 0;
@@ -182,6 +202,7 @@ void LoopDetector::accumulate(const LoopStats& s) {
   totals_.brute_force_no_prior += s.brute_force_no_prior;
   totals_.brute_force_fallback += s.brute_force_fallback;
   totals_.brute_force_fallback_verified += s.brute_force_fallback_verified;
+  totals_.fallbacks_skipped += s.fallbacks_skipped;
   totals_.features_unavailable += s.features_unavailable;
   totals_.retrieval_ms += s.retrieval_ms;
   totals_.verify_ms += s.verify_ms;

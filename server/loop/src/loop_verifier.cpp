@@ -76,7 +76,9 @@ LoopVerification verifyLoop(int from_id, const FrameFeatures& from, int to_id, c
     guided.ratio = config.matcher.ratio;
     raw = matchByProjection(from, *from_grid, to, *thresholds.T_from_to_prior, camera_from, guided);
   }
-  if (static_cast<int>(raw.size()) < config.min_matches) {
+  const bool too_few = static_cast<int>(raw.size()) < config.min_matches;
+  v.fallback_refused = too_few && v.had_prior && !thresholds.allow_fallback;
+  if (too_few && !v.fallback_refused) {
     std::vector<char> to_mask(to.size());
     for (size_t i = 0; i < to_mask.size(); ++i) to_mask[i] = to.hasDepth(i);
     raw = matchDescriptors(from.descriptors, to.descriptors, config.matcher, &to_mask);

@@ -106,6 +106,7 @@ struct MapServerStats {
   /// projection.
   int loop_brute_force_no_prior = 0, loop_brute_force_fallback = 0;
   int loop_brute_force_fallback_verified = 0;  ///< of the fallbacks, verified (before the consistency check)
+  int loop_fallbacks_skipped = 0;  ///< candidates rejected without it (loop.max_fallbacks_per_keyframe)
   /// Candidates skipped because their features could not be read back from the store (FeatureCache).
   int loop_features_unavailable = 0;
   /// Keyframe features (server.features_in_memory): in RAM, read back from the store, reads that failed.

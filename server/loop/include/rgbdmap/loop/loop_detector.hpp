@@ -34,6 +34,11 @@ struct LoopDetectorConfig {
   /// (aliasing), and a few hops of odometry know better.
   int prior_max_hops = 40;
   int prior_max_nodes = 4000;
+  /// Candidates with a prior pose that one keyframe may match all against all after matching by
+  /// projection found too few matches, best retrieval score first (0: no limit). Issue #15: at 20,000
+  /// keyframes of bench_map_growth that fallback was ~40 % of the ingest thread and verified 11 of 123,821;
+  /// it exists for priors that drift made wrong, which that world does not measure: off by default.
+  int max_fallbacks_per_keyframe = 0;
 
   /// Checks every value's range; returns an empty string when valid, else all reasons ("; "-separated).
   /// Apps call this once at start-up; the detector itself clamps nothing.
@@ -70,6 +75,8 @@ struct LoopStats {
   int brute_force_no_prior = 0, brute_force_fallback = 0;
   /// Of the fallbacks, those the verification accepted (what bounding the fallback would lose at most).
   int brute_force_fallback_verified = 0;
+  /// Candidates rejected without the fallback: the keyframe's max_fallbacks_per_keyframe were spent.
+  int fallbacks_skipped = 0;
   /// Candidates skipped because their features were paged out and could not be read back (FeatureCache).
   int features_unavailable = 0;
   std::array<int, kLoopRejectionCount> rejected_by_reason{};  ///< index = LoopRejection (0 unused)

@@ -86,6 +86,7 @@ struct LoopVerification {
   double motion_measure = 0.0;  ///< E of the refined pose (0 if none was estimated)
   bool had_prior = false;    ///< matched by projection under the prior pose first (a grid and a prior given)
   bool brute_force = false;  ///< matched all against all: no prior, or too few matches by projection
+  bool fallback_refused = false;  ///< too few matches by projection and LoopThresholds::allow_fallback false
 };
 
 /// E = k1 |t| + k2 |eulerRPY(R)| of a relative pose.
@@ -96,6 +97,8 @@ struct LoopThresholds {
   int min_inliers = 40;
   double max_motion_measure = 0.6;
   std::optional<SE3> T_from_to_prior;  ///< from the pose estimates, when comparable (same map frame)
+  /// With a prior: match all against all when matching by projection finds too few (else reject then).
+  bool allow_fallback = true;
 };
 LoopThresholds localThresholds(const LoopVerifyConfig& config, std::optional<SE3> T_from_to_prior);
 LoopThresholds retrievalThresholds(const LoopVerifyConfig& config);
