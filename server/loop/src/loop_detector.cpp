@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <optional>
+#include <utility>
 
 #include "rgbdmap/loop/loop_config_tables.hpp"
 
@@ -118,17 +119,17 @@ void LoopDetector::verifyCandidates(const LoopKeyframe& kf, const MeasuredPoses*
     }
     LoopThresholds thresholds = thresholdsFor(kf, c, other, measured);
     thresholds.allow_fallback = budget <= 0 || fallbacks < budget;
-    const LoopVerification v =
+    LoopVerification v =
         verifyLoop(kf.id, *kf.features, other.id, *other_features, camera, config_.verify, thresholds, &grid);
     ++out->stats.rejected_by_reason[static_cast<int>(v.rejection)];
     if (v.brute_force) ++(v.had_prior ? out->stats.brute_force_fallback : out->stats.brute_force_no_prior);
     if (v.brute_force && v.had_prior) ++fallbacks;
     if (v.brute_force && v.had_prior && v.edge) ++out->stats.brute_force_fallback_verified;
     if (v.fallback_refused) ++out->stats.fallbacks_skipped;
-    edges[i] = v.edge;
+    edges[i] = std::move(v.edge);
   }
-  for (const std::optional<LoopEdge>& e : edges)
-    if (e) out->edges.push_back(*e);
+  for (std::optional<LoopEdge>& e : edges)
+    if (e) out->edges.push_back(std::move(*e));
   dropInconsistent(out);
   out->stats.verified = static_cast<int>(out->edges.size());
   out->stats.rejected_by_reason[0] = 0;
