@@ -155,13 +155,18 @@ if [ -s "$out/time_server.txt" ]; then
   srv_mb=$(awk -F': ' '/Maximum resident/ {printf "%.0f", $2 / 1024}' "$out/time_server.txt")
 fi
 echo
+deferred_max=$(jq '.keyframes_deferred_max // 0' "$sj")
+dup_queued=$(jq '.keyframes_duplicates_queued // 0' "$sj"); queue_full=$(jq '.keyframes_queue_full // 0' "$sj")
 echo "server: keyframes $skf, loops $loops, maps $maps, merged $groups, CPU $srv_cpu s, peak $srv_mb MB," \
   "ingest median $(jq .ingest_ms_median "$sj") ms (CPU $(jq .ingest_cpu_ms_median "$sj") ms)"
+echo "server: at most $deferred_max stored keyframes waiting for loop detection at once (the map's lag)," \
+  "$queue_full keyframes refused for a full queue, $dup_queued resends of queued keyframes dropped"
 echo "server CPU by thread (s): $(awk '{printf "%s%s %s", (NR > 1 ? ", " : ""), $1, $2}' "$out/server_threads.txt")"
 echo "all acknowledged: $all_acked; worst minute's p90 over all robots: $worst_p90 ms"
 { echo "server_keyframes=$skf"; echo "loops=$loops"; echo "maps=$maps"; echo "one_map=$one_map"
   echo "server_cpu_s=$srv_cpu"; echo "server_peak_mb=$srv_mb"; echo "all_acked=$all_acked"
-  echo "worst_minute_p90_ms=$worst_p90"; } >>"$summary"
+  echo "worst_minute_p90_ms=$worst_p90"; echo "keyframes_deferred_max=$deferred_max"
+  echo "keyframes_queue_full=$queue_full"; echo "keyframes_duplicates_queued=$dup_queued"; } >>"$summary"
 if [ -n "$check" ]; then
   ok=1
   [ "$failed" = 0 ] || { echo "CHECK FAILED: a process exited with an error"; ok=0; }

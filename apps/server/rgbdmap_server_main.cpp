@@ -64,6 +64,7 @@ rgbdmap::Json summaryJson(const rgbdmap::MapServer& server) {
                       {"waiting", r.keyframes_waiting},
                       {"before_hello", r.waiting_for_hello},
                       {"queue_full", r.queue_full},
+                      {"duplicates_queued", r.duplicates_queued},
                       {"throttled", r.throttled},
                       {"refused_before_decode", r.refused_before_decode}});
   Json rejects_by_robot = Json::object(), rejects_unknown = Json::object();
@@ -84,9 +85,11 @@ rgbdmap::Json summaryJson(const rgbdmap::MapServer& server) {
           {"corrections_resent", s.corrections_resent},
           {"messages_rejected", s.messages_rejected},
           {"keyframes_waiting", s.keyframes_waiting},
+          {"keyframes_deferred_max", s.keyframes_deferred_max},
           {"keyframes_held_for_hello", s.keyframes_held_for_hello},
           {"keyframes_hold_dropped", s.keyframes_hold_dropped},
           {"keyframes_queue_full", s.keyframes_dropped_queue_full},
+          {"keyframes_duplicates_queued", s.keyframes_duplicates_queued},
           {"keyframes_throttled", s.keyframes_throttled},
           {"ingest_ms_median", jsonNumber(s.ingest_ms_median)},
           {"ingest_ms_p90", jsonNumber(s.ingest_ms_p90)},
@@ -116,12 +119,12 @@ sigset_t blockStopSignals() {
 
 void printStatus(const rgbdmap::MapServer& server) {
   const rgbdmap::MapServerStats s = server.stats();
-  std::fprintf(
-      stderr,
-      "[server] robots %zu keyframes %d loops %d (disabled %d) maps %d ingest %.1f ms rejected %llu%s\n",
-      s.robots.size(), s.keyframes, s.loops_accepted, s.loops_disabled, s.maps, s.ingest_ms_median,
-      static_cast<unsigned long long>(s.messages_rejected),
-      s.store_failed ? (" STORE FAILED: " + s.store_error).c_str() : "");
+  std::fprintf(stderr,
+               "[server] robots %zu keyframes %d (+%d stored, not placed yet) loops %d (disabled %d) maps %d "
+               "ingest %.1f ms rejected %llu%s\n",
+               s.robots.size(), s.keyframes, s.keyframes_deferred, s.loops_accepted, s.loops_disabled, s.maps,
+               s.ingest_ms_median, static_cast<unsigned long long>(s.messages_rejected),
+               s.store_failed ? (" STORE FAILED: " + s.store_error).c_str() : "");
 }
 
 /// Sleeps until SIGINT or SIGTERM arrives, printing a status line every `status_every` seconds (0: never).

@@ -104,6 +104,8 @@ TEST(ChunkedDelivery, LostChunksAreResentUntilEveryKeyframeIsStored) {
       static_cast<unsigned long long>(s.chunks_sent), static_cast<unsigned long long>(s.chunks_resent),
       static_cast<unsigned long long>(s.bytes_sent));
   EXPECT_GT(s.chunks_resent, 0u);
+  // Acknowledged = stored; their placement into the graph may still be running.
+  EXPECT_TRUE(harness.server->waitIdle(30.0));
   EXPECT_GE(harness.server->stats().keyframes, 6);
   link.stop();
   std::filesystem::remove_all(dir);
@@ -125,6 +127,7 @@ TEST(ChunkedDelivery, ARobotStartedBeforeItsServerSaysHelloUntilRegistered) {
   std::this_thread::sleep_for(std::chrono::milliseconds(300));
   not_yet.setLoss(0.0);  // the server is up
   EXPECT_TRUE(link.waitAllAcked(15.0)) << link.stats().keyframes_acked << " of 3 acknowledged";
+  EXPECT_TRUE(harness.server->waitIdle(30.0));  // acknowledged = stored; placed into the graph after
   EXPECT_EQ(harness.server->stats().keyframes, 3);
   link.stop();
   std::filesystem::remove_all(dir);

@@ -21,11 +21,15 @@ msg::Keyframe keyframe(const std::string& robot, int id) {
   return kf;
 }
 
+constexpr RobotQueues::Pushed kQueued = RobotQueues::Pushed::kQueued;
+constexpr RobotQueues::Pushed kFull = RobotQueues::Pushed::kFull;
+constexpr RobotQueues::Pushed kDuplicate = RobotQueues::Pushed::kDuplicate;
+
 TEST(RobotQueues, ServesRobotsInTurnWhateverTheirQueueLengths) {
   RobotQueues queues({100, 1u << 30, 1000});
-  for (int i = 0; i < 50; ++i) ASSERT_TRUE(queues.push("flood", keyframe("flood", i), 10));
-  ASSERT_TRUE(queues.push("good", keyframe("good", 0), 10));
-  ASSERT_TRUE(queues.push("good", keyframe("good", 1), 10));
+  for (int i = 0; i < 50; ++i) ASSERT_EQ(queues.push("flood", keyframe("flood", i), 10), kQueued);
+  ASSERT_EQ(queues.push("good", keyframe("good", 0), 10), kQueued);
+  ASSERT_EQ(queues.push("good", keyframe("good", 1), 10), kQueued);
   std::vector<std::string> order;
   for (int i = 0; i < 6; ++i) order.push_back(queues.pop()->robot_id);
   // "flood" was first in turn; "good" gets every other keyframe from then on.
@@ -38,16 +42,16 @@ TEST(RobotQueues, ADemotedRobotIsServedOnlyWhenNoOtherRobotWaits) {
   using Clock = RobotQueues::Clock;
   RobotQueues queues({100, 1u << 30, 1000});
   const Clock::time_point t0 = Clock::now();
-  for (int i = 0; i < 10; ++i) ASSERT_TRUE(queues.push("flood", keyframe("flood", i), 10));
-  ASSERT_TRUE(queues.push("good", keyframe("good", 0), 10));
-  ASSERT_TRUE(queues.push("good", keyframe("good", 1), 10));
+  for (int i = 0; i < 10; ++i) ASSERT_EQ(queues.push("flood", keyframe("flood", i), 10), kQueued);
+  ASSERT_EQ(queues.push("good", keyframe("good", 0), 10), kQueued);
+  ASSERT_EQ(queues.push("good", keyframe("good", 1), 10), kQueued);
   queues.demote("flood", t0 + std::chrono::seconds(5));
   std::vector<std::string> order;
   for (int i = 0; i < 4; ++i) order.push_back(queues.pop(t0)->robot_id);
   EXPECT_EQ(order, (std::vector<std::string>{"good", "good", "flood", "flood"}));
-  ASSERT_TRUE(queues.push("good", keyframe("good", 2), 10));
+  ASSERT_EQ(queues.push("good", keyframe("good", 2), 10), kQueued);
   EXPECT_EQ(queues.pop(t0)->robot_id, "good") << "still demoted";
-  ASSERT_TRUE(queues.push("good", keyframe("good", 3), 10));
+  ASSERT_EQ(queues.push("good", keyframe("good", 3), 10), kQueued);
   EXPECT_EQ(queues.pop(t0 + std::chrono::seconds(6))->robot_id, "flood") << "its turn again once it expired";
   EXPECT_EQ(queues.pop(t0 + std::chrono::seconds(6))->robot_id, "good");
 }
@@ -55,8 +59,8 @@ TEST(RobotQueues, ADemotedRobotIsServedOnlyWhenNoOtherRobotWaits) {
 TEST(RobotQueues, KeepsEachRobotsOrder) {
   RobotQueues queues({100, 1u << 30, 1000});
   for (int i = 0; i < 5; ++i) {
-    ASSERT_TRUE(queues.push("a", keyframe("a", i), 1));
-    ASSERT_TRUE(queues.push("b", keyframe("b", 10 + i), 1));
+    ASSERT_EQ(queues.push("a", keyframe("a", i), 1), kQueued);
+    ASSERT_EQ(queues.push("b", keyframe("b", 10 + i), 1), kQueued);
   }
   std::vector<int> a, b;
   while (auto kf = queues.pop()) (kf->robot_id == "a" ? a : b).push_back(kf->keyframe_id);
@@ -67,26 +71,55 @@ TEST(RobotQueues, KeepsEachRobotsOrder) {
 
 TEST(RobotQueues, AFullRobotQueueRefusesOnlyThatRobot) {
   RobotQueues queues({3, 1u << 30, 1000});
-  for (int i = 0; i < 3; ++i) ASSERT_TRUE(queues.push("flood", keyframe("flood", i), 10));
+  for (int i = 0; i < 3; ++i) ASSERT_EQ(queues.push("flood", keyframe("flood", i), 10), kQueued);
   EXPECT_FALSE(queues.hasRoom("flood", 10));
-  EXPECT_FALSE(queues.push("flood", keyframe("flood", 3), 10));
-  EXPECT_TRUE(queues.push("good", keyframe("good", 0), 10));
+  EXPECT_EQ(queues.push("flood", keyframe("flood", 3), 10), kFull);
+  EXPECT_EQ(queues.push("good", keyframe("good", 0), 10), kQueued);
   EXPECT_EQ(queues.size("flood"), 3u);
   EXPECT_EQ(queues.highWater("flood"), 3u);
   (void)queues.pop();
-  EXPECT_TRUE(queues.push("flood", keyframe("flood", 3), 10)) << "room again after a pop";
+  EXPECT_EQ(queues.push("flood", keyframe("flood", 3), 10), kQueued) << "room again after a pop";
+}
+
+// A robot whose acknowledgements are late resends what is still queued: the copies take no slot, so its
+// queue is not "full" of a few keyframes and it is not demoted for the server's own delay.
+TEST(RobotQueues, AResentKeyframeStillQueuedTakesNoSecondSlot) {
+  RobotQueues queues({3, 1u << 30, 1000});
+  ASSERT_EQ(queues.push("r", keyframe("r", 0), 10), kQueued);
+  ASSERT_EQ(queues.push("r", keyframe("r", 1), 10), kQueued);
+  for (int round = 0; round < 5; ++round) {
+    EXPECT_EQ(queues.push("r", keyframe("r", 0), 10), kDuplicate);
+    EXPECT_EQ(queues.push("r", keyframe("r", 1), 10), kDuplicate);
+  }
+  EXPECT_EQ(queues.size("r"), 2u);
+  EXPECT_EQ(queues.push("r", keyframe("r", 2), 10), kQueued) << "the third slot is still free";
+  EXPECT_EQ(queues.push("r", keyframe("r", 1), 10), kDuplicate) << "a copy is told apart even when full";
+  EXPECT_EQ(queues.push("r", keyframe("r", 3), 10), kFull);
+  // Another session or segment, or another robot, is another keyframe.
+  msg::Keyframe other_session = keyframe("r", 0);
+  other_session.header.session = 7;
+  EXPECT_EQ(queues.push("r", other_session, 10), kFull);
+  msg::Keyframe other_segment = keyframe("r", 0);
+  other_segment.segment_id = 1;
+  EXPECT_FALSE(queues.contains("r", other_segment));
+  EXPECT_TRUE(queues.contains("r", keyframe("r", 2)));
+  EXPECT_EQ(queues.push("s", keyframe("s", 0), 10), kQueued);
+  // Once served, a copy is queued again (the ingest answers it as a duplicate of the stored one).
+  EXPECT_EQ(queues.pop()->keyframe_id, 0);
+  EXPECT_FALSE(queues.contains("r", keyframe("r", 0)));
+  EXPECT_EQ(queues.push("r", keyframe("r", 0), 10), kQueued);
 }
 
 TEST(RobotQueues, BytesAndTheTotalAreBounded) {
   RobotQueues queues({100, 1000, 4});
-  ASSERT_TRUE(queues.push("a", keyframe("a", 0), 5000)) << "one keyframe always fits an empty queue";
-  EXPECT_FALSE(queues.push("a", keyframe("a", 1), 1)) << "over the byte bound";
-  ASSERT_TRUE(queues.push("b", keyframe("b", 0), 600));
-  EXPECT_FALSE(queues.push("b", keyframe("b", 1), 600));
-  ASSERT_TRUE(queues.push("b", keyframe("b", 1), 400));
+  ASSERT_EQ(queues.push("a", keyframe("a", 0), 5000), kQueued) << "one keyframe always fits an empty queue";
+  EXPECT_EQ(queues.push("a", keyframe("a", 1), 1), kFull) << "over the byte bound";
+  ASSERT_EQ(queues.push("b", keyframe("b", 0), 600), kQueued);
+  EXPECT_EQ(queues.push("b", keyframe("b", 1), 600), kFull);
+  ASSERT_EQ(queues.push("b", keyframe("b", 1), 400), kQueued);
   EXPECT_EQ(queues.bytes("b"), 1000u);
-  ASSERT_TRUE(queues.push("c", keyframe("c", 0), 1));
-  EXPECT_FALSE(queues.push("d", keyframe("d", 0), 1)) << "the total of all robots";
+  ASSERT_EQ(queues.push("c", keyframe("c", 0), 1), kQueued);
+  EXPECT_EQ(queues.push("d", keyframe("d", 0), 1), kFull) << "the total of all robots";
   queues.clear();
   EXPECT_EQ(queues.size(), 0u);
   EXPECT_FALSE(queues.pop());

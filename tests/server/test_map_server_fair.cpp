@@ -263,6 +263,51 @@ TEST(MapServerFair, ARecoveryBurstGetsThroughTheDefaultLimitsInAFewRounds) {
   EXPECT_LE(rounds, 12) << "too close to the client's max_attempts";
 }
 
+/// A robot whose acknowledgements are late resends every keyframe still unacknowledged, again and again.
+/// Copies of a keyframe that is still queued take no slot: its queue does not fill with them, it is not
+/// demoted for the server's delay (the fleet run lost two robots to that spiral), every keyframe goes in
+/// once.
+TEST(MapServerFair, ResendsOfQueuedKeyframesDoNotFillTheRobotsQueue) {
+  const OdometrySegment& seg = loopSegment(kLoopFrames, 0, kLoopFrames);
+  ASSERT_GT(seg.keyframes.size(), 10u);
+  MapServerConfig config = testing::serverTestConfig(freshDir("fair_resend"));
+  config.occupancy_enabled = false;
+  config.robot_queue_capacity = 16;
+  testing::ServerHarness h(config);
+  ScriptedRobot robot(*h.transport, "robot0", testing::testKey(1), 100);
+  AckLog acks(*h.transport, "robot0", testing::testKey(1));
+  robot.hello(seg.camera);
+  ASSERT_TRUE(eventually([&] { return robotStats(*h.server, "robot0").has_value(); }, 10.0));
+  const int n = 12, copies = 8;  // 96 messages within the burst (256): none throttled
+  std::set<int> ids;
+  for (int c = 0; c < copies; ++c)
+    for (int i = 0; i < n; ++i) {
+      msg::Keyframe kf = seg.keyframes[static_cast<size_t>(i) % seg.keyframes.size()];
+      kf.segment_id = 0;
+      kf.keyframe_id = i;
+      kf.previous_keyframe_id = i - 1;
+      robot.send(std::move(kf));
+      ids.insert(i);
+    }
+  EXPECT_TRUE(acks.waitFor(ids, 60.0)) << "not every keyframe was acknowledged";
+  ASSERT_TRUE(h.server->waitIdle(120.0));
+  const auto r = robotStats(*h.server, "robot0");
+  ASSERT_TRUE(r);
+  std::printf(
+      "[ measured ] %d keyframes x %d copies: %llu queued copies dropped, %llu answered as stored, "
+      "%llu queue full, queue max %d\n",
+      n, copies, static_cast<unsigned long long>(r->duplicates_queued),
+      static_cast<unsigned long long>(r->duplicates), static_cast<unsigned long long>(r->queue_full),
+      r->keyframes_queued_max);
+  EXPECT_EQ(r->queue_full, 0u) << "copies of queued keyframes filled the queue";
+  EXPECT_EQ(r->throttled, 0u);
+  EXPECT_GT(r->duplicates_queued, 0u) << "no copy met its original in the queue";
+  EXPECT_EQ(r->duplicates_queued + r->duplicates, static_cast<uint64_t>(n * (copies - 1)));
+  EXPECT_LE(r->keyframes_queued_max, n);
+  EXPECT_EQ(r->keyframes, n);
+  EXPECT_EQ(h.server->stats().keyframes_duplicates_queued, r->duplicates_queued);
+}
+
 TEST(MapServerFair, ImagesThatDoNotMatchTheCameraAreRefusedBeforeDecoding) {
   const OdometrySegment& seg = loopSegment(kLoopFrames, 0, 60);
   ASSERT_GE(seg.keyframes.size(), 3u);

@@ -80,7 +80,9 @@ void Inbox::onHello(const msg::OpenedEnvelope& opened, const std::string& robot)
 }
 
 void Inbox::onKeyframe(const msg::OpenedEnvelope& opened, const std::string& robot) {
-  // Authentic, not decoded yet: over the robot's rate, or no room in its queue, costs nothing more.
+  // Authentic, not decoded yet: over the robot's rate costs nothing more. Within it, the message is decoded
+  // before its queue is asked for room, so that a retransmission of a keyframe still queued is told from a
+  // new one (RobotQueues): only a new one that does not fit counts as queue_full and demotes the robot.
   if (!throttle_.allow(robot, KeyframeThrottle::Clock::now())) {
     ++throttled_;
     registry_.countThrottled(robot);
@@ -88,13 +90,21 @@ void Inbox::onKeyframe(const msg::OpenedEnvelope& opened, const std::string& rob
     return;
   }
   const size_t bytes = opened.payload.size();
-  if (!queue_.hasRoom(robot, bytes)) return countQueueFull(robot);
   auto keyframe = decodeFrom<msg::Keyframe>(opened, robot);
   if (!keyframe) return;
   if (keyframe->robot_id != robot)
     return reject(robot, msg::RejectReason::kInvalidContent,
                   "keyframe for '" + keyframe->robot_id + "' from " + robot);
-  if (queue_.pushKeyframe(std::move(*keyframe), bytes) == IngestQueue::Pushed::kFull) countQueueFull(robot);
+  switch (queue_.pushKeyframe(std::move(*keyframe), bytes)) {
+    case IngestQueue::Pushed::kFull:
+      return countQueueFull(robot);
+    case IngestQueue::Pushed::kDuplicate:
+      ++duplicates_queued_;
+      return registry_.countDuplicateQueued(robot);
+    case IngestQueue::Pushed::kQueued:
+    case IngestQueue::Pushed::kStopped:
+      return;
+  }
 }
 
 void Inbox::reject(const std::string& robot, msg::RejectReason reason, const std::string& detail,

@@ -1,8 +1,9 @@
 #pragma once
 // The server's inbox, on the transport's receive thread: channel -> authenticate (signature, replay) ->
 // decode -> check the sender -> queue for the ingest worker. Never blocks on the worker. A keyframe over
-// its robot's rate (KeyframeThrottle) or that does not fit its robot's queue is dropped before its payload
-// is decoded, unacknowledged (the robot resends) and counted per robot (throttled, queue_full).
+// its robot's rate (KeyframeThrottle) is dropped before its payload is decoded; one that does not fit its
+// robot's queue after decoding; both unacknowledged (the robot resends) and counted per robot (throttled,
+// queue_full). A retransmission of a keyframe still queued is dropped and counted (duplicates_queued).
 // Rejections are counted (and logged, rate-limited) by RejectCounters.
 #include <atomic>
 #include <cstdint>
@@ -36,6 +37,7 @@ class Inbox {
   uint64_t unknownRobot() const { return unknown_robot_.load(); }
   uint64_t throttled() const { return throttled_.load(); }
   uint64_t queueFull() const { return queue_full_.load(); }
+  uint64_t duplicatesQueued() const { return duplicates_queued_.load(); }
   /// Rejections per claimed robot and reason (RejectLedger; "" = not a known robot), largest first.
   std::vector<msg::RejectCount> rejectCounts() const { return ledger_.counts(); }
 
@@ -69,6 +71,7 @@ class Inbox {
   KeyframeThrottle throttle_;
   std::atomic<uint64_t> throttled_{0};
   std::atomic<uint64_t> queue_full_{0};
+  std::atomic<uint64_t> duplicates_queued_{0};
   RejectLedger ledger_;
   ChunkReassembly chunks_;
   ChunkAckSink chunk_ack_sink_;

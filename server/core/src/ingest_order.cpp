@@ -65,6 +65,13 @@ void IngestPipeline::giveUpWaitingLocked(std::chrono::steady_clock::time_point n
 
 void IngestPipeline::onStop() {
   Lock lock(mutex_);
+  if (!deferred_.empty()) {
+    log::info("server: stopping with ", deferred_.size(), " stored keyframe(s) not placed yet: ",
+              "into the graph by odometry, without loop detection, for the final outputs");
+    for (Deferred& d : deferred_) placeLocked(std::move(d.waiting), nullptr, false);
+    deferred_.clear();
+    deferred_keys_.clear();
+  }
   const size_t waiting = reorder_.size();
   if (waiting == 0) return;
   log::info("server: stopping with ", waiting, " stored keyframe(s) still waiting for a predecessor: ",

@@ -160,20 +160,52 @@ void IngestPipeline::onKeyframe(Prepared prepared) {
   timing.store_ms = msSince(t_store);
   // Stored first, acknowledged at once whatever its order; the graph takes it in chain order.
   publisher_.acknowledge(kf.robot_id, kf.keyframe_id, true, "");
-  const auto t_loops = Clock::now();
   waiting.features = std::move(decoded->features);
-  waiting.since = t_store;
-  placeLocked(std::move(waiting), &decoded->images, true);
+  Deferred d{std::move(waiting), key, std::nullopt, timing, 0.0};
+  if (deferred_.size() < kDeferredWithImages) d.images = std::move(decoded->images);
+  d.timing.total_ms = msSince(t0);
+  d.store_cpu_ms = threadCpuMs() - cpu0;
+  deferred_keys_.insert(key);
+  deferred_.push_back(std::move(d));
+  counters_.keyframes_deferred_max =
+      std::max(counters_.keyframes_deferred_max, static_cast<int>(deferred_.size()));
+  ++newly_deferred_;
+}
+
+bool IngestPipeline::placeDeferred() {
+  const auto t0 = Clock::now();
+  const double cpu0 = threadCpuMs();
+  Lock lock(mutex_);
+  if (deferred_.empty()) return false;
+  Deferred d = std::move(deferred_.front());
+  deferred_.pop_front();
+  deferred_keys_.erase(d.key);
+  // The reorder timeout counts from here: a predecessor stored a moment later is placed a moment later.
+  d.waiting.since = t0;
+  placeLocked(std::move(d.waiting), d.images ? &*d.images : nullptr, true);
   giveUpWaitingLocked(Clock::now(), config_.reorder_timeout_s, true);  // the per-robot bound
-  timing.loops_ms = msSince(t_loops);
-  timing.total_ms = msSince(t0);
-  timing.cpu_ms = threadCpuMs() - cpu0;
+  KeyframeTiming timing = d.timing;
+  timing.loops_ms = msSince(t0);
+  timing.total_ms += timing.loops_ms;
+  timing.cpu_ms = d.store_cpu_ms + (threadCpuMs() - cpu0);
   timings_.add(timing);
+  return true;
+}
+
+size_t IngestPipeline::deferred() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return deferred_.size();
+}
+
+size_t IngestPipeline::takeNewlyDeferred() {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return std::exchange(newly_deferred_, 0);
 }
 
 /// False for a keyframe seen before (stored, waiting in the reorder buffer or refused): answered again.
 bool IngestPipeline::admitLocked(const msg::Keyframe& kf, const KeyframeKey& key, Lock& lock) {
-  if (!index_.contains(key) && !reorder_.contains(key) && !index_.refused(key)) return true;
+  if (!index_.contains(key) && !reorder_.contains(key) && !index_.refused(key) && !deferred_keys_.count(key))
+    return true;
   const bool accepted = !index_.refused(key);
   registry_.countDuplicate(kf.robot_id);
   lock.unlock();
@@ -327,6 +359,7 @@ MapServerStats IngestPipeline::stats() const {
   timings_.fill(&s);
   s.maps = static_cast<int>(index_.mapCount());
   s.keyframes_waiting = static_cast<int>(reorder_.size());
+  s.keyframes_deferred = static_cast<int>(deferred_.size());
   s.keyframes_held_for_hello = static_cast<int>(hello_hold_.held());
   s.keyframes_hold_dropped = hello_hold_.dropped();
   const FeatureCacheStats fc = features_->stats();

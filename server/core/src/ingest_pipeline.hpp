@@ -3,8 +3,9 @@
 // the ingest worker, one event at a time (prepare() is the exception: IngestQueue's decode thread decodes
 // the next keyframes with it while the ingest worker integrates this one):
 //   Hello -> session; Keyframe -> image headers against the robot's camera (image_admission.hpp) ->
-//   decode + validate images -> store durably -> acknowledge -> (in chain order, through the reorder
-//   buffer) loop detection -> pose graph (-> a snapshot to the optimiser when loops were added);
+//   decode + validate images -> store durably -> acknowledge -> deferred: placeDeferred(), a later event
+//   of the same worker -> (in chain order, through the reorder buffer) loop detection -> pose graph (-> a
+//   snapshot to the optimiser when loops were added);
 //   optimisation result -> apply -> PoseCorrections to every robot; a periodic tick gives up on
 //   predecessors that do not come.
 // Readers (stats, keyframes) take the same state lock from other threads. Restoring from the map store is
@@ -13,6 +14,7 @@
 #include <atomic>
 #include <chrono>
 #include <cstdint>
+#include <deque>
 #include <functional>
 #include <map>
 #include <memory>
@@ -81,7 +83,24 @@ class IngestPipeline {
   void onHello(const msg::Hello& hello);
   void onKeyframe(const msg::Keyframe& keyframe);
   /// A keyframe prepare()d on the decode thread; its decoding is used when it was for the current camera.
+  /// Stored and acknowledged here; its loop detection and graph insertion wait as a deferred placement.
   void onKeyframe(Prepared prepared);
+  /// The oldest deferred keyframe into the graph (loop detection, pose graph, map worker); false when none.
+  /// The ingest worker serves new keyframes (store, acknowledgement) before these, so that a robot's
+  /// acknowledgement waits for at most the one placement in progress, not for the loop detection of every
+  /// keyframe queued ahead of it (IngestQueue, docs/scaling.md stop 32).
+  bool placeDeferred();
+  /// Stored and acknowledged keyframes whose placement has not run yet.
+  size_t deferred() const;
+  /// At most this many wait for placement: beyond, the worker places before it stores more (the robots'
+  /// queues fill and they resend: the acknowledgements then follow the loop detection's pace again). At
+  /// 16 keyframes/s, 256 is 16 s of the loop detection falling behind; each holds its features (~70 KB)
+  /// and, the newest kDeferredWithImages only, its decoded images (~1.5 MB at 640x480; the others' images
+  /// the map worker reads back from the store).
+  static constexpr size_t kDeferredMax = 256;
+  static constexpr size_t kDeferredWithImages = 8;
+  /// Placements deferred since the last call (the worker posts one event for each).
+  size_t takeNewlyDeferred();
 
   // ---- the decode thread (one thread: its feature extractor is its own)
   /// Decodes the images and the features (extracted when sent without) outside the state lock, so that the
@@ -204,6 +223,17 @@ class IngestPipeline {
   int64_t next_edge_id_ = 0;
   int64_t next_node_id_ = 0;  ///< of the next stored keyframe (node ids are dense in store order)
   ReorderBuffer reorder_;
+  /// Stored and acknowledged, waiting for placeDeferred() (in store order).
+  struct Deferred {
+    WaitingKeyframe waiting;
+    KeyframeKey key;
+    std::optional<DecodedImages> images;  ///< dropped beyond kDeferredWithImages (read back instead)
+    KeyframeTiming timing;                ///< of the store part
+    double store_cpu_ms = 0.0;
+  };
+  std::deque<Deferred> deferred_;
+  std::set<KeyframeKey> deferred_keys_;  ///< a resend of one is a duplicate (admitLocked)
+  size_t newly_deferred_ = 0;
   HelloHold hello_hold_;  ///< keyframes that came before their robot's Hello
   struct SplitHead {
     int64_t node_id = 0;

@@ -64,16 +64,18 @@ void IngestQueue::pushHello(msg::Hello hello) {
   postServeLocked();
 }
 
-bool IngestQueue::hasRoom(const std::string& robot, size_t bytes) const {
-  std::lock_guard<std::mutex> lock(events_mutex_);
-  return !events_stopped_ && keyframes_.hasRoom(robot, bytes);
-}
-
 IngestQueue::Pushed IngestQueue::pushKeyframe(msg::Keyframe keyframe, size_t bytes) {
   std::lock_guard<std::mutex> lock(events_mutex_);
   if (events_stopped_) return Pushed::kStopped;
   const std::string robot = keyframe.robot_id;
-  if (!keyframes_.push(robot, std::move(keyframe), bytes)) return Pushed::kFull;  // the robot resends
+  switch (keyframes_.push(robot, std::move(keyframe), bytes)) {
+    case RobotQueues::Pushed::kFull:
+      return Pushed::kFull;  // the robot resends it
+    case RobotQueues::Pushed::kDuplicate:
+      return Pushed::kDuplicate;
+    case RobotQueues::Pushed::kQueued:
+      break;
+  }
   decode_worker_.post([this] { decodeNext(); });
   return Pushed::kQueued;
 }
@@ -102,8 +104,18 @@ void IngestQueue::applyResult(const std::shared_ptr<const MapOptimization>& resu
   revision_cv_.notify_all();
 }
 
-/// One event: a pending Hello first, then an optimisation result, then the next robot's keyframe.
+/// One event (each has its own task): a pending Hello first, then the next robot's keyframe to store and
+/// acknowledge (unless kDeferredMax placements wait), then an optimisation result, then the oldest
+/// deferred placement (loop detection, graph).
 void IngestQueue::serveNext() {
+  serveOne();
+  // A stored keyframe's placement is an event of its own (also those a Hello let in).
+  const size_t deferred = pipeline_.takeNewlyDeferred();
+  std::lock_guard<std::mutex> lock(events_mutex_);
+  for (size_t i = 0; i < deferred; ++i) postServeLocked();
+}
+
+void IngestQueue::serveOne() {
   std::unique_lock<std::mutex> lock(events_mutex_);
   if (!hello_order_.empty()) {
     const auto it = hellos_.find(hello_order_.front());
@@ -113,12 +125,20 @@ void IngestQueue::serveNext() {
     lock.unlock();
     return pipeline_.onHello(hello);
   }
+  const bool room = pipeline_.deferred() < IngestPipeline::kDeferredMax;
+  if (!decoded_.empty() && room) return storeNext(lock);
   if (result_) {
     const std::shared_ptr<const MapOptimization> result = std::exchange(result_, nullptr);
     lock.unlock();
     return applyResult(result);
   }
-  if (decoded_.empty()) return;  // dropped by stop()
+  lock.unlock();
+  if (pipeline_.placeDeferred()) return;
+  lock.lock();
+  if (!decoded_.empty()) storeNext(lock);  // else dropped by stop()
+}
+
+void IngestQueue::storeNext(std::unique_lock<std::mutex>& lock) {
   IngestPipeline::Prepared prepared = std::move(decoded_.front());
   decoded_.pop_front();
   lock.unlock();

@@ -3,14 +3,19 @@
 // Each posted task serves one event, chosen when it runs (issue #11, fair share):
 //   1. a robot's Hello (at most one pending per robot: a newer one replaces it), so a session never waits
 //      behind keyframes;
-//   2. the newest optimisation result (it holds every pose: one not applied yet is replaced);
-//   3. keyframes, from per-robot bounded queues served round-robin (RobotQueues): a robot flooding the
-//      server fills only its own queue, and is served after the robots within their share for a while.
+//   2. keyframes to store and acknowledge (unless IngestPipeline::kDeferredMax placements wait), from
+//      per-robot bounded queues served round-robin (RobotQueues): a robot flooding the server fills only
+//      its own queue, and is served after the robots within their share for a while.
 //      A keyframe that does not fit is dropped unacknowledged (the robot resends it) and counted.
 //      A second worker ("rgbdmap-decode") takes them from RobotQueues in that order and decodes them
 //      (images, features: IngestPipeline::prepare) while the ingest worker integrates the one before; at
 //      most kDecodedAhead decoded keyframes wait for the ingest worker (their images are ~1.5 MB each), so
 //      the rest wait, encoded and fairly bounded, in RobotQueues.
+//   3. the newest optimisation result (it holds every pose: one not applied yet is replaced);
+//   4. the placement of the oldest stored keyframe (loop detection, pose graph, map worker). Stored and
+//      acknowledged keyframes go before it, so that an acknowledgement waits for the one placement in
+//      progress, not for the loop detection of every keyframe queued ahead (the 16-robot fleet run:
+//      ack p90 1.7 s in the minute the loop detection fell behind for ~30 s, docs/scaling.md stop 32).
 // A periodic tick on the same thread lets the pipeline give up on predecessors that do not come.
 // Tracks the submitted and applied optimisation revisions, so that waitIdle() also waits for the solves in
 // flight and their corrections.
@@ -32,7 +37,7 @@ namespace rgbdmap {
 
 class IngestQueue {
  public:
-  enum class Pushed { kQueued, kFull, kStopped };
+  enum class Pushed { kQueued, kFull, kDuplicate, kStopped };
 
   /// Every tick_s (> 0) between events, pipeline.onTick() (keyframes waiting too long for a predecessor).
   IngestQueue(RobotQueueLimits limits, double tick_s, IngestPipeline& pipeline);
@@ -42,9 +47,8 @@ class IngestQueue {
   void stop();
 
   void pushHello(msg::Hello hello);
-  /// Whether a keyframe of `bytes` from `robot` would be queued now (asked before decoding it).
-  bool hasRoom(const std::string& robot, size_t bytes) const;
-  /// `bytes`: its encoded size (the per-robot byte bound). kFull: not queued (the caller counts it).
+  /// `bytes`: its encoded size (the per-robot byte bound). kFull: not queued (the caller counts it);
+  /// kDuplicate: the same keyframe is queued already (RobotQueues), answered when that one is served.
   Pushed pushKeyframe(msg::Keyframe keyframe, size_t bytes);
   /// `robot` went over its share (throttled, or its queue was full): served after the other robots for
   /// kDemotionS (RobotQueues).
@@ -65,7 +69,9 @@ class IngestQueue {
   using Task = std::function<void()>;
   /// Posts one "serve the next event" task; false once stopped. Caller holds events_mutex_.
   bool postServeLocked();
-  void serveNext();   ///< on the worker
+  void serveNext();                                    ///< on the worker
+  void serveOne();                                     ///< the event serveNext() serves
+  void storeNext(std::unique_lock<std::mutex>& lock);  ///< the next decoded keyframe (lock: events_mutex_)
   void decodeNext();  ///< on the decode worker: one keyframe from RobotQueues, decoded, to decoded_
   void applyResult(const std::shared_ptr<const MapOptimization>& result);
   bool waitRevisionsUntil(std::chrono::steady_clock::time_point deadline) const;

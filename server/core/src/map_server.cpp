@@ -207,6 +207,7 @@ MapServerStats MapServer::stats() const {
   MapServerStats s = m.pipeline.stats();
   s.messages_rejected = m.inbox.rejected();
   s.keyframes_dropped_queue_full = m.inbox.queueFull();
+  s.keyframes_duplicates_queued = m.inbox.duplicatesQueued();
   s.keyframes_throttled = m.inbox.throttled();
   for (ServerRobotStats& r : s.robots) {
     r.keyframes_queued = static_cast<int>(m.queue.queued(r.robot_id));

@@ -13,15 +13,33 @@ bool RobotQueues::hasRoom(const std::string& robot, size_t bytes) const {
   return q.entries.size() < limits_.keyframes_per_robot && q.bytes + bytes <= limits_.bytes_per_robot;
 }
 
-bool RobotQueues::push(const std::string& robot, msg::Keyframe keyframe, size_t bytes) {
-  if (!hasRoom(robot, bytes)) return false;
+namespace {
+
+bool sameKeyframe(const msg::Keyframe& a, const msg::Keyframe& b) {
+  return a.keyframe_id == b.keyframe_id && a.segment_id == b.segment_id &&
+         a.header.session == b.header.session;
+}
+
+}  // namespace
+
+bool RobotQueues::contains(const std::string& robot, const msg::Keyframe& keyframe) const {
+  const auto it = queues_.find(robot);
+  if (it == queues_.end()) return false;
+  // At most robot_queue_capacity (64) entries: a scan costs less than decoding the message did.
+  return std::any_of(it->second.entries.begin(), it->second.entries.end(),
+                     [&](const Entry& e) { return sameKeyframe(e.keyframe, keyframe); });
+}
+
+RobotQueues::Pushed RobotQueues::push(const std::string& robot, msg::Keyframe keyframe, size_t bytes) {
+  if (contains(robot, keyframe)) return Pushed::kDuplicate;
+  if (!hasRoom(robot, bytes)) return Pushed::kFull;
   Queue& q = queues_[robot];
   if (q.entries.empty()) turn_.push_back(robot);
   q.entries.push_back({std::move(keyframe), bytes});
   q.bytes += bytes;
   q.high_water = std::max(q.high_water, q.entries.size());
   ++total_;
-  return true;
+  return Pushed::kQueued;
 }
 
 std::optional<msg::Keyframe> RobotQueues::pop(Clock::time_point now) {

@@ -5,8 +5,13 @@
 // unacknowledged and the robot resends it later), and all robots together by a total count.
 // A robot that went over its share (its queue was full, or it was throttled) is demoted for a while: it is
 // served only when no robot within its share has a keyframe queued, so a well-behaved robot waits at most
-// for the one keyframe in progress, however expensive the flood's keyframes are. Not thread-safe:
-// IngestQueue guards it with its own mutex.
+// for the one keyframe in progress, however expensive the flood's keyframes are.
+// A retransmission of a keyframe that is still queued (same session, segment and id) takes no second slot:
+// push() reports it as a duplicate and the queued copy is answered when served. Without that, a robot whose
+// acknowledgements are late (the server behind for a while) filled its queue with copies of the same few
+// keyframes, went "over its share", was demoted and fell further behind with every round of resends: the
+// 16-robot fleet run lost two robots that way (docs/scaling.md, stop 32). Not thread-safe: IngestQueue
+// guards it with its own mutex.
 #include <chrono>
 #include <cstddef>
 #include <deque>
@@ -30,8 +35,12 @@ class RobotQueues {
 
   /// Whether a keyframe of `bytes` (its encoded size) from `robot` would be queued now.
   bool hasRoom(const std::string& robot, size_t bytes) const;
-  /// Queues it at the back of its robot's queue; false (nothing queued) when there is no room.
-  bool push(const std::string& robot, msg::Keyframe keyframe, size_t bytes);
+  enum class Pushed { kQueued, kFull, kDuplicate };
+  /// Queues it at the back of its robot's queue: kFull (nothing queued) when there is no room, kDuplicate
+  /// (nothing queued, room or not) when the same keyframe (session, segment, id) is queued already.
+  Pushed push(const std::string& robot, msg::Keyframe keyframe, size_t bytes);
+  /// Whether that keyframe of `robot` is queued now.
+  bool contains(const std::string& robot, const msg::Keyframe& keyframe) const;
   using Clock = std::chrono::steady_clock;
   /// The front keyframe of the next robot in turn (robots with queued keyframes, round-robin), skipping
   /// robots demoted at `now` while another robot has keyframes queued.

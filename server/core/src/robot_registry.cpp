@@ -196,6 +196,10 @@ void RobotRegistry::countQueueFull(const std::string& robot_id) {
   std::lock_guard<std::mutex> lock(mutex_);
   ++entry(robot_id).stats.queue_full;
 }
+void RobotRegistry::countDuplicateQueued(const std::string& robot_id) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  ++entry(robot_id).stats.duplicates_queued;
+}
 void RobotRegistry::countThrottled(const std::string& robot_id) {
   std::lock_guard<std::mutex> lock(mutex_);
   ++entry(robot_id).stats.throttled;

@@ -51,6 +51,7 @@ class RobotRegistry {
   void countChainSplit(const std::string& robot_id);
   void countWaitingForHello(const std::string& robot_id);
   void countQueueFull(const std::string& robot_id);
+  void countDuplicateQueued(const std::string& robot_id);
   void countThrottled(const std::string& robot_id);
   void countRefusedBeforeDecode(const std::string& robot_id);
 

@@ -65,6 +65,8 @@ struct ServerRobotStats {
   /// Fair share (issue #11): keyframes left unacknowledged because its queue was full, or because it sent
   /// over server.robot_max_keyframes_per_s; refused from the images' headers, before decoding.
   uint64_t queue_full = 0;
+  /// Re-sent while the first copy was still in its queue: not queued twice, no slot taken, not demoted.
+  uint64_t duplicates_queued = 0;
   uint64_t throttled = 0;
   uint64_t refused_before_decode = 0;
   int keyframes_queued = 0;      ///< in its ingest queue now
@@ -141,6 +143,7 @@ struct MapServerStats {
   int maps = 0;                               ///< connected components of the graph
   uint64_t messages_rejected = 0;             ///< RejectCounters total (auth, replay, malformed, ...)
   uint64_t keyframes_dropped_queue_full = 0;  ///< all robots' queue_full
+  uint64_t keyframes_duplicates_queued = 0;   ///< all robots' duplicates_queued
   uint64_t keyframes_throttled = 0;           ///< all robots' throttled
   uint64_t keyframes_decoded = 0;             ///< keyframes whose images were decoded (passed the headers)
   uint64_t keyframes_decoded_ahead =
@@ -149,6 +152,10 @@ struct MapServerStats {
   uint64_t keyframes_refused = 0;
   uint64_t unknown_robot_messages = 0;
   int keyframes_waiting = 0;  ///< in the reorder buffer: stored and acknowledged, not in the graph yet
+  /// Stored and acknowledged, their loop detection and graph insertion not run yet (the ingest worker
+  /// stores and acknowledges new keyframes first): now, and the most at once (how far the map lagged).
+  int keyframes_deferred = 0;
+  int keyframes_deferred_max = 0;
   /// Keyframes that came before their robot's Hello, held (not stored or acknowledged yet) until it comes,
   /// and those the hold's bounds pushed out (the robot sends them again).
   int keyframes_held_for_hello = 0;
