@@ -70,7 +70,7 @@ void IngestPipeline::onStop() {
               "into the graph by odometry, without loop detection, for the final outputs");
     for (Deferred& d : deferred_) placeLocked(std::move(d.waiting), nullptr, false);
     deferred_.clear();
-    deferred_keys_.clear();
+    deferred_count_.store(0, std::memory_order_relaxed);
   }
   const size_t waiting = reorder_.size();
   if (waiting == 0) return;

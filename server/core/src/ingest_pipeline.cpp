@@ -161,12 +161,12 @@ void IngestPipeline::onKeyframe(Prepared prepared) {
   // Stored first, acknowledged at once whatever its order; the graph takes it in chain order.
   publisher_.acknowledge(kf.robot_id, kf.keyframe_id, true, "");
   waiting.features = std::move(decoded->features);
-  Deferred d{std::move(waiting), key, std::nullopt, timing, 0.0};
+  Deferred d{std::move(waiting), key, std::nullopt, timing};
   if (deferred_.size() < kDeferredWithImages) d.images = std::move(decoded->images);
   d.timing.total_ms = msSince(t0);
-  d.store_cpu_ms = threadCpuMs() - cpu0;
-  deferred_keys_.insert(key);
+  d.timing.cpu_ms = threadCpuMs() - cpu0;
   deferred_.push_back(std::move(d));
+  deferred_count_.store(deferred_.size(), std::memory_order_relaxed);
   counters_.keyframes_deferred_max =
       std::max(counters_.keyframes_deferred_max, static_cast<int>(deferred_.size()));
   ++newly_deferred_;
@@ -179,7 +179,7 @@ bool IngestPipeline::placeDeferred() {
   if (deferred_.empty()) return false;
   Deferred d = std::move(deferred_.front());
   deferred_.pop_front();
-  deferred_keys_.erase(d.key);
+  deferred_count_.store(deferred_.size(), std::memory_order_relaxed);
   // The reorder timeout counts from here: a predecessor stored a moment later is placed a moment later.
   d.waiting.since = t0;
   placeLocked(std::move(d.waiting), d.images ? &*d.images : nullptr, true);
@@ -187,15 +187,12 @@ bool IngestPipeline::placeDeferred() {
   KeyframeTiming timing = d.timing;
   timing.loops_ms = msSince(t0);
   timing.total_ms += timing.loops_ms;
-  timing.cpu_ms = d.store_cpu_ms + (threadCpuMs() - cpu0);
+  timing.cpu_ms += threadCpuMs() - cpu0;
   timings_.add(timing);
   return true;
 }
 
-size_t IngestPipeline::deferred() const {
-  std::lock_guard<std::mutex> lock(mutex_);
-  return deferred_.size();
-}
+size_t IngestPipeline::deferred() const { return deferred_count_.load(std::memory_order_relaxed); }
 
 size_t IngestPipeline::takeNewlyDeferred() {
   std::lock_guard<std::mutex> lock(mutex_);
@@ -204,8 +201,9 @@ size_t IngestPipeline::takeNewlyDeferred() {
 
 /// False for a keyframe seen before (stored, waiting in the reorder buffer or refused): answered again.
 bool IngestPipeline::admitLocked(const msg::Keyframe& kf, const KeyframeKey& key, Lock& lock) {
-  if (!index_.contains(key) && !reorder_.contains(key) && !index_.refused(key) && !deferred_keys_.count(key))
-    return true;
+  const bool deferred =
+      std::any_of(deferred_.begin(), deferred_.end(), [&](const Deferred& d) { return d.key == key; });
+  if (!index_.contains(key) && !reorder_.contains(key) && !index_.refused(key) && !deferred) return true;
   const bool accepted = !index_.refused(key);
   registry_.countDuplicate(kf.robot_id);
   lock.unlock();

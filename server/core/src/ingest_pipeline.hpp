@@ -228,11 +228,10 @@ class IngestPipeline {
     WaitingKeyframe waiting;
     KeyframeKey key;
     std::optional<DecodedImages> images;  ///< dropped beyond kDeferredWithImages (read back instead)
-    KeyframeTiming timing;                ///< of the store part
-    double store_cpu_ms = 0.0;
+    KeyframeTiming timing;                ///< of the store part (total_ms, cpu_ms: so far)
   };
-  std::deque<Deferred> deferred_;
-  std::set<KeyframeKey> deferred_keys_;  ///< a resend of one is a duplicate (admitLocked)
+  std::deque<Deferred> deferred_;          ///< at most kDeferredMax: admitLocked scans it for resends
+  std::atomic<size_t> deferred_count_{0};  ///< deferred_.size(), read by deferred() without mutex_
   size_t newly_deferred_ = 0;
   HelloHold hello_hold_;  ///< keyframes that came before their robot's Hello
   struct SplitHead {
