@@ -206,6 +206,31 @@ TEST(OccupancyMap, APartialRebuildRecomputesOnlyWhereKeyframesMovedAndEqualsAWho
   EXPECT_EQ(map.stats().last_rebuild_keyframes, all.size());
 }
 
+// Issue #15: a partial rebuild keeps the moved keyframes' ray casts between its passes only up to
+// partial_rebuild_held_mb (1 GB of them at 20,000 keyframes without a bound); beyond, it casts them again:
+// the same tree, three more casts for three moved keyframes.
+TEST(OccupancyMap, APartialRebuildOverItsHeldBudgetCastsAgainAndBuildsTheSameTree) {
+  const auto& kf = makeSynthKeyframes("sweep", 12);
+  OccupancyMapConfig unbounded = testConfig(), bounded = testConfig();
+  bounded.partial_rebuild_held_mb = 0;
+  OccupancyMap a(unbounded), b(bounded);
+  insertAll(&a, kf, 0);
+  insertAll(&b, kf, 0);
+  std::map<int64_t, std::pair<int, SE3>> moved;
+  for (size_t i = 9; i < kf.clouds.size(); ++i)
+    moved[int64_t(i)] = {0, Eigen::Translation3d(0.0, 0.2, 0.0) * kf.T_world_cam[i]};
+  EXPECT_TRUE(a.updatePoses(moved));
+  EXPECT_TRUE(b.updatePoses(moved));
+  ASSERT_TRUE(a.waitIdle(60.0));
+  ASSERT_TRUE(b.waitIdle(60.0));
+  EXPECT_EQ(a.stats().partial_rebuilds, 1u);
+  EXPECT_EQ(b.stats().partial_rebuilds, 1u);
+  EXPECT_EQ(b.stats().last_rebuild_keyframes, a.stats().last_rebuild_keyframes + moved.size());
+  a.read(0, [&](const octomap::OcTree& x) {
+    b.read(0, [&](const octomap::OcTree& y) { EXPECT_GT(expectSameLeaves(x, y), 10000u); });
+  });
+}
+
 // Issue #15: kept clouds beyond clouds_in_memory go to the spill file and come back for rebuilds and exports
 // exactly as they were: the same trees after a partial and a whole rebuild, the same exported clouds.
 TEST(OccupancyMap, SpilledCloudsRebuildTheSameTreeAndExportTheSameClouds) {

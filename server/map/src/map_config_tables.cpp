@@ -24,6 +24,9 @@ const ConfigTable<OccupancyMapConfig>& occupancyMapConfigTable() {
           .add("partial_rebuild_max_fraction", &C::partial_rebuild_max_fraction, R::closed(0.0, 1.0),
                "when at most this fraction of a map's keyframes moved, a rebuild recomputes only the "
                "octree cells their rays touch (same result); 0: always the whole tree")
+          .add("partial_rebuild_held_mb", &C::partial_rebuild_held_mb, R::closed(0, 65536),
+               "MB of moved keyframes' ray casts a partial rebuild keeps between its two passes; beyond, "
+               "they are cast again (CPU instead of memory)")
           .add("pixel_stride", &C::pixel_stride, R::closed(0, 64),
                "depth pixel sampling step; 0: automatic (3 at 0.05 m, 1 at 0.02 m for fx 517)")
           .add("cloud_voxel_fraction", &C::cloud_voxel_fraction, R::closed(0.0, 1.0),

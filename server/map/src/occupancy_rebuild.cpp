@@ -193,7 +193,11 @@ bool OccupancyMap::rebuildPartly(int map_id) {
   // The cells whose leaves change: those the moved keyframes' rays touch where they were and where they are.
   const octomap::OcTree& geometry = *slot->tree;  // key geometry only (resolution), never its nodes
   CellSet cells;
+  // The moved keyframes' updates at their new poses are kept for the second pass up to
+  // partial_rebuild_held_mb; beyond it they are cast again there (CPU instead of memory).
   std::map<int64_t, detail::ScanUpdate> at_new;
+  size_t held_bytes = 0;
+  const size_t held_max = static_cast<size_t>(config_.partial_rebuild_held_mb) << 20;
   size_t cast = 0;
   for (const auto& [id, k] : kfs) {
     if (!k.moved) continue;
@@ -207,7 +211,13 @@ bool OccupancyMap::rebuildPartly(int map_id) {
     if (k.is_in) {
       detail::ScanUpdate u = detail::computeScanUpdate(geometry, *cloud, k.T_new, config_.max_range_m);
       addCells(u, &cells);
-      at_new.emplace(id, std::move(u));
+      const size_t bytes = (u.free.size() + u.occupied.size()) * sizeof(octomap::OcTreeKey);
+      if (held_bytes + bytes <= held_max) {
+        held_bytes += bytes;
+        u.free.shrink_to_fit();  // held for a while: without the vectors' growth slack
+        u.occupied.shrink_to_fit();
+        at_new.emplace(id, std::move(u));
+      }
       ++cast;
     }
   }

@@ -53,6 +53,10 @@ struct OccupancyMapConfig {
   /// poses, are recomputed from every keyframe whose rays reach them (the result equals a whole rebuild).
   /// Above it, or 0, the whole tree is rebuilt from every kept cloud.
   double partial_rebuild_max_fraction = 0.5;
+  /// MB of the moved keyframes' scan updates a partial rebuild keeps from its first pass (finding the cells)
+  /// for its second (recomputing them); beyond, they are cast again. ~0.1 MB each at 320 x 240: without a
+  /// bound a rebuild moving 10,000 keyframes held ~1 GB.
+  int partial_rebuild_held_mb = 64;
   /// The rebuild thread's nice above the process (set by the server from server.background_nice; not a
   /// map: key).
   int rebuild_nice = 0;
