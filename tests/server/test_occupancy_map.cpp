@@ -207,8 +207,8 @@ TEST(OccupancyMap, APartialRebuildRecomputesOnlyWhereKeyframesMovedAndEqualsAWho
 }
 
 // Issue #15: a partial rebuild keeps the moved keyframes' ray casts between its passes only up to
-// partial_rebuild_held_mb (1 GB of them at 20,000 keyframes without a bound); beyond, it casts them again:
-// the same tree, three more casts for three moved keyframes.
+// partial_rebuild_held_mb (unbounded: 378 MB of the heap's peak at 5,000 keyframes); beyond, it casts them
+// again: the same tree, three more casts for three moved keyframes.
 TEST(OccupancyMap, APartialRebuildOverItsHeldBudgetCastsAgainAndBuildsTheSameTree) {
   const auto& kf = makeSynthKeyframes("sweep", 12);
   OccupancyMapConfig unbounded = testConfig(), bounded = testConfig();
