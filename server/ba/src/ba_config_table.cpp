@@ -33,6 +33,13 @@ const ConfigTable<BaSolveConfig>& baSolveConfigTable() {
           .add("second_iterations", &C::second_iterations, R::closed(0, 1000),
                "iterations after the outliers left (0: no second solve)")
           .add("max_time_s", &C::max_time_s, R::closed(0.001, 3600.0), "wall-clock limit of each solve")
+          .add("iterative_min_frames", &C::iterative_min_frames, R::closed(1, 100000000),
+               "the own solver takes conjugate gradients on the implicit reduced camera system (no matrix, "
+               "no factor) from this many free keyframes, a sparse Cholesky below")
+          .add("iterative_max_steps", &C::iterative_max_steps, R::closed(1, 100000),
+               "conjugate-gradient steps per Levenberg-Marquardt iteration")
+          .add("iterative_tolerance", &C::iterative_tolerance, R::closed(1e-12, 0.5),
+               "conjugate gradients stop at this residual, relative to the right-hand side")
           .add("num_threads", &C::num_threads, R::closed(1, 256), "Ceres threads (the own solver uses one)");
   return table;
 }

@@ -237,6 +237,7 @@ void runSolves(const BaProblem& problem, const BaSolveConfig& config, const std:
   report->initial_cost = first.initial_cost;
   report->final_cost = first.final_cost;
   report->iterations = first.iterations;
+  report->linear_steps = first.linear_steps;
   report->out_of_time = first.out_of_time;
   if (first.out_of_time) {
     // Unconverged, residuals are still large where the solve did not get to: the outlier test would take
@@ -253,6 +254,7 @@ void runSolves(const BaProblem& problem, const BaSolveConfig& config, const std:
     const SolveSummary second = bundle->solve(config.second_iterations, cancel);
     report->final_cost = second.final_cost;
     report->iterations += second.iterations;
+    report->linear_steps += second.linear_steps;
     report->out_of_time = second.out_of_time;
     report->final_rms_px = classify(problem, config, s);
   }

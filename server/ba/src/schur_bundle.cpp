@@ -128,15 +128,22 @@ SolveSummary SchurBundle::solveWith(int iterations, const std::atomic<bool>* can
     var_start[j + 1] = static_cast<int>(var_obs.size());
   }
 
+  const int n = nv * D;
+  const bool dense = n <= kDenseMaxUnknowns;
+  // A large reduced system (a global BA of a large map) is never formed: conjugate gradients apply it as
+  // U - sum_j W_j V_j^-1 W_j^T, point by point (memory linear in the observations).
+  const bool iterative = !dense && nv >= c_.iterative_min_frames;
+  size_t max_track = 0;
+  for (int j = 0; j < npv; ++j)
+    max_track = std::max(max_track, static_cast<size_t>(var_start[j + 1] - var_start[j]));
+
   // The reduced camera system's blocks: (a, a) for every frame unknown, then (a, b), a > b, for frames
   // sharing a landmark; `pair_block` lists, per point in order, the block of each observation pair.
   std::vector<std::pair<int, int>> blocks;
-  for (int a = 0; a < nv; ++a) blocks.emplace_back(a, a);
+  for (int a = 0; a < nv && !iterative; ++a) blocks.emplace_back(a, a);
   std::unordered_map<uint64_t, int> block_of;
   std::vector<int> pair_block;
-  size_t max_track = 0;
-  for (int j = 0; j < npv; ++j) {
-    max_track = std::max(max_track, static_cast<size_t>(var_start[j + 1] - var_start[j]));
+  for (int j = 0; j < npv && !iterative; ++j) {
     for (int x = var_start[j]; x < var_start[j + 1]; ++x) {
       const int a = var_of[x];
       for (int y = var_start[j]; y < var_start[j + 1]; ++y) {
@@ -164,7 +171,7 @@ SolveSummary SchurBundle::solveWith(int iterations, const std::atomic<bool>* can
     if (!in_problem[q.frame_a] || !in_problem[q.frame_b]) continue;
     PriorTerm t{&q, pose_free[q.frame_a] ? frame_var[q.frame_a] : -1,
                 pose_free[q.frame_b] ? frame_var[q.frame_b] : -1};
-    if (t.a >= 0 && t.b >= 0) {
+    if (t.a >= 0 && t.b >= 0 && !iterative) {
       const int hi = std::max(t.a, t.b), lo = std::min(t.a, t.b);
       const uint64_t key = (static_cast<uint64_t>(hi) << 32) | static_cast<uint32_t>(lo);
       const auto [it, added] = block_of.try_emplace(key, static_cast<int>(blocks.size()));
@@ -174,14 +181,12 @@ SolveSummary SchurBundle::solveWith(int iterations, const std::atomic<bool>* can
     priors.push_back(t);
   }
   using Mat66 = Eigen::Matrix<double, 6, 6>;
-  AlignedVector<Mat66> prior_cross(priors.size());  // J_hi^T J_lo per prior with a block
+  AlignedVector<Mat66> prior_cross(priors.size());  // J_hi^T J_lo per prior between two free frames
 
-  const int n = nv * D;
-  const bool dense = n <= kDenseMaxUnknowns;
   Eigen::SparseMatrix<double> S_sparse;
   std::vector<int> column_offset;  // per block and column: index of its first stored value
   Eigen::SimplicialLLT<Eigen::SparseMatrix<double>, Eigen::Lower, Eigen::AMDOrdering<int>> sparse_llt;
-  if (!dense) {
+  if (!dense && !iterative) {
     std::vector<Eigen::Triplet<double>> pattern;
     for (const auto& [a, b] : blocks)
       for (int c = 0; c < D; ++c)
@@ -315,7 +320,7 @@ SolveSummary SchurBundle::solveWith(int iterations, const std::atomic<bool>* can
         U[t.b].template topLeftCorner<6, 6>().noalias() += Jb.transpose() * Jb;
         g_frame[t.b].template head<6>().noalias() += Jb.transpose() * r;
       }
-      if (t.block >= 0) prior_cross[k] = t.a > t.b ? Ja.transpose() * Jb : Jb.transpose() * Ja;
+      if (t.a >= 0 && t.b >= 0) prior_cross[k] = t.a > t.b ? Ja.transpose() * Jb : Jb.transpose() * Ja;
     }
     for (int f = 0; f < nf; ++f) {
       if (!in_problem[f] || !has_prior[f]) continue;
@@ -342,7 +347,93 @@ SolveSummary SchurBundle::solveWith(int iterations, const std::atomic<bool>* can
   std::vector<Mat3> V_inv(npv);
   AlignedVector<MatD3> Y(max_track);
   Eigen::MatrixXd S_dense;
-  const auto step = [&](double lambda, double* model_decrease) -> bool {
+  AlignedVector<MatD> damped, P_inv;  // iterative: U + lambda D per frame; the block-Jacobi preconditioner
+  Eigen::VectorXd cg_r, cg_z, cg_p, cg_q;
+  // out = S v for the iterative solve (S: the reduced camera system at the damping in `damped`, V_inv).
+  const auto applyS = [&](const Eigen::VectorXd& v, Eigen::VectorXd* out) {
+    for (int a = 0; a < nv; ++a) out->segment<D>(a * D).noalias() = damped[a] * v.segment<D>(a * D);
+    for (size_t k = 0; k < priors.size(); ++k) {
+      const PriorTerm& t = priors[k];
+      if (t.a < 0 || t.b < 0) continue;
+      const int hi = std::max(t.a, t.b), lo = std::min(t.a, t.b);
+      out->segment<6>(hi * D).noalias() += prior_cross[k] * v.segment<6>(lo * D);
+      out->segment<6>(lo * D).noalias() += prior_cross[k].transpose() * v.segment<6>(hi * D);
+    }
+    for (int j = 0; j < npv; ++j) {
+      Vec3 z = Vec3::Zero();
+      for (int x = var_start[j]; x < var_start[j + 1]; ++x)
+        z.noalias() += W[var_obs[x]].transpose() * v.segment<D>(var_of[x] * D);
+      const Vec3 y = V_inv[j] * z;
+      for (int x = var_start[j]; x < var_start[j + 1]; ++x)
+        out->segment<D>(var_of[x] * D).noalias() -= W[var_obs[x]] * y;
+    }
+  };
+  // Preconditioned conjugate gradients on S dx = rhs from dx = 0. Its iterates keep dx' (S dx - rhs) = 0,
+  // so the predicted decrease below holds for a step it stops early (at its tolerance, step cap, the
+  // solve's time limit or a cancel). False when S is found not positive definite.
+  const auto solveIteratively = [&]() -> bool {
+    dx_frame.setZero();
+    cg_r = rhs;
+    const auto precondition = [&](const Eigen::VectorXd& r, Eigen::VectorXd* z) {
+      z->resize(n);
+      for (int a = 0; a < nv; ++a) z->segment<D>(a * D).noalias() = P_inv[a] * r.segment<D>(a * D);
+    };
+    precondition(cg_r, &cg_z);
+    cg_p = cg_z;
+    cg_q.resize(n);
+    double rz = cg_r.dot(cg_z);
+    const double stop = c_.iterative_tolerance * rhs.norm();
+    for (int k = 0; k < c_.iterative_max_steps && cg_r.norm() > stop; ++k) {
+      if ((cancel && cancel->load()) ||
+          std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count() > c_.max_time_s)
+        break;
+      applyS(cg_p, &cg_q);
+      ++summary.linear_steps;
+      const double pq = cg_p.dot(cg_q);
+      if (!(pq > 0.0)) return false;
+      const double alpha = rz / pq;
+      dx_frame.noalias() += alpha * cg_p;
+      cg_r.noalias() -= alpha * cg_q;
+      precondition(cg_r, &cg_z);
+      const double rz_next = cg_r.dot(cg_z);
+      cg_p = cg_z + (rz_next / rz) * cg_p;
+      rz = rz_next;
+    }
+    return true;
+  };
+  const auto stepIteratively = [&](double lambda) -> bool {
+    damped.resize(nv);
+    P_inv.resize(nv);
+    for (int a = 0; a < nv; ++a) {
+      damped[a] = U[a];
+      damped[a].diagonal() += lambda * dampingOf<D>(U[a]);
+      P_inv[a] = damped[a];  // the diagonal block of S first, inverted below
+      rhs.segment<D>(a * D) = -g_frame[a];
+    }
+    for (int j = 0; j < npv; ++j) {
+      Mat3 Vd = V[j];
+      Vd.diagonal() += lambda * dampingOf<3>(V[j]);
+      bool invertible = false;
+      Vd.computeInverseWithCheck(V_inv[j], invertible, 1e-300);
+      if (!invertible) return false;
+      const int first = var_start[j], count = var_start[j + 1] - first;
+      for (int x = 0; x < count; ++x) {
+        Y[x].noalias() = W[var_obs[first + x]] * V_inv[j];
+        rhs.segment<D>(var_of[first + x] * D).noalias() += Y[x] * g_point[j];
+      }
+      for (int x = 0; x < count; ++x)
+        for (int y = 0; y < count; ++y)
+          if (var_of[first + y] == var_of[first + x])
+            P_inv[var_of[first + x]].noalias() -= Y[x].lazyProduct(W[var_obs[first + y]].transpose());
+    }
+    for (int a = 0; a < nv; ++a) {
+      const Eigen::LLT<MatD> llt(P_inv[a]);
+      if (llt.info() != Eigen::Success) return false;
+      P_inv[a] = llt.solve(MatD::Identity());
+    }
+    return solveIteratively();
+  };
+  const auto stepDirectly = [&](double lambda) -> bool {
     for (int a = 0; a < nv; ++a) {
       S_blocks[a] = U[a];
       S_blocks[a].diagonal() += lambda * dampingOf<D>(U[a]);
@@ -389,6 +480,14 @@ SolveSummary SchurBundle::solveWith(int iterations, const std::atomic<bool>* can
       sparse_llt.factorize(S_sparse);
       if (sparse_llt.info() != Eigen::Success) return false;
       dx_frame = sparse_llt.solve(rhs);
+    }
+    return true;
+  };
+  const auto step = [&](double lambda, double* model_decrease) -> bool {
+    if (iterative) {
+      if (!stepIteratively(lambda)) return false;
+    } else if (!stepDirectly(lambda)) {
+      return false;
     }
     if (!dx_frame.allFinite()) return false;
     // Predicted decrease 0.5 * dx' (lambda D dx - g), over every unknown.

@@ -7,7 +7,10 @@
 // problem's structure written in: fixed-size blocks (a frame has 6 unknowns, or 9 while its rolling-shutter
 // rotation is estimated; a landmark 3), the landmarks eliminated per point (3x3 inverses), the reduced
 // camera system assembled block-sparse and factorised densely (small windows) or with a sparse Cholesky
-// (AMD ordering, the pattern analysed once per solve). The residuals, Jacobians, Huber loss, rolling-shutter
+// (AMD ordering, the pattern analysed once per solve); from BaSolveConfig::iterative_min_frames frame
+// unknowns (a global BA of a large map) it is never formed: preconditioned conjugate gradients apply it
+// point by point (implicit Schur complement, block-Jacobi preconditioner, as Ceres' ITERATIVE_SCHUR with
+// SCHUR_JACOBI), memory linear in the observations. The residuals, Jacobians, Huber loss, rolling-shutter
 // prior and trust-region rule are Ceres' (LM with radius 1e4 at the start, the step accepted at a relative
 // decrease above 1e-3, function tolerance 1e-6), so both solvers reach the same minimum; a test holds them
 // to it (`ba.solver: ceres` keeps Ceres as the reference).
@@ -36,6 +39,7 @@ struct SolveSummary {
   double initial_cost = 0.0, final_cost = 0.0;  ///< 0.5 * (robust sum + prior), as Ceres reports it
   int iterations = 0;                           ///< steps tried (accepted or not)
   bool out_of_time = false;                     ///< stopped by the wall-clock limit, not converged
+  int linear_steps = 0;                         ///< conjugate-gradient steps (the iterative solve only)
 };
 
 /// One adjustment's problem for the own solver: the observations SolveState::active marks take part, the

@@ -370,8 +370,9 @@ void MapOptimizer::adjustGlobally(const std::set<int>& maps) {
     log::info("optimiser: global BA of map ", map, ": ", r.report.frames, " keyframes, ", r.report.points,
               " landmarks, ", r.report.observations, " observations (", r.outliers_removed,
               " rejected), rms ", r.report.initial_rms_px, " -> ", r.report.final_rms_px, " px, ",
-              r.report.iterations, " iterations", r.report.out_of_time ? " (out of time)" : "", ", ",
-              r.parts_kept, " parts kept in place (up to ", r.part_shift_m, " m, ", r.part_shift_deg,
+              r.report.iterations, " iterations", r.report.out_of_time ? " (out of time)" : "",
+              r.report.linear_steps > 0 ? ", " + std::to_string(r.report.linear_steps) + " CG steps" : "",
+              ", ", r.parts_kept, " parts kept in place (up to ", r.part_shift_m, " m, ", r.part_shift_deg,
               " deg), ", ms, " ms (", cpu_ms, " ms CPU)",
               backoff > 1 ? "; no gain: the next waits for growth x" : "",
               backoff > 1 ? std::to_string(backoff) : "");

@@ -40,7 +40,14 @@ struct BaSolveConfig {
   int first_iterations = 5;    ///< Levenberg-Marquardt iterations before the outlier test
   int second_iterations = 10;  ///< after it; 0 skips the second solve
   double max_time_s = 1.0;     ///< wall-clock limit of each solve
-  int num_threads = 1;         ///< Ceres threads (the own solver uses one)
+  /// The own solver's reduced camera system with at least this many frame unknowns (a global BA of a large
+  /// map) is solved by conjugate gradients on the implicit Schur complement, preconditioned by its block
+  /// diagonal, instead of a sparse Cholesky: no matrix and no factor to store (a factor fills in when a
+  /// room is revisited for hours: GBs at ~20,000 keyframes), memory linear in the observations.
+  int iterative_min_frames = 1500;
+  int iterative_max_steps = 100;      ///< conjugate-gradient steps per Levenberg-Marquardt iteration
+  double iterative_tolerance = 0.01;  ///< ... until the residual is this fraction of the right-hand side
+  int num_threads = 1;                ///< Ceres threads (the own solver uses one)
 };
 
 struct BaFrame {
@@ -89,6 +96,7 @@ Vec6 posePriorResidual(const BaPosePrior& prior, const SE3& T_a_map, const SE3& 
 struct BaReport {
   int frames = 0, fixed_frames = 0, points = 0, observations = 0;
   int iterations = 0;
+  int linear_steps = 0;  ///< conjugate-gradient steps of the own solver's iterative path (0: factorised)
   double initial_cost = 0.0, final_cost = 0.0;  ///< Ceres cost (0.5 * robust sum) of the first / last solve
   double initial_rms_px = 0.0, final_rms_px = 0.0;  ///< reprojection RMS over the inliers, octave-0 px
   double time_ms = 0.0;
