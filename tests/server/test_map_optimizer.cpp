@@ -174,6 +174,36 @@ TEST(MapOptimizer, GlobalBundleAdjustmentsAfterLargeCyclesWaitForTheMapToGrow) {
   EXPECT_LT(grown.rms_m, 0.004);  // the final global BA gives the same accuracy
 }
 
+// Issue #15: a map of more keyframes than ba.global_max_keyframes gets no global BA (past ~4,000 they ran
+// out of time and were refused while their window grew with the map); those it would have had are counted.
+TEST(MapOptimizer, AMapPastTheGlobalLimitGetsNoGlobalBundleAdjustment) {
+  const BaSynthScene s = scene();
+  const auto grow = [](MapOptimizerConfig* c) {
+    c->ba.global_after_loop_span = 1;
+    c->ba.global_min_growth_fraction = 0.2;
+  };
+  const auto limited = [&](MapOptimizerConfig* c) {
+    grow(c);
+    c->ba.global_max_keyframes = 12;
+  };
+  const Outcome all = runScene(s, true, false, grow, true);
+  const Outcome capped = runScene(s, true, false, limited, true);
+  ASSERT_TRUE(all.result && capped.result);
+  std::printf(
+      "[ measured ] global BAs: %lld without a limit, %lld up to 12 keyframes (%lld skipped, the last "
+      "over %d keyframes); rms %.5f / %.5f m\n",
+      static_cast<long long>(all.result->ba.global_runs),
+      static_cast<long long>(capped.result->ba.global_runs),
+      static_cast<long long>(capped.result->ba.global_skipped), capped.result->ba.global_keyframes_last,
+      all.rms_m, capped.rms_m);
+  EXPECT_EQ(all.result->ba.global_skipped, 0);
+  EXPECT_GE(capped.result->ba.global_skipped, 1);
+  EXPECT_GE(capped.result->ba.global_runs, 1);
+  EXPECT_LT(capped.result->ba.global_runs, all.result->ba.global_runs);
+  EXPECT_LE(capped.result->ba.global_keyframes_last, 12);
+  EXPECT_GT(all.result->ba.global_keyframes_last, 12);
+}
+
 // Issue #15: a global BA that ends at its time limit without lowering the error (in the fleet run: 9,600
 // keyframes under the observation cap, rms 1.15 px before and after, 3 s each) doubles the growth its map
 // must reach before the next one; one that helps resets it.

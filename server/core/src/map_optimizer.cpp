@@ -349,6 +349,19 @@ void MapOptimizer::adjustGlobally(const std::set<int>& maps) {
   for (int map : std::set<int>(maps)) {
     const auto anchor = anchor_of_.find(map);
     if (anchor == anchor_of_.end() || cancel_) continue;
+    if (const int limit = config_.ba.global_max_keyframes; limit > 0) {
+      const auto keyframes =
+          std::count_if(map_of_.begin(), map_of_.end(), [map](const auto& kv) { return kv.second == map; });
+      if (keyframes > limit) {  // done with as if it ran: not owed again, nothing for a quiet map to do
+        added_since_global_[map] = 0;
+        changed_maps_.erase(map);
+        if (counters_.global_skipped++ == 0)
+          log::info("optimiser: map ", map, " has ", keyframes,
+                    " keyframes, more than ba.global_max_keyframes (", limit,
+                    "): no global BA from now on, local BAs and the pose graph only");
+        continue;
+      }
+    }
     const auto t0 = std::chrono::steady_clock::now();
     const double cpu0 = threadCpuMs();
     const BundleResult r = landmarks_.globalAdjust(map, anchor->second, &cancel_, check_, stepPriors(map));

@@ -117,6 +117,9 @@ const ConfigTable<BundleAdjustmentConfig>& bundleAdjustmentConfigTable() {
                "wait)")
           .add("global_when_idle_s", &B::global_when_idle_s, R::closed(0.0, 3600.0),
                "a global BA of a changed map once no keyframe came for this long (0: only on request)")
+          .add("global_max_keyframes", &B::global_max_keyframes, R::closed(0, 100000000),
+               "a map of more keyframes gets no global BA (past ~4,000 they ran out of time and were "
+               "refused, their window growing with the map; 0: no limit)")
           .add("global_step_priors", &B::global_step_priors,
                "a global BA takes the pose-graph edges its landmarks do not cover (odometry steps into an "
                "unseen room) as relative-pose priors")

@@ -22,6 +22,7 @@ Json bundleAdjustmentJson(const BundleAdjustmentStats& s) {
           {"global_ba_runs", s.global_runs},
           {"global_ba_ms_last", jsonNumber(s.global_ms_last)},
           {"global_ba_fruitless", s.global_fruitless},
+          {"global_ba_skipped", s.global_skipped},
           {"ba_refused", s.refused},
           {"ba_parts_kept", s.parts_kept},
           {"ba_part_shift_m_max", jsonNumber(s.part_shift_m_max)},

@@ -87,6 +87,8 @@ struct BundleAdjustmentStats {
   /// Global BAs that ended at their time limit without lowering the error (a map too large for the
   /// observation cap); each doubles the growth its map must reach before the next one (up to 64x).
   int64_t global_fruitless = 0;
+  /// Global BAs not run because their map had more than BundleAdjustmentConfig::global_max_keyframes.
+  int64_t global_skipped = 0;
   /// Adjustments whose outcome was refused (BundleAdjustmentConfig::max_edge_change_m / _deg): nothing
   /// applied.
   int64_t refused = 0;

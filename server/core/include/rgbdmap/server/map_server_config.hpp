@@ -37,6 +37,13 @@ struct BundleAdjustmentConfig {
   /// A map changed since its last global BA gets one once no keyframe came for this long (0: only when
   /// asked, e.g. by waitIdle).
   double global_when_idle_s = 2.0;
+  /// A map of more keyframes than this gets no global BA (0: no limit); local BAs and the pose graph go
+  /// on. In bench_map_growth's revisited rooms every global BA past ~4,000 keyframes ran out of its time and
+  /// was refused (edges between keyframes sharing landmarks changed by metres), while its window, at least
+  /// landmarks.min_frame_observations per keyframe, grew with the map: the RSS rose by 0.66-0.70 GB during
+  /// each one at 12,800-16,000 keyframes (docs/scaling.md, stop 34). A windowed or submap global step is
+  /// not built.
+  int global_max_keyframes = 4000;
   /// An adjustment that changes the relative pose of two keyframes sharing landmarks (an edge between
   /// them) by more than this is refused, nothing applied: shared landmarks hold such a relative pose to
   /// centimetres, and a change this large is a solve gone wrong (a global BA out of time in a
