@@ -401,6 +401,21 @@ SolveSummary SchurBundle::solveWith(int iterations, const std::atomic<bool>* can
     }
     return true;
   };
+  // Point j eliminated at damping lambda: V_inv[j], Y = W V^-1 for each of its observations by a frame
+  // unknown, and its share of the reduced right-hand side. False when its damped block is singular.
+  const auto eliminate = [&](int j, double lambda) -> bool {
+    Mat3 Vd = V[j];
+    Vd.diagonal() += lambda * dampingOf<3>(V[j]);
+    bool invertible = false;
+    Vd.computeInverseWithCheck(V_inv[j], invertible, 1e-300);
+    if (!invertible) return false;
+    const int first = var_start[j], count = var_start[j + 1] - first;
+    for (int x = 0; x < count; ++x) {
+      Y[x].noalias() = W[var_obs[first + x]] * V_inv[j];
+      rhs.segment<D>(var_of[first + x] * D).noalias() += Y[x] * g_point[j];
+    }
+    return true;
+  };
   const auto stepIteratively = [&](double lambda) -> bool {
     damped.resize(nv);
     P_inv.resize(nv);
@@ -411,16 +426,8 @@ SolveSummary SchurBundle::solveWith(int iterations, const std::atomic<bool>* can
       rhs.segment<D>(a * D) = -g_frame[a];
     }
     for (int j = 0; j < npv; ++j) {
-      Mat3 Vd = V[j];
-      Vd.diagonal() += lambda * dampingOf<3>(V[j]);
-      bool invertible = false;
-      Vd.computeInverseWithCheck(V_inv[j], invertible, 1e-300);
-      if (!invertible) return false;
+      if (!eliminate(j, lambda)) return false;
       const int first = var_start[j], count = var_start[j + 1] - first;
-      for (int x = 0; x < count; ++x) {
-        Y[x].noalias() = W[var_obs[first + x]] * V_inv[j];
-        rhs.segment<D>(var_of[first + x] * D).noalias() += Y[x] * g_point[j];
-      }
       for (int x = 0; x < count; ++x)
         for (int y = 0; y < count; ++y)
           if (var_of[first + y] == var_of[first + x])
@@ -444,16 +451,8 @@ SolveSummary SchurBundle::solveWith(int iterations, const std::atomic<bool>* can
       if (priors[k].block >= 0) S_blocks[priors[k].block].template topLeftCorner<6, 6>() += prior_cross[k];
     size_t pair = 0;
     for (int j = 0; j < npv; ++j) {
-      Mat3 Vd = V[j];
-      Vd.diagonal() += lambda * dampingOf<3>(V[j]);
-      bool invertible = false;
-      Vd.computeInverseWithCheck(V_inv[j], invertible, 1e-300);
-      if (!invertible) return false;
+      if (!eliminate(j, lambda)) return false;
       const int first = var_start[j], count = var_start[j + 1] - first;
-      for (int x = 0; x < count; ++x) {
-        Y[x].noalias() = W[var_obs[first + x]] * V_inv[j];
-        rhs.segment<D>(var_of[first + x] * D).noalias() += Y[x] * g_point[j];
-      }
       for (int x = 0; x < count; ++x) {
         const int a = var_of[first + x];
         for (int y = 0; y < count; ++y)

@@ -117,21 +117,15 @@ void BM_PoseGraphFleetRoom(benchmark::State& state) {
   state.counters["out_of_time"] = report.out_of_time ? 1 : 0;
 }
 
-/// The peak RSS a process reached since the last reset (VmHWM), MiB; resetPeak() sets it to the current RSS.
-double peakRssMiB() {
+/// A field of /proc/self/status in MiB: "VmRSS:" (now) or "VmHWM:" (the peak since the last resetPeak()).
+double statusMiB(const std::string& field) {
   std::ifstream status("/proc/self/status");
   std::string line;
   while (std::getline(status, line))
-    if (line.rfind("VmHWM:", 0) == 0) return std::stod(line.substr(6)) / 1024.0;
+    if (line.rfind(field, 0) == 0) return std::stod(line.substr(field.size())) / 1024.0;
   return 0.0;
 }
-double rssMiB() {
-  std::ifstream status("/proc/self/status");
-  std::string line;
-  while (std::getline(status, line))
-    if (line.rfind("VmRSS:", 0) == 0) return std::stod(line.substr(6)) / 1024.0;
-  return 0.0;
-}
+/// Sets the peak RSS (VmHWM) to the current RSS.
 void resetPeak() { std::ofstream("/proc/self/clear_refs") << "5"; }
 
 // Memory of the whole-graph solve a quiet server runs after a long fleet hour: N keyframes in a revisited
@@ -151,11 +145,11 @@ void BM_PoseGraphFleetRoomMemory(benchmark::State& state) {
     state.PauseTiming();
     rgbdmap::PoseGraph graph = synth.graph;
     resetPeak();
-    const double before = rssMiB();
+    const double before = statusMiB("VmRSS:");
     state.ResumeTiming();
     auto result = graph.optimize(config);
     state.PauseTiming();
-    peak = std::max(peak, peakRssMiB() - before);
+    peak = std::max(peak, statusMiB("VmHWM:") - before);
     state.ResumeTiming();
     if (!result.ok()) {
       state.SkipWithError(result.error().c_str());
