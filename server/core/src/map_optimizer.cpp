@@ -333,10 +333,15 @@ std::vector<int64_t> MapOptimizer::odometryNeighbours(int64_t id) const {
   return out;
 }
 
-bool MapOptimizer::grownEnough(int map) const {
-  if (!(config_.ba.global_min_growth_fraction > 0.0)) return true;
+size_t MapOptimizer::keyframesIn(int map) const {
   size_t keyframes = 0;
   for (const auto& [id, m] : map_of_) keyframes += m == map;
+  return keyframes;
+}
+
+bool MapOptimizer::grownEnough(int map) const {
+  if (!(config_.ba.global_min_growth_fraction > 0.0)) return true;
+  const size_t keyframes = keyframesIn(map);
   const auto it = added_since_global_.find(map);
   const int added = it == added_since_global_.end() ? 0 : it->second;
   const auto backoff = global_backoff_.find(map);
@@ -350,9 +355,9 @@ void MapOptimizer::adjustGlobally(const std::set<int>& maps) {
     const auto anchor = anchor_of_.find(map);
     if (anchor == anchor_of_.end() || cancel_) continue;
     if (const int limit = config_.ba.global_max_keyframes; limit > 0) {
-      const auto keyframes =
-          std::count_if(map_of_.begin(), map_of_.end(), [map](const auto& kv) { return kv.second == map; });
-      if (keyframes > limit) {  // done with as if it ran: not owed again, nothing for a quiet map to do
+      const size_t keyframes = keyframesIn(map);
+      if (keyframes > static_cast<size_t>(
+                          limit)) {  // done with as if it ran: not owed again, nothing for a quiet map to do
         added_since_global_[map] = 0;
         changed_maps_.erase(map);
         if (counters_.global_skipped++ == 0)

@@ -106,6 +106,7 @@ class MapOptimizer {
   bool updateTracks(bool* chains_joined);
   /// Whether the map grew by global_min_growth_fraction of its keyframes since its last global BA.
   bool grownEnough(int map) const;
+  size_t keyframesIn(int map) const;  ///< keyframes of the map (a scan of map_of_)
   void adjustNewKeyframes(const std::vector<int64_t>& ids);
   void adjustGlobally(const std::set<int>& maps);
   /// The enabled edges of `map` whose keyframes share too few landmarks for a BA to know their relative pose,
