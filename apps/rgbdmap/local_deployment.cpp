@@ -5,25 +5,21 @@
 #include <cstdlib>
 #include <filesystem>
 
+#include "rgbdmap/common/data_files.hpp"
 #include "rgbdmap/common/logging.hpp"
 
 namespace rgbdmap::cmd {
 namespace {
 
 /// Cyclone DDS must never run with its default configuration here (it multicasts on the real interface):
-/// the source tree's loopback configuration, else the installed one.
+/// the shipped loopback configuration (share/rgbdmap/dds, findDataFile) unless CYCLONEDDS_URI is set.
 Status ensureDdsConfig() {
   if (std::getenv("CYCLONEDDS_URI")) return Status::success();
-  const std::string candidates[] = {std::string(RGBDMAP_SOURCE_DIR) + "/deploy/dds/cyclonedds-loopback.xml",
-                                    std::string(RGBDMAP_INSTALLED_DDS_DIR) + "/cyclonedds-loopback.xml"};
-  for (const std::string& xml : candidates) {
-    if (!std::filesystem::exists(xml)) continue;
-    setenv("CYCLONEDDS_URI", ("file://" + xml).c_str(), 1);
-    log::info("CYCLONEDDS_URI=file://", xml, " (loopback only)");
-    return Status::success();
-  }
-  return Status::failure("CYCLONEDDS_URI is not set and neither " + candidates[0] + " nor " + candidates[1] +
-                         " exists; set CYCLONEDDS_URI");
+  const Result<std::string> xml = findDataFile("dds/cyclonedds-loopback.xml", RGBDMAP_INSTALLED_DATA_DIR);
+  if (!xml) return Status::failure("CYCLONEDDS_URI is not set and the loopback configuration " + xml.error());
+  setenv("CYCLONEDDS_URI", ("file://" + *xml).c_str(), 1);
+  log::info("CYCLONEDDS_URI=file://", *xml, " (loopback only)");
+  return Status::success();
 }
 
 Result<std::unique_ptr<transport::Transport>> makeTransport(const std::string& url) {

@@ -63,5 +63,15 @@ check "view-map rejects a truncated .bt" 1 "$bin" view-map "$tmp/cut.bt"
 contains "view-map names the problem" "$tmp/err.txt" "truncated or corrupt"
 check "view-map needs a file" 2 "$bin" view-map
 check "unknown command" 2 "$bin" frobnicate
+# Programs find their data files wherever they are: a viewer copied without share/rgbdmap beside it says
+# at start what is missing and where it looked; pointed at the files by RGBDMAP_DATA_DIR it serves.
+mkdir -p "$tmp/moved/bin" && cp "$1/rgbdmap-viewer" "$tmp/moved/bin/"
+RGBDMAP_DATA_DIR="$tmp/nowhere" check "a moved viewer without its page is a configuration error" 2 \
+  "$tmp/moved/bin/rgbdmap-viewer" --open --robots robot0 --transport memq://moved --port 0 --timeout 1
+contains "the missing page is named with the places looked in" "$tmp/err.txt" \
+  "viewer/index.html not found (looked in $tmp/nowhere/viewer/index.html, $tmp/moved/share/rgbdmap/viewer/index.html"
+RGBDMAP_DATA_DIR="$1/../share/rgbdmap" check "RGBDMAP_DATA_DIR points a moved viewer at its page" 0 \
+  "$tmp/moved/bin/rgbdmap-viewer" --open --robots robot0 --transport memq://moved --port 0 --timeout 1
+contains "the moved viewer serves" "$tmp/err.txt" "rgbdmap-viewer: serving http://127.0.0.1:"
 if [ "$fail" -eq 0 ]; then echo "cli: all checks passed"; fi
 exit "$fail"

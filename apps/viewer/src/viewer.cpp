@@ -4,6 +4,8 @@
 #include <filesystem>
 
 #include "foxglove_json.hpp"
+#include "rgbdmap/common/atomic_file.hpp"
+#include "rgbdmap/common/data_files.hpp"
 #include "viewer_impl.hpp"
 
 namespace rgbdmap::viewer {
@@ -14,16 +16,18 @@ int64_t nowUtime() {
       .count();
 }
 
-std::string defaultWebDir() {
-#ifdef RGBDMAP_VIEWER_SOURCE_WEB_DIR
-  if (std::filesystem::exists(std::string(RGBDMAP_VIEWER_SOURCE_WEB_DIR) + "/index.html"))
-    return RGBDMAP_VIEWER_SOURCE_WEB_DIR;
-#endif
-#ifdef RGBDMAP_VIEWER_INSTALLED_WEB_DIR
-  return RGBDMAP_VIEWER_INSTALLED_WEB_DIR;
-#else
-  return "web";
-#endif
+Result<std::string> findWebDir(const std::string& web_dir) {
+  if (web_dir.empty()) {
+    const Result<std::string> index = findDataFile("viewer/index.html", RGBDMAP_INSTALLED_DATA_DIR);
+    if (!index) return Result<std::string>::failure("the web page: " + index.error());
+    return findWebDir(folderOf(*index));
+  }
+  for (const char* file : {"index.html", "viewer.js"}) {
+    const std::string path = web_dir + "/" + file;
+    if (!std::filesystem::is_regular_file(path))
+      return Result<std::string>::failure("the web page: " + path + " not found");
+  }
+  return web_dir;
 }
 
 std::vector<ChannelInfo> Viewer::Impl::makeChannels() {
@@ -59,7 +63,11 @@ void Viewer::Impl::requestSnapshot(uint32_t channel) {
 Result<std::unique_ptr<Viewer>> Viewer::create(ViewerOptions options, const msg::KeyStore& server_keys) {
   using R = Result<std::unique_ptr<Viewer>>;
   if (options.robots.empty()) return R::failure("viewer: no robots");
-  if (options.web_dir.empty()) options.web_dir = defaultWebDir();
+  const Result<std::string> web_dir = findWebDir(options.web_dir);
+  if (!web_dir) return R::failure("viewer: " + web_dir.error());
+  options.web_dir = *web_dir;
+  if (!std::filesystem::is_regular_file(options.three_dir + "/three.min.js"))
+    return R::failure("viewer: three.js not found in " + options.three_dir + " (Debian package libjs-three)");
   const std::vector<std::string> robots = options.robots;
   auto impl = std::make_unique<Impl>(std::move(options), robots);
   if (const Status s = impl->subscriber.setKeys(server_keys, impl->options.open); !s)

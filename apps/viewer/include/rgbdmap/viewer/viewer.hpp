@@ -31,7 +31,7 @@ struct ViewerOptions {
   bool open = false;  ///< accept unsigned server messages (server in open mode)
   std::string bind = "127.0.0.1";
   int port = 8765;
-  std::string web_dir;  ///< index.html + viewer.js (defaultWebDir())
+  std::string web_dir;  ///< index.html + viewer.js (findWebDir())
   std::string three_dir = "/usr/share/javascript/three";
   int max_clients = 16;
   size_t max_queue_bytes = 32u << 20;  ///< per client; beyond it messages to that client are dropped
@@ -46,8 +46,10 @@ struct ViewerStats {
   uint64_t voxels = 0;  ///< occupied voxels over all robots' maps, as last published
 };
 
-/// The web page's folder: the source tree's apps/viewer/web if present, else the installed copy.
-std::string defaultWebDir();
+/// The web page's folder (index.html, viewer.js): `web_dir` when given, else share/rgbdmap/viewer found by
+/// findDataFile() (beside the executable, RGBDMAP_DATA_DIR, the install prefix); the reason names the places
+/// looked in when the page is missing.
+Result<std::string> findWebDir(const std::string& web_dir);
 
 class Viewer {
  public:
