@@ -122,6 +122,51 @@ Result<OpenedSource> loadClientConfig(cli::Args& args, const ClientArgs& a, Robo
   return opened;
 }
 
+/// --record DIR: the frames the robot reads are also written as a TUM folder.
+Status recordInto(const std::string& dir, const CameraIntrinsics& camera, std::unique_ptr<FrameSource>* source,
+                  RecordingSource** recording) {
+  if (dir.empty()) return Status::success();
+  auto recorder = TumRecorder::create(dir, camera);
+  if (!recorder) return Status::failure(recorder.error());
+  auto wrapped = std::make_unique<RecordingSource>(std::move(*source), std::move(*recorder));
+  *recording = wrapped.get();
+  *source = std::move(wrapped);
+  return Status::success();
+}
+
+/// Closes the --record folder and the --record-keyframes stream.
+Status finishRecordings(const ClientArgs& a, RecordingSource* recording, KeyframeStreamWriter* keyframes) {
+  if (recording) {
+    if (Status s = recording->finish(); !s) return s;
+    log::info("recorded ", recording->recorded(), " frames into ", a.record);
+  }
+  if (keyframes) {
+    if (Status s = keyframes->close(); !s) return s;
+    log::info("recorded ", keyframes->keyframes(), " keyframes into ", a.record_keyframes,
+              keyframes->dropped() ? " (" + std::to_string(keyframes->dropped()) + " dropped past 1 GiB)"
+                                   : std::string());
+  }
+  return Status::success();
+}
+
+/// trajectory_<robot>.txt, keyframes_<robot>.txt, client_<robot>.json and the summary; the exit code (1: no
+/// frame or a source error, 3: keyframes the server did not accept).
+int writeOutputs(const ClientArgs& a, const RobotClientConfig& config, const std::string& source_name,
+                 const RobotRunResult& result) {
+  const ClientRunInfo info{config.robot_id, source_name, config.transport_url, !config.link.key.empty()};
+  if (Status s = writeClientOutputs(a.out, info, result); !s) return log::error(s.error()), 1;
+  std::fprintf(stderr,
+               "%s\nwrote %s/trajectory_%s.txt, trajectory_%s_live.txt, keyframes_%s.txt, client_%s.json\n",
+               clientSummary(result).c_str(), a.out.c_str(), config.robot_id.c_str(), config.robot_id.c_str(),
+               config.robot_id.c_str(), config.robot_id.c_str());
+  if (result.frames == 0 && result.unreadable_frames > 0)
+    return log::error(source_name, ": none of the ", result.unreadable_frames, " frames could be read"), 1;
+  if (!result.source_error.empty()) return 1;
+  if (const DeliveryReport d = deliveryReport(result, config.robot_id); d.unaccepted > 0)
+    return log::error("robot ", config.robot_id, ": ", d.message), kExitKeyframesNotAccepted;
+  return 0;
+}
+
 int run(int argc, char** argv) {
   cli::Args args(argc, argv, {"fast", "help"});
   if (args.has("help")) {
@@ -144,13 +189,7 @@ int run(int argc, char** argv) {
   const OdometrySetup& setup = opened->setup;
   std::unique_ptr<FrameSource> source = std::move(opened->source);
   RecordingSource* recording = nullptr;
-  if (!a.record.empty()) {
-    auto recorder = TumRecorder::create(a.record, setup.camera);
-    if (!recorder) return log::error(recorder.error()), 1;
-    auto wrapped = std::make_unique<RecordingSource>(std::move(source), std::move(*recorder));
-    recording = wrapped.get();
-    source = std::move(wrapped);
-  }
+  if (Status s = recordInto(a.record, setup.camera, &source, &recording); !s) return log::error(s.error()), 1;
 
   std::error_code ec;
   std::filesystem::create_directories(a.out, ec);
@@ -190,32 +229,10 @@ int run(int argc, char** argv) {
   progress.finish();
   link.stop();
   (*transport)->stop();
-  if (recording) {
-    if (Status s = recording->finish(); !s) return log::error(s.error()), 1;
-    log::info("recorded ", recording->recorded(), " frames into ", a.record);
-  }
-  if (keyframe_recording) {
-    if (Status s = keyframe_recording->close(); !s) return log::error(s.error()), 1;
-    log::info("recorded ", keyframe_recording->keyframes(), " keyframes into ", a.record_keyframes,
-              keyframe_recording->dropped()
-                  ? " (" + std::to_string(keyframe_recording->dropped()) + " dropped past 1 GiB)"
-                  : std::string());
-  }
+  if (Status s = finishRecordings(a, recording, keyframe_recording.get()); !s) return log::error(s.error()), 1;
   if (!result.source_error.empty()) log::error(result.source_error);
-
   const std::string source_name = a.source->scheme == "tum" ? a.source->path : source->describe();
-  const ClientRunInfo info{config.robot_id, source_name, config.transport_url, !config.link.key.empty()};
-  if (Status s = writeClientOutputs(a.out, info, result); !s) return log::error(s.error()), 1;
-  std::fprintf(stderr,
-               "%s\nwrote %s/trajectory_%s.txt, trajectory_%s_live.txt, keyframes_%s.txt, client_%s.json\n",
-               clientSummary(result).c_str(), a.out.c_str(), config.robot_id.c_str(), config.robot_id.c_str(),
-               config.robot_id.c_str(), config.robot_id.c_str());
-  if (result.frames == 0 && result.unreadable_frames > 0)
-    return log::error(source_name, ": none of the ", result.unreadable_frames, " frames could be read"), 1;
-  if (!result.source_error.empty()) return 1;
-  if (const DeliveryReport d = deliveryReport(result, config.robot_id); d.unaccepted > 0)
-    return log::error("robot ", config.robot_id, ": ", d.message), kExitKeyframesNotAccepted;
-  return 0;
+  return writeOutputs(a, config, source_name, result);
 }
 
 }  // namespace

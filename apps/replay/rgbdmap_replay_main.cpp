@@ -67,6 +67,95 @@ Json report(const std::string& robot, const std::string& stream_path, const Repl
   return j;
 }
 
+/// --rate, --duration, --start, --phase: the replay's pace and where in the stream it begins.
+ReplayOptions parseReplayOptions(cli::Args& args, double* phase, std::vector<std::string>* errors) {
+  ReplayOptions ro;
+  ro.rate_hz = args.getDouble("rate").value_or(0.0);
+  ro.duration_s = args.getDouble("duration").value_or(0.0);
+  const long long start = args.getInt("start").value_or(0);
+  if (!(ro.rate_hz >= 0.0 && ro.rate_hz <= 1000.0)) errors->push_back("--rate must be in [0, 1000]");
+  if (!(ro.duration_s >= 0.0 && ro.duration_s <= 7 * 86400.0))
+    errors->push_back("--duration must be in [0, 604800]");
+  if (start < 0 || start > 100000000) errors->push_back("--start must be in [0, 1e8]");
+  ro.start = static_cast<size_t>(start);
+  *phase = args.getDouble("phase").value_or(0.0);
+  if (!(*phase >= 0.0 && *phase < 1.0)) errors->push_back("--phase must be in [0, 1)");
+  if (args.has("phase") && args.has("start")) errors->push_back("--phase and --start exclude each other");
+  return ro;
+}
+
+/// The robot's configuration file (its camera:, dataset: and odometry: sections are not used here), the
+/// command line's overrides and the robot's key.
+RobotClientConfig readReplayConfig(cli::Args& args, std::vector<std::string>* errors) {
+  RobotClientConfig config;
+  const std::string config_path = args.getOr("config", "");
+  if (!config_path.empty()) {
+    if (auto reader = ConfigReader::fromFile(config_path)) {
+      readRobotClientConfig(*reader, &config);
+      for (const std::string& e : reader->errors())
+        if (e.find("unknown key 'camera.") == std::string::npos &&
+            e.find("unknown key 'dataset.") == std::string::npos &&
+            e.find("unknown key 'odometry.") == std::string::npos)
+          errors->push_back(e);
+    } else {
+      errors->push_back(reader.error());
+    }
+  }
+  config.robot_id = args.getOr("robot-id", config.robot_id);
+  config.transport_url = args.getOr("transport", config.transport_url);
+  if (!config.key_file.empty()) {
+    if (auto key = readKeyFile(config.key_file, std::filesystem::path(config_path).parent_path().string()))
+      config.link.key = *key;
+    else
+      errors->push_back(key.error());
+  }
+  return config;
+}
+
+/// Writes replay_<robot>.json and the summary line; the exit code (3: keyframes not acknowledged).
+int finish(const RobotClientConfig& config, const std::string& stream_path, const std::string& out,
+           const ReplayResult& result) {
+  const std::string json_path = out + "/replay_" + config.robot_id + ".json";
+  if (Status s = writeJsonFile(json_path, report(config.robot_id, stream_path, result)); !s)
+    return log::error(s.error()), 1;
+  std::fprintf(stderr,
+               "robot %s: %zu keyframes sent in %zu pass(es), %zu acknowledged; ack p50 %.0f ms, p90 %.0f "
+               "ms, max %.0f ms; wrote %s\n",
+               config.robot_id.c_str(), result.keyframes.size(), result.passes, result.acked(),
+               result.ackQuantileMs(0.5), result.ackQuantileMs(0.9), result.ackQuantileMs(1.0),
+               json_path.c_str());
+  if (result.keyframes.empty() || result.acked() < result.keyframes.size() || result.send_failures > 0)
+    return log::error("robot ", config.robot_id, ": ",
+                      result.keyframes.size() + result.send_failures - result.acked(),
+                      " keyframes not acknowledged"),
+           3;
+  return 0;
+}
+
+/// Sends the stream over the link until it is done or a signal stops it.
+ReplayResult replayOverLink(const KeyframeStream& stream, RobotClientConfig& config, ReplayOptions ro,
+                            cli::SignalThread& signals, Status* started) {
+  auto transport = transport::makeTransport(config.transport_url);
+  if (!transport) {
+    *started = Status::failure("transport " + config.transport_url + ": " + transport.error());
+    return {};
+  }
+  config.link.chunk_bytes = resolveChunkBytes(config.link.chunk_bytes, config.transport_url);
+  RobotLink link(**transport, config.link);
+  if (*started = link.start(); !*started) return {};
+  StopRequest stop;
+  signals.start([&stop](int sig) {
+    log::warn("signal ", sig, ": stopping (again to quit at once); the report will still be written");
+    stop.request();
+  });
+  ro.stop = &stop;
+  ro.final_wait_s = config.final_wait_s;
+  const ReplayResult result = replayKeyframes(stream, link, ro);
+  link.stop();
+  (*transport)->stop();
+  return result;
+}
+
 int run(int argc, char** argv) {
   cli::Args args(argc, argv, {"help"});
   if (args.has("help")) return std::printf("%s", kUsage), 0;
@@ -77,44 +166,11 @@ int run(int argc, char** argv) {
   applyLogLevel(args, &errors);
   const std::string stream_path = args.getOr("stream", "");
   if (stream_path.empty()) errors.push_back("--stream FILE is required");
-  ReplayOptions ro;
-  ro.rate_hz = args.getDouble("rate").value_or(0.0);
-  ro.duration_s = args.getDouble("duration").value_or(0.0);
-  const long long start = args.getInt("start").value_or(0);
-  if (!(ro.rate_hz >= 0.0 && ro.rate_hz <= 1000.0)) errors.push_back("--rate must be in [0, 1000]");
-  if (!(ro.duration_s >= 0.0 && ro.duration_s <= 7 * 86400.0))
-    errors.push_back("--duration must be in [0, 604800]");
-  if (start < 0 || start > 100000000) errors.push_back("--start must be in [0, 1e8]");
-  ro.start = static_cast<size_t>(start);
-  const double phase = args.getDouble("phase").value_or(0.0);
-  if (!(phase >= 0.0 && phase < 1.0)) errors.push_back("--phase must be in [0, 1)");
-  if (args.has("phase") && args.has("start")) errors.push_back("--phase and --start exclude each other");
+  double phase = 0.0;
+  ReplayOptions ro = parseReplayOptions(args, &phase, &errors);
   for (const auto& p : args.positional()) errors.push_back("unexpected argument '" + p + "'");
   errors.insert(errors.begin(), args.errors().begin(), args.errors().end());
-
-  RobotClientConfig config;
-  const std::string config_path = args.getOr("config", "");
-  if (!config_path.empty()) {
-    if (auto reader = ConfigReader::fromFile(config_path)) {
-      readRobotClientConfig(*reader, &config);
-      // The robot program's file may also hold camera:, dataset: and odometry: (not used here).
-      for (const std::string& e : reader->errors())
-        if (e.find("unknown key 'camera.") == std::string::npos &&
-            e.find("unknown key 'dataset.") == std::string::npos &&
-            e.find("unknown key 'odometry.") == std::string::npos)
-          errors.push_back(e);
-    } else {
-      errors.push_back(reader.error());
-    }
-  }
-  config.robot_id = args.getOr("robot-id", config.robot_id);
-  config.transport_url = args.getOr("transport", config.transport_url);
-  if (!config.key_file.empty()) {
-    if (auto key = readKeyFile(config.key_file, std::filesystem::path(config_path).parent_path().string()))
-      config.link.key = *key;
-    else
-      errors.push_back(key.error());
-  }
+  RobotClientConfig config = readReplayConfig(args, &errors);
   if (!errors.empty()) return cli::usageError(errors, kUsage);
 
   Result<KeyframeStream> stream = readKeyframeStream(stream_path);
@@ -131,39 +187,12 @@ int run(int argc, char** argv) {
   std::filesystem::create_directories(out, ec);
   if (ec) return log::error("cannot create ", out, ": ", ec.message()), 1;
 
-  auto transport = transport::makeTransport(config.transport_url);
-  if (!transport) return log::error("transport ", config.transport_url, ": ", transport.error()), 1;
-  config.link.chunk_bytes = resolveChunkBytes(config.link.chunk_bytes, config.transport_url);
-  RobotLink link(**transport, config.link);
-  if (Status s = link.start(); !s) return log::error(s.error()), 1;
-  StopRequest stop;
-  signals.start([&stop](int sig) {
-    log::warn("signal ", sig, ": stopping (again to quit at once); the report will still be written");
-    stop.request();
-  });
-  ro.stop = &stop;
-  ro.final_wait_s = config.final_wait_s;
   log::info("robot ", config.robot_id, " replays ", stream->keyframes.size(), " keyframes of ",
             stream->hello.robot_id, " from ", stream_path, " on ", config.transport_url);
-  const ReplayResult result = replayKeyframes(*stream, link, ro);
-  link.stop();
-  (*transport)->stop();
-
-  const std::string json_path = out + "/replay_" + config.robot_id + ".json";
-  if (Status s = writeJsonFile(json_path, report(config.robot_id, stream_path, result)); !s)
-    return log::error(s.error()), 1;
-  std::fprintf(stderr,
-               "robot %s: %zu keyframes sent in %zu pass(es), %zu acknowledged; ack p50 %.0f ms, p90 %.0f "
-               "ms, max %.0f ms; wrote %s\n",
-               config.robot_id.c_str(), result.keyframes.size(), result.passes, result.acked(),
-               result.ackQuantileMs(0.5), result.ackQuantileMs(0.9), result.ackQuantileMs(1.0),
-               json_path.c_str());
-  if (result.keyframes.empty() || result.acked() < result.keyframes.size() || result.send_failures > 0)
-    return log::error("robot ", config.robot_id, ": ",
-                      result.keyframes.size() + result.send_failures - result.acked(),
-                      " keyframes not acknowledged"),
-           3;
-  return 0;
+  Status started = Status::success();
+  const ReplayResult result = replayOverLink(*stream, config, ro, signals, &started);
+  if (!started) return log::error(started.error()), 1;
+  return finish(config, stream_path, out, result);
 }
 
 }  // namespace

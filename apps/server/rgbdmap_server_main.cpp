@@ -180,63 +180,69 @@ int writeFinalOutputs(const rgbdmap::MapServer& server, const rgbdmap::ServerApp
   return failed;
 }
 
-}  // namespace
+using namespace rgbdmap;
 
-int main(int argc, char** argv) {
-  using namespace rgbdmap;
-  // First of all: a stop signal during start-up (a supervisor restarting us at once) waits for the clean
-  // stop below instead of killing the process before it wrote its outputs.
-  const sigset_t stop_signals = blockStopSignals();
-  cli::Args args(argc, argv, {"help", "open"});
-  if (args.has("help")) {
-    std::fputs(kUsage, stdout);
-    return 0;
-  }
-  args.checkAllowed({"config", "map-dir", "transport", "robots", "open", "status-every", "log-level"});
-  std::vector<std::string> errors(args.errors().begin(), args.errors().end());
+struct ServerOptions {
   ServerAppConfig config;
+  double status_every = 5.0;
+};
+
+/// The command line and the configuration file; every problem goes to *errors.
+ServerOptions parseOptions(cli::Args& args, std::vector<std::string>* errors) {
+  ServerOptions o;
   if (const auto path = args.get("config")) {
     auto reader = ConfigReader::fromFile(*path);
     if (!reader) {
-      errors.push_back(reader.error());
+      errors->push_back(reader.error());
     } else {
-      readServerConfig(*reader, &config);
-      for (const std::string& e : reader->errors()) errors.push_back(e);
+      readServerConfig(*reader, &o.config);
+      for (const std::string& e : reader->errors()) errors->push_back(e);
     }
   } else {
-    errors.push_back("--config FILE is required");
+    errors->push_back("--config FILE is required");
   }
-  if (const auto v = args.get("map-dir")) config.server.map_dir = *v;
-  if (const auto v = args.get("transport")) config.transport_url = *v;
-  if (const auto v = args.get("robots")) {
-    config.server.robots = splitList(*v);
-  }
-  if (args.has("open")) config.open_mode = true;
-  const double status_every = args.getDouble("status-every").value_or(5.0);
+  if (const auto v = args.get("map-dir")) o.config.server.map_dir = *v;
+  if (const auto v = args.get("transport")) o.config.transport_url = *v;
+  if (const auto v = args.get("robots")) o.config.server.robots = splitList(*v);
+  if (args.has("open")) o.config.open_mode = true;
+  o.status_every = args.getDouble("status-every").value_or(5.0);
   if (const auto level = args.get("log-level")) {
     log::Level l;
     if (log::parseLevel(*level, &l))
       log::setLevel(l);
     else
-      errors.push_back("--log-level must be debug, info, warn or error");
+      errors->push_back("--log-level must be debug, info, warn or error");
   }
-  if (const std::string p = config.server.validate(); !p.empty()) errors.push_back(p);
-  if (!errors.empty()) return cli::usageError(errors, kUsage);
-  logConfiguration("configuration in effect", serverConfigValues(config));
+  if (const std::string p = o.config.server.validate(); !p.empty()) errors->push_back(p);
+  return o;
+}
 
+/// The robots' keys (server.keys_file), or open mode; the reason when neither.
+Result<msg::KeyStore> loadKeys(const ServerAppConfig& config) {
   msg::KeyStore keys = config.open_mode ? msg::KeyStore::openMode() : msg::KeyStore();
-  if (!config.keys_file.empty()) {
-    auto read = msg::readKeysFile(config.keys_file, std::move(keys));
-    if (!read) {
-      log::error(read.error());
-      return 2;
-    }
-    keys = std::move(*read);
-  } else if (!config.open_mode) {
-    log::error("no server.keys_file and open mode is off: no robot could be authenticated");
-    return 2;
-  }
+  if (!config.keys_file.empty()) return msg::readKeysFile(config.keys_file, std::move(keys));
+  if (!config.open_mode)
+    return Result<msg::KeyStore>::failure(
+        "no server.keys_file and open mode is off: no robot could be authenticated");
+  return keys;
+}
 
+void printFinalSummary(const MapServer& server, const ServerAppConfig& config, bool map_files) {
+  const MapServerStats s = server.stats();
+  std::fprintf(
+      stderr,
+      "[server] final: keyframes %d loops %d maps %d; octree %zu leaves (%zu occupied), %.1f MB, "
+      "%llu rebuilds, %llu slices sent; wrote keyframes_<robot>.txt%s to %s\n",
+      s.keyframes, s.loops_accepted, s.maps, s.map_leaves, s.map_occupied_leaves,
+      s.map_tree_memory_bytes / 1e6, static_cast<unsigned long long>(s.map_rebuilds),
+      static_cast<unsigned long long>(s.slices_sent),
+      map_files ? ", map.bt, map.ot, map.ply, map.png, slice_<robot>.pgm/.yaml, map_<id>.pgm/.yaml" : "",
+      config.server.map_dir.c_str());
+}
+
+/// Serves until SIGINT or SIGTERM, then waits for queued work and writes the outputs; the exit code.
+int serve(const ServerOptions& options, msg::KeyStore keys, const sigset_t& stop_signals) {
+  const ServerAppConfig& config = options.config;
   auto transport = transport::makeTransport(config.transport_url);
   if (!transport) {
     log::error("transport ", config.transport_url, ": ", transport.error());
@@ -252,7 +258,7 @@ int main(int argc, char** argv) {
     return 1;
   }
   log::info("ready on ", config.transport_url, " (SIGINT or SIGTERM stops and writes the outputs)");
-  waitForStopSignal(stop_signals, status_every, server);
+  waitForStopSignal(stop_signals, options.status_every, server);
   log::info("stopping: waiting up to ", config.server.stop_wait_s, " s for queued work");
   if (!server.waitIdle(config.server.stop_wait_s))
     log::warn("stopping: work still queued after ", config.server.stop_wait_s,
@@ -261,19 +267,35 @@ int main(int argc, char** argv) {
   server.stop();
   bool map_files = false;
   const int failed_writes = writeFinalOutputs(server, config, &map_files);
-  const MapServerStats s = server.stats();
-  std::fprintf(
-      stderr,
-      "[server] final: keyframes %d loops %d maps %d; octree %zu leaves (%zu occupied), %.1f MB, "
-      "%llu rebuilds, %llu slices sent; wrote keyframes_<robot>.txt%s to %s\n",
-      s.keyframes, s.loops_accepted, s.maps, s.map_leaves, s.map_occupied_leaves,
-      s.map_tree_memory_bytes / 1e6, static_cast<unsigned long long>(s.map_rebuilds),
-      static_cast<unsigned long long>(s.slices_sent),
-      map_files ? ", map.bt, map.ot, map.ply, map.png, slice_<robot>.pgm/.yaml, map_<id>.pgm/.yaml" : "",
-      config.server.map_dir.c_str());
+  printFinalSummary(server, config, map_files);
   if (failed_writes == 0) return 0;
   log::error(failed_writes,
              " output file(s) could not be written (the previous ones stay whole); every "
              "acknowledged keyframe is in the map store");
   return 1;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  using namespace rgbdmap;
+  // First of all: a stop signal during start-up (a supervisor restarting us at once) waits for the clean
+  // stop below instead of killing the process before it wrote its outputs.
+  const sigset_t stop_signals = blockStopSignals();
+  cli::Args args(argc, argv, {"help", "open"});
+  if (args.has("help")) {
+    std::fputs(kUsage, stdout);
+    return 0;
+  }
+  args.checkAllowed({"config", "map-dir", "transport", "robots", "open", "status-every", "log-level"});
+  std::vector<std::string> errors(args.errors().begin(), args.errors().end());
+  const ServerOptions options = parseOptions(args, &errors);
+  if (!errors.empty()) return cli::usageError(errors, kUsage);
+  logConfiguration("configuration in effect", serverConfigValues(options.config));
+  Result<msg::KeyStore> keys = loadKeys(options.config);
+  if (!keys) {
+    log::error(keys.error());
+    return 2;
+  }
+  return serve(options, std::move(*keys), stop_signals);
 }
