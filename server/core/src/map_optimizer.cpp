@@ -31,6 +31,8 @@ MapOptimizer::MapOptimizer(MapOptimizerConfig config, Callback callback)
     : config_(std::move(config)),
       callback_(std::move(callback)),
       landmarks_(config_.ba.landmarks),
+      schedule_({config_.ba.global_every_keyframes, config_.ba.global_min_growth_fraction,
+                 config_.ba.global_max_keyframes}),
       worker_({"rgbdmap-optim", 0, config_.ba.global_when_idle_s > 0 ? 0.5 : 0.0, [this] { onIdle(); },
                config_.nice}) {
   if (config_.features) landmarks_.setFeatureCache(config_.features);
@@ -92,18 +94,8 @@ void MapOptimizer::processPending() {
     std::vector<int64_t> ids;
     for (const LandmarkKeyframe& k : b.keyframes) ids.push_back(k.id);
     adjustNewKeyframes(ids);
-    std::set<int> maps;
-    for (const auto& [map, added] : added_since_global_)
-      if (config_.ba.global_every_keyframes > 0 && added >= config_.ba.global_every_keyframes &&
-          grownEnough(map))
-        maps.insert(map);
-    if (b.global) maps.insert(changed_maps_.begin(), changed_maps_.end());
-    // Joined chains and large cycles wait for the map to grow by global_min_growth_fraction since its last
-    // global BA (keyframes merged in count as added): a robot's new chain joining a large map is local work.
-    if (large_cycle || chains_joined)
-      for (int map : changed_maps_)
-        if (grownEnough(map)) maps.insert(map);
-    adjustGlobally(maps);
+    adjustGlobally(schedule_.dueAfterBatch(b.global, large_cycle || chains_joined,
+                                           [this](int map) { return keyframesIn(map); }));
   }
   if (cancel_) return;
   publish(revision, solved, solve);
@@ -122,7 +114,7 @@ void MapOptimizer::onIdle() {
   // A quiet map gets what the busy one put off: the whole-graph solve after neighbourhood solves, the BA.
   OptimizedPoses solve;
   const bool solved = graph_stale_ && solveGraph(&solve);
-  if (config_.ba.enabled) adjustGlobally(changed_maps_);
+  if (config_.ba.enabled) adjustGlobally(schedule_.changed());
   if (!cancel_) publish(revision, solved, solve);
 }
 
@@ -177,8 +169,7 @@ void MapOptimizer::refreshMaps() {
       auto [it, inserted] = map_of_.try_emplace(id, map);
       if (!inserted && it->second != map) {  // merged (or split off): landmarks follow their keyframes
         it->second = map;
-        ++added_since_global_[map];  // new to this map's global BA
-        changed_maps_.insert(map);
+        schedule_.keyframeAdded(map);  // new to this map's global BA
         landmarks_.setPose(id, map, *graph_.pose(id));
       }
     }
@@ -284,7 +275,7 @@ bool MapOptimizer::updateTracks(bool* chains_joined) {
       continue;
     }
     landmarks_.addMatches(it->second.matches);
-    changed_maps_.insert(map_of_[e->from]);
+    schedule_.mapChanged(map_of_[e->from]);
     large = large || isLargeCycle(*e);
     *chains_joined = *chains_joined || chain_of_.at(e->from) != chain_of_.at(e->to);
     in_tracks_[it->first] = PackedMatches::pack(std::move(it->second.matches));
@@ -299,8 +290,7 @@ void MapOptimizer::adjustNewKeyframes(const std::vector<int64_t>& ids) {
     if (!landmarks_.contains(id)) continue;
     landmarks_.extendByProjection(id, odometryNeighbours(id));
     const int map = map_of_[id];
-    ++added_since_global_[map];
-    changed_maps_.insert(map);
+    schedule_.keyframeAdded(map);
   }
   const size_t first = ids.size() > static_cast<size_t>(config_.ba.max_local_per_batch)
                            ? ids.size() - static_cast<size_t>(config_.ba.max_local_per_batch)
@@ -339,52 +329,31 @@ size_t MapOptimizer::keyframesIn(int map) const {
   return keyframes;
 }
 
-bool MapOptimizer::grownEnough(int map) const {
-  if (!(config_.ba.global_min_growth_fraction > 0.0)) return true;
-  const size_t keyframes = keyframesIn(map);
-  const auto it = added_since_global_.find(map);
-  const int added = it == added_since_global_.end() ? 0 : it->second;
-  const auto backoff = global_backoff_.find(map);
-  const int factor = backoff == global_backoff_.end() ? 1 : std::max(1, backoff->second);
-  return added >= config_.ba.global_min_growth_fraction * factor * static_cast<double>(keyframes);
-}
-
 void MapOptimizer::adjustGlobally(const std::set<int>& maps) {
   std::vector<int64_t> weak;
   for (int map : std::set<int>(maps)) {
     const auto anchor = anchor_of_.find(map);
     if (anchor == anchor_of_.end() || cancel_) continue;
-    if (const int limit = config_.ba.global_max_keyframes; limit > 0) {
-      const size_t keyframes = keyframesIn(map);
-      if (keyframes > static_cast<size_t>(
-                          limit)) {  // done with as if it ran: not owed again, nothing for a quiet map to do
-        added_since_global_[map] = 0;
-        changed_maps_.erase(map);
-        if (counters_.global_skipped++ == 0)
-          log::info("optimiser: map ", map, " has ", keyframes,
-                    " keyframes, more than ba.global_max_keyframes (", limit,
-                    "): no global BA from now on, local BAs and the pose graph only");
-        continue;
-      }
+    if (const size_t keyframes = keyframesIn(map); schedule_.overLimit(keyframes)) {
+      schedule_.started(map);  // done with as if it ran: not owed again, nothing for a quiet map to do
+      if (counters_.global_skipped++ == 0)
+        log::info("optimiser: map ", map, " has ", keyframes,
+                  " keyframes, more than ba.global_max_keyframes (", config_.ba.global_max_keyframes,
+                  "): no global BA from now on, local BAs and the pose graph only");
+      continue;
     }
     const auto t0 = std::chrono::steady_clock::now();
     const double cpu0 = threadCpuMs();
     const BundleResult r = landmarks_.globalAdjust(map, anchor->second, &cancel_, check_, stepPriors(map));
     const double ms = msSince(t0), cpu_ms = threadCpuMs() - cpu0;
-    added_since_global_[map] = 0;
-    changed_maps_.erase(map);
+    schedule_.started(map);
     counters_.out_of_time += r.report.out_of_time ? 1 : 0;
     if (!countBundle(r, "global")) continue;
     causes_.insert(r.report.out_of_time ? "global BA (out of time)" : "global BA");
-    // Stopped by its time limit without lowering the error: a map this large is more than the observation
-    // cap can move in that time; the next one waits for twice the growth (reset by one that helps).
-    int& backoff = global_backoff_[map];
-    if (r.report.out_of_time && !(r.report.final_rms_px < 0.99 * r.report.initial_rms_px)) {
-      backoff = std::min(64, std::max(1, backoff) * 2);
-      ++counters_.global_fruitless;
-    } else {
-      backoff = 1;
-    }
+    const GlobalBundleSchedule::Verdict verdict =
+        schedule_.finished(map, {r.report.out_of_time, r.report.initial_rms_px, r.report.final_rms_px});
+    counters_.global_fruitless += verdict.fruitless ? 1 : 0;
+    const int backoff = verdict.backoff;
     log::info("optimiser: global BA of map ", map, ": ", r.report.frames, " keyframes, ", r.report.points,
               " landmarks, ", r.report.observations, " observations (", r.outliers_removed,
               " rejected), rms ", r.report.initial_rms_px, " -> ", r.report.final_rms_px, " px, ",
@@ -576,7 +545,7 @@ void MapOptimizer::publish(uint64_t revision, bool solved, const OptimizedPoses&
   out->local_refused = local_refused_;
   {
     std::lock_guard<std::mutex> lock(mutex_);
-    global_due_ = (config_.ba.enabled && !changed_maps_.empty()) || graph_stale_;
+    global_due_ = (config_.ba.enabled && !schedule_.changed().empty()) || graph_stale_;
   }
   if (callback_) callback_(out);
 }

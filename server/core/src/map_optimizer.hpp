@@ -23,6 +23,7 @@
 #include <utility>
 #include <vector>
 
+#include "rgbdmap/backend/global_bundle_schedule.hpp"
 #include "rgbdmap/ba/landmark_map.hpp"
 #include "rgbdmap/common/sample_reservoir.hpp"
 #include "rgbdmap/common/serial_worker.hpp"
@@ -104,8 +105,6 @@ class MapOptimizer {
   /// Matches of kept edges into the tracks, of disabled edges out. Returns whether a large cycle closed;
   /// *chains_joined: whether an edge between two chains (a merge, a split rejoined) came into the tracks.
   bool updateTracks(bool* chains_joined);
-  /// Whether the map grew by global_min_growth_fraction of its keyframes since its last global BA.
-  bool grownEnough(int map) const;
   size_t keyframesIn(int map) const;  ///< keyframes of the map (a scan of map_of_)
   void adjustNewKeyframes(const std::vector<int64_t>& ids);
   void adjustGlobally(const std::set<int>& maps);
@@ -162,15 +161,13 @@ class MapOptimizer {
   std::map<int64_t, Waiting> waiting_;  ///< matches of edges not in the tracks (yet)
   /// Matches of edges in the tracks, kept only to take them out again if the graph disables the edge.
   std::map<int64_t, PackedMatches> in_tracks_;
-  std::map<int, int> added_since_global_;  ///< map id -> keyframes added since its last global BA
-  std::set<int> changed_maps_;             ///< maps changed since their last global BA
+  GlobalBundleSchedule schedule_;  ///< which maps are due a global BA
   struct {
     std::vector<int64_t> moved;        ///< the keyframes of the outcome checkBundle saw last
     std::vector<CovisibleEdge> edges;  ///< its covisible edges, for applyBundle
   } checked_;
   std::set<std::string> causes_;       ///< work done since the last result (logMoves)
   std::map<int64_t, SE3> published_;   ///< poses of the last result (logMoves)
-  std::map<int, int> global_backoff_;  ///< map id -> growth factor after fruitless global BAs
   BundleAdjustmentStats counters_;
   int solves_skipped_ = 0;
   int merges_aligned_ = 0;
