@@ -3,33 +3,24 @@
 // local and global BA recovering perturbed poses, with wrong matches injected and removed.
 #include <gtest/gtest.h>
 
-#include <cmath>
 #include <cstdio>
 #include <map>
-#include <random>
 #include <set>
 
-#include "rgbdmap/ba/ba_synth.hpp"
+#include "ba/landmark_test_util.hpp"
 
 namespace rgbdmap {
 namespace {
 
-using BaScene = BaSynthScene;
-using BaSceneOptions = BaSynthConfig;
-
-BaScene makeBaScene(const BaSceneOptions& o) { return makeBaSynthScene(o); }
-EdgeMatches trueMatches(const BaScene& s, int a, int b) { return synthTrueMatches(s, a, b); }
-LandmarkKeyframe sceneKeyframe(const BaScene& s, int k, const SE3& T, int map_id = 0) {
-  return synthKeyframe(s, k, T, map_id);
-}
-
-/// RMS position error of keyframes (the first keyframe is the fixed anchor: errors are in a common frame).
-double positionRms(const std::vector<SE3>& truth, const std::vector<SE3>& est) {
-  double sum = 0.0;
-  for (size_t i = 0; i < truth.size(); ++i)
-    sum += (truth[i].translation() - est[i].translation()).squaredNorm();
-  return std::sqrt(sum / static_cast<double>(truth.size()));
-}
+using testing::addScene;
+using testing::BaScene;
+using testing::BaSceneOptions;
+using testing::makeBaScene;
+using testing::perturbed;
+using testing::posesOf;
+using testing::positionRms;
+using testing::sceneKeyframe;
+using testing::trueMatches;
 
 /// Fraction of observations whose features belong to the landmark's majority scene point.
 double trackPurity(const LandmarkMap& map, const BaScene& s, int64_t max_landmark) {
@@ -45,36 +36,6 @@ double trackPurity(const LandmarkMap& map, const BaScene& s, int64_t max_landmar
     all += static_cast<int64_t>(obs.size());
   }
   return all ? static_cast<double>(good) / static_cast<double>(all) : 0.0;
-}
-
-/// Perturbs every keyframe but the first: sigma_t metres and sigma_r radians per axis.
-std::vector<SE3> perturbed(const BaScene& s, double sigma_t, double sigma_r, unsigned seed) {
-  std::mt19937 rng(seed);
-  std::normal_distribution<double> n(0.0, 1.0);
-  std::vector<SE3> out = s.T_map_kf;
-  for (size_t k = 1; k < out.size(); ++k) {
-    const Vec6 xi = (Vec6() << sigma_t * n(rng), sigma_t * n(rng), sigma_t * n(rng), sigma_r * n(rng),
-                     sigma_r * n(rng), sigma_r * n(rng))
-                        .finished();
-    out[k] = se3::exp(xi) * out[k];
-  }
-  return out;
-}
-
-/// Adds the scene's keyframes at `start` and the true matches of each to the three before it; with `split`
-/// > 0, keyframes before and from `split` on are two parts sharing no match (a part per room).
-void addScene(LandmarkMap* map, const BaScene& s, const std::vector<SE3>& start, int split = 0) {
-  const int n = static_cast<int>(start.size());
-  for (int k = 0; k < n; ++k) EXPECT_TRUE(map->addKeyframe(sceneKeyframe(s, k, start[k])));
-  for (int k = 0; k < n; ++k)
-    for (int j = std::max(split > 0 && k >= split ? split : 0, k - 3); j < k; ++j)
-      map->addMatches(trueMatches(s, k, j));
-}
-
-std::vector<SE3> posesOf(const LandmarkMap& map, size_t n) {
-  std::vector<SE3> out;
-  for (size_t k = 0; k < n; ++k) out.push_back(*map.pose(static_cast<int64_t>(k)));
-  return out;
 }
 
 TEST(LandmarkMap, TracksFromMatchesFollowScenePoints) {
@@ -244,173 +205,6 @@ TEST(LandmarkMap, WrongMatchesAreRemovedAndDoNotSpoilTheResult) {
   EXPECT_GT(dirty_stats.observations_rejected, 200);
   EXPECT_LT(dirty, clean + 0.002);
   EXPECT_LT(dirty, 0.004);
-}
-
-}  // namespace
-}  // namespace rgbdmap
-
-namespace rgbdmap {
-namespace {
-
-TEST(LandmarkMap, RollingShutterRotationIsEstimated) {
-  BaSceneOptions o;
-  o.keyframes = 12;
-  o.rolling_shutter_rad = 0.03;  // ~1 rad/s over a 30 ms readout
-  const BaScene s = makeBaScene(o);
-  const std::vector<SE3> start = perturbed(s, 0.02, 0.01, 13);
-  auto run = [&](bool rolling_shutter) {
-    LandmarkMapConfig config;
-    config.solve.rolling_shutter = rolling_shutter;
-    config.solve.rolling_shutter_sigma_rad = 0.05;  // a strong rolling shutter (0.03 rad) to recover
-    LandmarkMap map(config);
-    addScene(&map, s, start);
-    for (int round = 0; round < 2; ++round) EXPECT_TRUE(map.globalAdjust(0, 0).ok);
-    // A rotation common to every keyframe's readout is nearly a gauge freedom of this scene (a vertical
-    // stretch of a world seen from sideways-moving cameras): w is compared after removing the mean.
-    Vec3 mean_est = Vec3::Zero(), mean_true = Vec3::Zero();
-    for (int k = 0; k < o.keyframes; ++k) {
-      mean_est += *map.rollingShutter(k) / o.keyframes;
-      mean_true += s.rolling_shutter[k] / o.keyframes;
-    }
-    double w_err = 0.0;
-    for (int k = 0; k < o.keyframes; ++k)
-      w_err +=
-          ((*map.rollingShutter(k) - mean_est) - (s.rolling_shutter[k] - mean_true)).norm() / o.keyframes;
-    return std::make_pair(positionRms(s.T_map_kf, posesOf(map, s.T_map_kf.size())), w_err);
-  };
-  const auto [rms_gs, w_gs] = run(false);
-  const auto [rms_rs, w_rs] = run(true);
-  std::printf(
-      "[ measured ] rolling shutter 0.03 rad: rms %.5f m without the model, %.5f m with; w error %.4f rad "
-      "(%.4f without)\n",
-      rms_gs, rms_rs, w_rs, w_gs);
-  EXPECT_LT(rms_rs, 0.25 * rms_gs);
-  EXPECT_LT(w_rs, 0.25 * w_gs);
-}
-
-}  // namespace
-}  // namespace rgbdmap
-
-namespace rgbdmap {
-namespace {
-
-// Issue #15: a part of a global BA that no held keyframe observes (a room that only an odometry step joins
-// to the rest shares no landmark with it) has no gauge in the adjustment. Its shape is refined; its placement
-// as a whole is kept (else the solver's drift moved it, and a pose-graph solve pulled it back).
-TEST(LandmarkMap, APartNoHeldKeyframeObservesKeepsItsPlacement) {
-  BaSceneOptions o;
-  o.keyframes = 12;
-  const BaScene s = makeBaScene(o);
-  const std::vector<SE3> start = perturbed(s, 0.02, 0.01, 14);
-  constexpr int kSplit = 6;  // keyframes 0-5 (the anchor's part) and 6-11 share no landmark
-  struct Run {
-    BundleResult r;
-    std::vector<SE3> poses;
-  };
-  const auto run = [&](int part_link_landmarks) {
-    LandmarkMapConfig config;
-    config.part_link_landmarks = part_link_landmarks;
-    LandmarkMap map(config);
-    addScene(&map, s, start, kSplit);
-    Run out{map.globalAdjust(0, 0), {}};
-    out.poses = posesOf(map, s.T_map_kf.size());
-    return out;
-  };
-  // The free part's placement change: its mean camera centre, and the chordal mean of its rotation changes
-  // (sum of R_before R_after^T is symmetric when that mean is the identity).
-  const auto placementChange = [&](const std::vector<SE3>& after) {
-    Vec3 shift = Vec3::Zero();
-    Mat3 M = Mat3::Zero();
-    for (int k = kSplit; k < o.keyframes; ++k) {
-      shift += (after[k].translation() - start[k].translation()) / (o.keyframes - kSplit);
-      M += start[k].linear() * after[k].linear().transpose();
-    }
-    return std::make_pair(shift.norm(), (M - M.transpose()).norm());
-  };
-  // The free part's shape: keyframe positions relative to its first, against the truth.
-  const auto shapeError = [&](const std::vector<SE3>& poses) {
-    double sum = 0.0;
-    for (int k = kSplit + 1; k < o.keyframes; ++k) {
-      const SE3 est = poses[kSplit].inverse() * poses[k],
-                truth = s.T_map_kf[kSplit].inverse() * s.T_map_kf[k];
-      sum += (est.translation() - truth.translation()).squaredNorm();
-    }
-    return std::sqrt(sum / (o.keyframes - kSplit - 1));
-  };
-  const Run kept = run(3), drifted = run(0);
-  ASSERT_TRUE(kept.r.ok && drifted.r.ok) << kept.r.error << drifted.r.error;
-  const auto [kept_m, kept_rot] = placementChange(kept.poses);
-  const auto [drift_m, drift_rot] = placementChange(drifted.poses);
-  std::printf(
-      "[ measured ] unheld part: placement moved %.2e m (rotation asymmetry %.1e) without the correction, "
-      "%.1e m (%.1e) with; shape error %.4f -> %.5f m\n",
-      drift_m, drift_rot, kept_m, kept_rot, shapeError(start), shapeError(kept.poses));
-  EXPECT_EQ(kept.r.parts_kept, 1);
-  EXPECT_EQ(drifted.r.parts_kept, 0);
-  EXPECT_LT(kept_m, 1e-9);
-  EXPECT_LT(kept_rot, 1e-9);
-  EXPECT_GT(drift_m + drift_rot, 1e-6) << "the solver left the part in place by itself: nothing shown";
-  EXPECT_NEAR(kept.r.part_shift_m, drift_m, 0.5 * drift_m + 1e-6);
-  EXPECT_LT(shapeError(kept.poses), 0.25 * shapeError(start)) << "the part's shape was not refined";
-  EXPECT_TRUE(kept.poses[0].isApprox(start[0], 1e-12)) << "the anchor moved";
-}
-
-// Issue #15: an odometry step between two parts that share no landmark, given to the global BA as a prior,
-// joins them: the part without a held keyframe is placed by it (not kept where it was), its shape refined.
-TEST(LandmarkMap, APriorBetweenPartsPlacesTheUnheldOne) {
-  BaSceneOptions o;
-  o.keyframes = 12;
-  const BaScene s = makeBaScene(o);
-  const std::vector<SE3> start = perturbed(s, 0.02, 0.01, 16);
-  constexpr int kSplit = 6;
-  const auto run = [&](bool with_prior) {
-    LandmarkMap map;
-    addScene(&map, s, start, kSplit);
-    std::vector<BundlePrior> priors;
-    if (with_prior)  // the true step 5 -> 6, sigma 1 cm / 0.6 deg
-      priors.push_back({kSplit - 1, kSplit, s.T_map_kf[kSplit - 1].inverse() * s.T_map_kf[kSplit],
-                        (Vec6() << 100, 100, 100, 100, 100, 100).finished().asDiagonal()});
-    const BundleResult r = map.globalAdjust(0, 0, nullptr, {}, priors);
-    EXPECT_TRUE(r.ok) << r.error;
-    return std::make_pair(r, positionRms(s.T_map_kf, posesOf(map, s.T_map_kf.size())));
-  };
-  const auto [kept, kept_rms] = run(false);
-  const auto [joined, joined_rms] = run(true);
-  std::printf("[ measured ] two parts: keyframe rms %.4f m kept in place, %.5f m joined by a prior\n",
-              kept_rms, joined_rms);
-  EXPECT_EQ(kept.parts_kept, 1);
-  EXPECT_EQ(joined.parts_kept, 0) << "the prior did not join the parts";
-  EXPECT_LT(joined_rms, 0.5 * kept_rms) << "the prior did not place the unheld part";
-  EXPECT_LT(joined_rms, 0.005);
-}
-
-// A BundleCheck sees the outcome before it is applied and can refuse it: nothing changes then.
-TEST(LandmarkMap, ARefusedAdjustmentChangesNothing) {
-  BaSceneOptions o;
-  o.keyframes = 12;
-  const BaScene s = makeBaScene(o);
-  const std::vector<SE3> start = perturbed(s, 0.02, 0.01, 15);
-  LandmarkMap map;
-  addScene(&map, s, start);
-  const int64_t landmark = map.landmarkOf(5, 0) >= 0 ? map.landmarkOf(5, 0) : map.landmarkOf(5, 1);
-  ASSERT_GE(landmark, 0);
-  const Vec3 p_before = *map.positionOf(landmark);
-  size_t proposed = 0;
-  const BundleResult refused =
-      map.globalAdjust(0, 0, nullptr, [&](const std::vector<std::pair<int64_t, SE3>>& poses) {
-        proposed = poses.size();
-        return std::string("refused by the test");
-      });
-  EXPECT_FALSE(refused.ok);
-  EXPECT_TRUE(refused.refused);
-  EXPECT_EQ(refused.error, "refused by the test");
-  EXPECT_EQ(proposed, static_cast<size_t>(o.keyframes - 1));  // every keyframe but the anchor
-  for (int k = 0; k < o.keyframes; ++k) EXPECT_TRUE(map.pose(k)->isApprox(start[k], 1e-15)) << k;
-  EXPECT_EQ(*map.positionOf(landmark), p_before);
-  const BundleResult accepted = map.globalAdjust(
-      0, 0, nullptr, [](const std::vector<std::pair<int64_t, SE3>>&) { return std::string(); });
-  EXPECT_TRUE(accepted.ok);
-  EXPECT_LT(positionRms(s.T_map_kf, posesOf(map, s.T_map_kf.size())), 0.003);
 }
 
 }  // namespace

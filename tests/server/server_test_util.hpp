@@ -279,6 +279,8 @@ struct ServerHarness {
     start(config);
     EXPECT_TRUE(transport->start());
   }
+  /// The tests' default configuration (serverTestConfig) on the map directory `dir`.
+  explicit ServerHarness(const std::string& dir) : ServerHarness(serverTestConfig(dir)) {}
   void start(const MapServerConfig& config) {
     msg::KeyStore keys;
     EXPECT_TRUE(keys.add("robot0", testKey(1)));

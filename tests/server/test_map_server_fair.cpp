@@ -132,6 +132,39 @@ class Flood {
   std::thread thread_;
 };
 
+/// Sends every keyframe of `seg` through `robot`, one each 200 ms; records when each was sent.
+void sendPaced(ScriptedRobot& robot, const OdometrySegment& seg, std::map<int, Clock::time_point>* sent_at,
+               std::set<int>* ids) {
+  auto next = Clock::now();
+  for (const msg::Keyframe& kf : seg.keyframes) {
+    std::this_thread::sleep_until(next);
+    next += std::chrono::milliseconds(200);
+    (*sent_at)[kf.keyframe_id] = Clock::now();
+    ids->insert(kf.keyframe_id);
+    robot.send(kf);
+  }
+}
+
+/// The flood test's measurements on one line: both robots' counts and queues, the well-behaved robot's
+/// acknowledgement latencies, the process's memory, the server's ingest times.
+void printFloodMeasurements(int flood_sent, const ServerRobotStats& flood, const ServerRobotStats& good,
+                            double hello_s, size_t good_sent, const std::vector<double>& latency_s,
+                            long rss_before_kb, const MapServerStats& s) {
+  const double p50 = percentile(latency_s, 0.5), p90 = percentile(latency_s, 0.9);
+  const long rss_kb = procStatusKb("VmRSS"), hwm_kb = procStatusKb("VmHWM");
+  std::printf(
+      "[ measured ] flood: %d keyframes sent, %d in the graph + %d waiting, %llu throttled, %llu queue full, "
+      "queue max %d; "
+      "well-behaved: Hello registered in %.3f s, %zu sent, %d in the graph, ack latency median %.3f s p90 "
+      "%.3f s "
+      "max %.3f s, queue max %d; "
+      "RSS %ld -> %ld MB (peak %ld MB); ingest median %.1f ms p90 %.1f ms (verify median %.1f ms)\n",
+      flood_sent, flood.keyframes, flood.keyframes_waiting, static_cast<unsigned long long>(flood.throttled),
+      static_cast<unsigned long long>(flood.queue_full), flood.keyframes_queued_max, hello_s, good_sent,
+      good.keyframes, p50, p90, percentile(latency_s, 1.0), good.keyframes_queued_max, rss_before_kb / 1024,
+      rss_kb / 1024, hwm_kb / 1024, s.ingest_ms_median, s.ingest_ms_p90, s.verify_ms_median);
+}
+
 TEST(MapServerFair, AFloodingRobotDoesNotDelayAWellBehavedOne) {
   if (kSanitizedBuild)
     GTEST_SKIP() << "a latency bound; meaningless under AddressSanitizer (runs in Release)";
@@ -164,14 +197,7 @@ TEST(MapServerFair, AFloodingRobotDoesNotDelayAWellBehavedOne) {
   // The well-behaved robot: a keyframe every 200 ms.
   std::map<int, Clock::time_point> sent_at;
   std::set<int> ids;
-  auto next = Clock::now();
-  for (const msg::Keyframe& kf : good_seg.keyframes) {
-    std::this_thread::sleep_until(next);
-    next += std::chrono::milliseconds(200);
-    sent_at[kf.keyframe_id] = Clock::now();
-    ids.insert(kf.keyframe_id);
-    good.send(kf);
-  }
+  sendPaced(good, good_seg, &sent_at, &ids);
   const bool all_acked = good_acks.waitFor(ids, 30.0);
   const int flood_sent = flood.stop();
   EXPECT_TRUE(all_acked) << "a keyframe of the well-behaved robot was not acknowledged";
@@ -186,21 +212,9 @@ TEST(MapServerFair, AFloodingRobotDoesNotDelayAWellBehavedOne) {
   const auto flood_stats = robotStats(*h.server, "robot0");
   const auto good_stats = robotStats(*h.server, "robot1");
   ASSERT_TRUE(flood_stats && good_stats);
-  const double p50 = percentile(latency_s, 0.5), p90 = percentile(latency_s, 0.9);
-  const long rss_kb = procStatusKb("VmRSS"), hwm_kb = procStatusKb("VmHWM");
-  std::printf(
-      "[ measured ] flood: %d keyframes sent, %d in the graph + %d waiting, %llu throttled, %llu queue full, "
-      "queue max %d; "
-      "well-behaved: Hello registered in %.3f s, %zu sent, %d in the graph, ack latency median %.3f s p90 "
-      "%.3f s "
-      "max %.3f s, queue max %d; "
-      "RSS %ld -> %ld MB (peak %ld MB); ingest median %.1f ms p90 %.1f ms (verify median %.1f ms)\n",
-      flood_sent, flood_stats->keyframes, flood_stats->keyframes_waiting,
-      static_cast<unsigned long long>(flood_stats->throttled),
-      static_cast<unsigned long long>(flood_stats->queue_full), flood_stats->keyframes_queued_max, hello_s,
-      ids.size(), good_stats->keyframes, p50, p90, percentile(latency_s, 1.0),
-      good_stats->keyframes_queued_max, rss_before_kb / 1024, rss_kb / 1024, hwm_kb / 1024,
-      s.ingest_ms_median, s.ingest_ms_p90, s.verify_ms_median);
+  const double p90 = percentile(latency_s, 0.9);
+  printFloodMeasurements(flood_sent, *flood_stats, *good_stats, hello_s, ids.size(), latency_s, rss_before_kb,
+                         s);
 
   EXPECT_EQ(latency_s.size(), ids.size());
   EXPECT_LT(p90, 1.0) << "the well-behaved robot's acknowledgements are late";
