@@ -144,52 +144,105 @@ std::unordered_set<ceres::ResidualBlockId> spanningTree(const std::vector<PoseGr
   return tree;
 }
 
-}  // namespace
-
-Result<SolveOutcome> solveOnce(const std::vector<PoseGraphEdge>& edges, const std::vector<Mat6>& sqrt_info,
-                               const std::vector<EdgeEnds>& ends, const std::vector<bool>& enabled,
-                               const std::vector<bool>& fixed, const PoseGraphConfig& config,
-                               const std::atomic<bool>* cancel, std::vector<Pose7>* poses, bool tree_first) {
+/// The robust loss of loop edges (odometry edges have none).
+std::unique_ptr<ceres::LossFunction> makeLoopLoss(const PoseGraphConfig& config) {
   std::unique_ptr<ceres::LossFunction> loop_loss;
   if (config.use_cauchy) {
     loop_loss = std::make_unique<ceres::CauchyLoss>(config.loop_loss_scale);
   } else {
     loop_loss = std::make_unique<ceres::HuberLoss>(config.loop_loss_scale);
   }
+  return loop_loss;
+}
+
+/// One residual block per enabled edge; the ids of the blocks per edge (nullptr for a disabled edge).
+std::vector<ceres::ResidualBlockId> addEdges(ceres::Problem* problem, const std::vector<PoseGraphEdge>& edges,
+                                             const std::vector<Mat6>& sqrt_info,
+                                             const std::vector<EdgeEnds>& ends,
+                                             const std::vector<bool>& enabled, ceres::LossFunction* loop_loss,
+                                             bool analytic, std::vector<Pose7>* poses) {
+  std::vector<ceres::ResidualBlockId> block_ids(edges.size(), nullptr);
+  for (size_t k = 0; k < edges.size(); ++k) {
+    if (!enabled[k]) continue;
+    ceres::LossFunction* loss = edges[k].kind == EdgeKind::kOdometry ? nullptr : loop_loss;
+    block_ids[k] = problem->AddResidualBlock(makeCost(edges[k], sqrt_info[k], analytic), loss,
+                                             (*poses)[ends[k].from].data(), (*poses)[ends[k].to].data());
+  }
+  return block_ids;
+}
+
+/// Puts the poses the edges use on the SE(3) manifold and holds the fixed ones constant; returns how many
+/// are left free.
+int setPoseBlocks(ceres::Problem* problem, ceres::Manifold* manifold, const std::vector<bool>& fixed,
+                  std::vector<Pose7>* poses) {
+  int free_blocks = 0;
+  for (size_t i = 0; i < poses->size(); ++i) {
+    double* block = (*poses)[i].data();
+    if (!problem->HasParameterBlock(block)) continue;
+    problem->SetManifold(block, manifold);
+    if (fixed[i])
+      problem->SetParameterBlockConstant(block);
+    else
+      ++free_blocks;
+  }
+  return free_blocks;
+}
+
+/// Whether the graph is dense enough for conjugate gradients. A room revisited many times ties every
+/// keyframe to ~10 others anywhere in the graph: its normal equations fill in almost completely under
+/// Cholesky (BM_PoseGraphFleetRoom/3000, 27,000 loops: ~2.8 s and GBs per iteration), while such a
+/// well-connected graph is well conditioned for conjugate gradients (~0.15 s per iteration, linear in the
+/// edges). Long sparse chains are the opposite (a circle with 200 loops: 89 ms with Cholesky, 723 ms with
+/// CG), hence the switch on density.
+bool solveIteratively(const PoseGraphConfig& config, int free_blocks, int residual_blocks) {
+  return config.iterative_min_edges_per_node > 0.0 && free_blocks >= config.iterative_min_nodes &&
+         residual_blocks >= config.iterative_min_edges_per_node * free_blocks;
+}
+
+/// Switches a conjugate-gradients solve to the spanning-tree preconditioner (and off the CG cap callback).
+void useTreePreconditioner(ceres::Solver::Options* options, const std::vector<PoseGraphEdge>& edges,
+                           const std::vector<EdgeEnds>& ends,
+                           const std::vector<ceres::ResidualBlockId>& block_ids, size_t num_nodes,
+                           CancelCallback* cancel_callback) {
+  options->preconditioner_type = ceres::SUBSET;
+  options->residual_blocks_for_subset_preconditioner = spanningTree(edges, ends, block_ids, num_nodes);
+  options->callbacks = {cancel_callback};
+}
+
+/// The outcome of a finished solve (its iteration counts already in `outcome`), or why it failed.
+Result<SolveOutcome> finishOutcome(const ceres::Solver::Summary& summary, int steps,
+                                   const PoseGraphConfig& config, SolveOutcome outcome) {
+  if (summary.termination_type == ceres::FAILURE) {
+    return Result<SolveOutcome>::failure("pose graph solve failed: " + summary.message);
+  }
+  outcome.final_cost = summary.final_cost;
+  outcome.cancelled = summary.termination_type == ceres::USER_FAILURE;
+  // NO_CONVERGENCE is the iteration limit (deterministic) or the time limit (depends on the machine's load).
+  outcome.out_of_time = summary.termination_type == ceres::NO_CONVERGENCE && steps < config.max_iterations;
+  outcome.converged = summary.termination_type == ceres::CONVERGENCE;
+  return outcome;
+}
+
+}  // namespace
+
+Result<SolveOutcome> solveOnce(const std::vector<PoseGraphEdge>& edges, const std::vector<Mat6>& sqrt_info,
+                               const std::vector<EdgeEnds>& ends, const std::vector<bool>& enabled,
+                               const std::vector<bool>& fixed, const PoseGraphConfig& config,
+                               const std::atomic<bool>* cancel, std::vector<Pose7>* poses, bool tree_first) {
+  const std::unique_ptr<ceres::LossFunction> loop_loss = makeLoopLoss(config);
   ceres::ProductManifold<ceres::EigenQuaternionManifold, ceres::EuclideanManifold<3>> manifold;
   ceres::Problem::Options problem_options;
   problem_options.loss_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
   problem_options.manifold_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
   ceres::Problem problem(problem_options);
-  std::vector<ceres::ResidualBlockId> block_ids(edges.size(), nullptr);
-  for (size_t k = 0; k < edges.size(); ++k) {
-    if (!enabled[k]) continue;
-    ceres::LossFunction* loss = edges[k].kind == EdgeKind::kOdometry ? nullptr : loop_loss.get();
-    block_ids[k] = problem.AddResidualBlock(makeCost(edges[k], sqrt_info[k], config.analytic_jacobians), loss,
-                                            (*poses)[ends[k].from].data(), (*poses)[ends[k].to].data());
-  }
-  int free_blocks = 0;
-  for (size_t i = 0; i < poses->size(); ++i) {
-    double* block = (*poses)[i].data();
-    if (!problem.HasParameterBlock(block)) continue;
-    problem.SetManifold(block, &manifold);
-    if (fixed[i])
-      problem.SetParameterBlockConstant(block);
-    else
-      ++free_blocks;
-  }
+  const std::vector<ceres::ResidualBlockId> block_ids =
+      addEdges(&problem, edges, sqrt_info, ends, enabled, loop_loss.get(), config.analytic_jacobians, poses);
+  const int free_blocks = setPoseBlocks(&problem, &manifold, fixed, poses);
   SolveOutcome outcome;
   if (problem.NumResidualBlocks() == 0) return outcome;
 
   ceres::Solver::Options options = solverOptions(config);
-  // A room revisited many times ties every keyframe to ~10 others anywhere in the graph: its normal
-  // equations fill in almost completely under Cholesky (BM_PoseGraphFleetRoom/3000, 27,000 loops: ~2.8 s
-  // and GBs per iteration), while such a well-connected graph is well conditioned for conjugate gradients
-  // (~0.15 s per iteration, linear in the edges). Long sparse chains are the opposite (a circle with 200
-  // loops: 89 ms with Cholesky, 723 ms with CG), hence the switch on density.
-  const bool iterative = config.iterative_min_edges_per_node > 0.0 &&
-                         free_blocks >= config.iterative_min_nodes &&
-                         problem.NumResidualBlocks() >= config.iterative_min_edges_per_node * free_blocks;
+  const bool iterative = solveIteratively(config, free_blocks, problem.NumResidualBlocks());
   if (iterative) {
     options.linear_solver_type = ceres::CGNR;
     options.preconditioner_type = ceres::JACOBI;
@@ -203,17 +256,13 @@ Result<SolveOutcome> solveOnce(const std::vector<PoseGraphEdge>& edges, const st
   // change look converged). The first iteration that needs the cap switches the rest of the solve to the
   // spanning tree, which carries a chain's drift exactly in one application.
   CgCapCallback cap_callback(config.iterative_max_cg_iterations);
-  const auto useTree = [&] {
-    outcome.tree_preconditioner = true;
-    options.preconditioner_type = ceres::SUBSET;
-    options.residual_blocks_for_subset_preconditioner = spanningTree(edges, ends, block_ids, poses->size());
-    options.callbacks = {&cancel_callback};
-  };
   if (iterative && config.iterative_tree_fallback) {
-    if (tree_first)
-      useTree();
-    else
+    if (tree_first) {
+      outcome.tree_preconditioner = true;
+      useTreePreconditioner(&options, edges, ends, block_ids, poses->size(), &cancel_callback);
+    } else {
       options.callbacks.push_back(&cap_callback);
+    }
   }
   const auto t0 = std::chrono::steady_clock::now();
   ceres::Solver::Summary summary;
@@ -222,7 +271,8 @@ Result<SolveOutcome> solveOnce(const std::vector<PoseGraphEdge>& edges, const st
   outcome.initial_cost = summary.initial_cost;
   int steps = summary.num_successful_steps + summary.num_unsuccessful_steps;
   if (cap_callback.hit() && summary.termination_type == ceres::USER_SUCCESS) {
-    useTree();
+    outcome.tree_preconditioner = true;
+    useTreePreconditioner(&options, edges, ends, block_ids, poses->size(), &cancel_callback);
     options.max_num_iterations = std::max(1, config.max_iterations - steps);
     const double spent = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     options.max_solver_time_in_seconds = std::max(1e-3, config.max_solver_time_s - spent);
@@ -230,15 +280,7 @@ Result<SolveOutcome> solveOnce(const std::vector<PoseGraphEdge>& edges, const st
     outcome.iterations += static_cast<int>(summary.iterations.size());
     steps += summary.num_successful_steps + summary.num_unsuccessful_steps;
   }
-  if (summary.termination_type == ceres::FAILURE) {
-    return Result<SolveOutcome>::failure("pose graph solve failed: " + summary.message);
-  }
-  outcome.final_cost = summary.final_cost;
-  outcome.cancelled = summary.termination_type == ceres::USER_FAILURE;
-  // NO_CONVERGENCE is the iteration limit (deterministic) or the time limit (depends on the machine's load).
-  outcome.out_of_time = summary.termination_type == ceres::NO_CONVERGENCE && steps < config.max_iterations;
-  outcome.converged = summary.termination_type == ceres::CONVERGENCE;
-  return outcome;
+  return finishOutcome(summary, steps, config, outcome);
 }
 
 }  // namespace graph_detail
