@@ -27,7 +27,7 @@ endif()
 if(RGBDMAP_BUILD_TESTS)
   find_package(GTest REQUIRED)
 endif()
-# Frame sources (issue #12, client/source). ROS 1 bags through librosbag-storage-dev: its pkg-config file
+# Frame sources (client/source). ROS 1 bags through librosbag-storage-dev: its pkg-config file
 # requires pluginlib.pc, which Debian does not ship, so headers and libraries are located directly (bag.h
 # includes pluginlib, class_loader and the ROS 2 utility headers these need, each in its own folder).
 find_path(ROSBAG_INCLUDE_DIR rosbag/bag.h REQUIRED)

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Fault benchmark (issue #11): every fault of tests/integration/faults.sh (clean, 30 % and 60 % message loss,
+# Fault benchmark: every fault of tests/integration/faults.sh (clean, 30 % and 60 % message loss,
 # 5 % datagram loss, server kill -9 x5) over LCM and over Cyclone DDS, two robots on a synthetic 200-frame
 # loop, each run inside a private loopback-only network namespace. Prints one row per run: keyframes sent /
 # acknowledged / stored (both robots), retransmissions, ack latency median and p90 (the worse robot),

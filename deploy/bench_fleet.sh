@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# A fleet on one server (issue #15): N light robots (rgbdmap-replay) send a recorded keyframe stream at a set
+# A fleet on one server: N light robots (rgbdmap-replay) send a recorded keyframe stream at a set
 # keyframe rate for a set time, over LCM or Cyclone DDS on loopback, against one rgbdmap-server. No odometry
 # runs during the measurement, so 16 robots fit on 2 cores. Robot i starts the stream at keyframe i*K/N (K
 # keyframes in the stream), so the robots are at different places of one scene and the server must join

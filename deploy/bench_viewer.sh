@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# The live map viewer under load (issue #13): a two-robot run over LCM (deploy/run_multiprocess.sh --viewer,
+# The live map viewer under load: a two-robot run over LCM (deploy/run_multiprocess.sh --viewer,
 # separate processes, private loopback-only namespace) with 1 and then 10 Foxglove reference clients
 # (tests/viewer/bench_clients.js, Node + npm @foxglove/ws-protocol) subscribed to every channel. Prints, per
 # client count: the viewer process's CPU (user + system over the run's wall time), bytes per second to all
@@ -9,7 +9,7 @@
 # Usage: bash deploy/bench_viewer.sh [--frames F] [--realtime] [--stream-delay S]
 #   --realtime        the robots read the sequence at 30 Hz (default --fast: as fast as they can)
 #   --stream-delay S  the server's map.stream_delay_s (default 0.25; 0 = the map stream only every
-#                     map.stream_period_s = 2 s, as before issue #13's latency work)
+#                     map.stream_period_s = 2 s)
 set -euo pipefail
 repo="$(cd "$(dirname "$0")/.." && pwd)"
 bin="${RGBDMAP_BIN:-$repo/build/bin}"

@@ -1,7 +1,7 @@
 // rgbdmap-replay: a light robot for scale tests. Sends a recorded keyframe stream (rgbdmap-client
 // --record-keyframes) to the mapping server as robot R, at a set rate, in as many passes as a duration asks,
 // and reports every keyframe's acknowledgement latency. No camera and no odometry: many of these fit on a
-// machine that runs one odometry (issue #15; deploy/bench_fleet.sh runs 16).
+// machine that runs one odometry (deploy/bench_fleet.sh runs 16).
 #include <cstdio>
 #include <exception>
 #include <filesystem>

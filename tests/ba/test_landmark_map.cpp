@@ -90,7 +90,7 @@ TEST(LandmarkMap, FusionConflictsAndRemoval) {
   }
 }
 
-// Issue #15: matches kept for long take 4 bytes a pair when every index fits 16 bits, and come back as they
+// Matches kept for long take 4 bytes a pair when every index fits 16 bits, and come back as they
 // went in, in order; others are kept as they came.
 TEST(LandmarkMap, PackedMatchesComeBackAsTheyWentIn) {
   EdgeMatches m{7, 3, {{0, 0}, {65535, 1}, {12, 65535}, {999, 998}}};
@@ -110,7 +110,7 @@ TEST(LandmarkMap, PackedMatchesComeBackAsTheyWentIn) {
   }
 }
 
-// The tracks' memory is reported (issue #15) and keyframe ids beyond 32 bits are refused (observations
+// The tracks' memory is reported and keyframe ids beyond 32 bits are refused (observations
 // hold them in 32 bits).
 TEST(LandmarkMap, ReportsItsMemoryAndRefusesKeyframeIdsBeyond32Bits) {
   const BaScene s = makeBaScene({});

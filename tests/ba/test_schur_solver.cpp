@@ -97,7 +97,7 @@ TEST(SchurSolver, ReachesTheMinimumCeresReaches) {
   EXPECT_LT(rms_ceres, 0.003);
 }
 
-// Issue #15: relative-pose priors (pose-graph edges the landmarks do not cover) enter both solvers alike.
+// Relative-pose priors (pose-graph edges the landmarks do not cover) enter both solvers alike.
 // Here priors between consecutive frames, each 3 cm and ~0.6 deg off the truth, pull against the
 // observations: both solvers must reach the same minimum, and it must differ from the one without priors.
 TEST(SchurSolver, PosePriorsReachTheMinimumCeresReaches) {
@@ -144,7 +144,7 @@ TEST(SchurSolver, PosePriorsReachTheMinimumCeresReaches) {
   EXPECT_FALSE(solveBundle(bad, config)) << "a prior out of range was accepted";
 }
 
-// Issue #15: a large reduced camera system is solved by conjugate gradients on the implicit Schur
+// A large reduced camera system is solved by conjugate gradients on the implicit Schur
 // complement (BaSolveConfig::iterative_min_frames) instead of a sparse Cholesky. Forced onto a problem of
 // 70 keyframes (630 unknowns: past the dense factorisation) with wrong observations and relative-pose
 // priors, it must reach the minimum the Cholesky reaches; with one CG step per iteration it must not (the

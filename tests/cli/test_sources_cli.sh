@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Frame sources on the command line (issue #12): a synthetic sequence written into ROS 1 bags with the real
+# Frame sources on the command line: a synthetic sequence written into ROS 1 bags with the real
 # rosbag writer (TUM topics: rgb8 colour, 32FC1 depth in metres, camera_info; and 16UC1 millimetres),
 # read back by the official Python rosbag reader, and through `--source bag:` by odometry (the folder's
 # trajectory, byte for byte with 32FC1; within a millimetre-rounding bound with 16UC1), convert, run and

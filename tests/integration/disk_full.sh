@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Disk full, for real (ctest integration.disk_full, issue #11): inside a private mount and network namespace
+# Disk full, for real (ctest integration.disk_full): inside a private mount and network namespace
 # (unshare -m -n: loopback only, a mount nobody else sees) the map directory is a small tmpfs. One
 # rgbdmap-server and one rgbdmap-client (--fast, LCM) run on a synthetic loop while a filler file leaves the
 # tmpfs room for only a few keyframes, so the store fails mid-run; the disk stays full for HOLD_S seconds,

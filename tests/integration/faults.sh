@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Fault harness (issue #11): one rgbdmap-server and two rgbdmap-client processes (robot0 frames 0:113, robot1
+# Fault harness: one rgbdmap-server and two rgbdmap-client processes (robot0 frames 0:113, robot1
 # 87:200 of a synthetic 200-frame loop, --fast but for kill9) over LCM or Cyclone DDS, inside a private loopback-only
 # network namespace, under one fault; then it compares what the robots sent and had acknowledged
 # (client_<R>.json, keyframes_<R>.txt) with what the server stored (map/keyframes_<R>.txt, written from the

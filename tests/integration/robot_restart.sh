@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# A robot process killed mid-run (SIGKILL) and started again (issue #6): the server keeps the first session's
+# A robot process killed mid-run (SIGKILL) and started again: the server keeps the first session's
 # keyframes, the new process is a second session of the same robot, every keyframe it sends is acknowledged,
 # and loop closure re-anchors it: both robots end in one map, all server keyframes within MAX_ATE of the
 # ground truth after one alignment. Runs inside run_in_netns.sh, reusing the configs and keys that

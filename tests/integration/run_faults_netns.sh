@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# CTest driver of the fault tests (issue #11; entries faults.<fault>.<transport>, labels netns and faults):
+# CTest driver of the fault tests (entries faults.<fault>.<transport>, labels netns and faults):
 # runs tests/integration/faults.sh FAULT over TRANSPORT with --check (every keyframe sent is stored, one
 # merged map, merged ATE below the clean run's 2 cm bound; see faults.sh) on the synthetic 200-frame loop
 # that the fixture faults.dataset wrote (one dataset for all: synthesising it takes ~20 s of a core).

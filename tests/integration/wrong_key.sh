@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# A robot with the wrong key (issue #11, "clear failure"), real processes over LCM inside the loopback-only
+# A robot with the wrong key ("clear failure"), real processes over LCM inside the loopback-only
 # namespace of tests/transport/run_in_netns.sh (ctest integration.wrong_key.netns): the client exits 3 and
 # says the server reports bad signatures from it; the server log names the claimed sender; the monitor says
 # "bad signature"; a monitor with the wrong key says it cannot verify instead of "no status";

@@ -1,4 +1,4 @@
-// Corrections that follow the robots' heartbeats (issue #11): a robot whose last keyframe closed no loop
+// Corrections that follow the robots' heartbeats: a robot whose last keyframe closed no loop
 // still hears where it is, and the corrections covering it are sent again while the robot is heard (the
 // first may have been lost), a bounded number of times. Over memq:// with the recorded synthetic loop.
 #include <chrono>

@@ -1,4 +1,4 @@
-// Fair share (issue #11), the server's private parts: per-robot queues served round-robin and bounded,
+// Fair share, the server's private parts: per-robot queues served round-robin and bounded,
 // the per-robot token bucket, and the refusal of images from their headers before decoding.
 #include <gtest/gtest.h>
 

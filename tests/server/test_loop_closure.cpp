@@ -142,7 +142,7 @@ TEST(BinaryWords, RetrievalRanksARevisitAboveUnrelatedKeyframesAndExcludesRecent
   EXPECT_NEAR(index.query(hasher.histogram(places[7]), {2, 0, 15, 1, 0.0})[0].score, 1.0, 1e-4);
 }
 
-// Issue #15: posting lists are varint-coded gaps with counts. Scores equal a plain inverted index's (every
+// Posting lists are varint-coded gaps with counts. Scores equal a plain inverted index's (every
 // document's idf-weighted histogram intersection, by brute force), over gaps of one and of several varint
 // bytes (a word seen again after 200 or 20,000 documents) and counts of 1, 2 and 300.
 TEST(BinaryWords, CompressedPostingsScoreAsAPlainIndex) {
@@ -230,7 +230,7 @@ TEST(LoopVerify, RandomDescriptorNoiseIsRejectedWithAReason) {
       << toString(v.rejection) << " matches " << v.matches;
 }
 
-// Issue #15: which candidates are matched all against all (the costly path) is reported: without a prior,
+// Which candidates are matched all against all (the costly path) is reported: without a prior,
 // and when matching by projection under the prior finds too few matches; not when it finds enough.
 TEST(LoopVerify, ReportsWhenItMatchesAllAgainstAll) {
   std::mt19937 rng(12);

@@ -1,4 +1,4 @@
-// The map optimiser (issue #14): pose graph + landmark tracks + local and global bundle adjustment on one
+// The map optimiser: pose graph + landmark tracks + local and global bundle adjustment on one
 // worker, fed with batches as the ingest worker does. On a synthetic scene with exact ground truth
 // (ba_synth): BA brings the keyframes much closer to the truth than the pose graph alone; a false loop (a
 // wrong relative pose with wrong matches) is disabled by the pose graph, its matches never enter the tracks,
@@ -140,7 +140,7 @@ TEST(MapOptimizer, GlobalBundleAdjustmentsAfterLargeCyclesWaitForTheMapToGrow) {
   EXPECT_LT(grown.rms_m, 0.004);  // the final global BA gives the same accuracy
 }
 
-// Issue #15: a map of more keyframes than ba.global_max_keyframes gets no global BA (past ~4,000 they ran
+// A map of more keyframes than ba.global_max_keyframes gets no global BA (past ~4,000 they ran
 // out of time and were refused while their window grew with the map); those it would have had are counted.
 TEST(MapOptimizer, AMapPastTheGlobalLimitGetsNoGlobalBundleAdjustment) {
   const BaSynthScene s = scene();
@@ -170,7 +170,7 @@ TEST(MapOptimizer, AMapPastTheGlobalLimitGetsNoGlobalBundleAdjustment) {
   EXPECT_GT(all.result->ba.global_keyframes_last, 12);
 }
 
-// Issue #15: a global BA that ends at its time limit without lowering the error (in the fleet run: 9,600
+// A global BA that ends at its time limit without lowering the error (in the fleet run: 9,600
 // keyframes under the observation cap, rms 1.15 px before and after, 3 s each) doubles the growth its map
 // must reach before the next one; one that helps resets it.
 TEST(MapOptimizer, GlobalBundleAdjustmentsThatGainNothingBackOff) {
@@ -212,7 +212,7 @@ TEST(MapOptimizer, AFalseLoopNeverEntersTheTracks) {
   EXPECT_LT(dirty.rms_m, clean.rms_m + 0.001);
 }
 
-// Issue #15: an adjustment that would change the relative pose of keyframes sharing landmarks by more than
+// An adjustment that would change the relative pose of keyframes sharing landmarks by more than
 // ba.max_edge_change_m / _deg is a solve gone wrong and is refused whole. Here the limits are set so low that
 // every adjustment is refused: the result is the pose graph's alone.
 TEST(MapOptimizer, AnAdjustmentThatMovesCovisibleKeyframesTooFarIsRefused) {

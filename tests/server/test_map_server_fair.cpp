@@ -1,4 +1,4 @@
-// Fair share (issue #11), end to end over memq://: a robot with a valid key flooding valid keyframes does
+// Fair share, end to end over memq://: a robot with a valid key flooding valid keyframes does
 // not starve a well-behaved robot (per-robot queues served round-robin, a per-robot rate limit), and
 // images that do not match the robot's camera are refused from their headers, before decoding.
 #include <algorithm>

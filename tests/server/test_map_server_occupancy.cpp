@@ -1,4 +1,4 @@
-// The occupancy octree inside the mapping server (issue #5): a synthetic run over memq:// builds the room,
+// The occupancy octree inside the mapping server: a synthetic run over memq:// builds the room,
 // robots receive slices and the map stream, an optimisation rebuilds the map, the written files read back,
 // and a restart re-inserts the stored keyframes.
 #include <cmath>
@@ -273,7 +273,7 @@ TEST(MapServerOccupancy, RobotRunAvoidsOnTheServersSlices) {
   EXPECT_GT(a.forward + a.turn_left + a.back_right, r.frames / 2) << "most frames decided on a fresh slice";
   // Every obstacle it reported is a real surface: some point of the corridor's cross-section at that
   // distance (within the slice's height band, plus a cell for quantisation) lies within 10 cm of the room's
-  // geometry, seen from the ground-truth pose. "Up" is the map's up (z: the map is z-up, issue #13), as in
+  // geometry, seen from the ground-truth pose. "Up" is the map's up (z: the map is z-up), as in
   // the slice.
   const SE3 T_world_map = scene->trajectory().front().T_world_cam * r.live.front().T_world_cam.inverse();
   const Vec3 up = T_world_map.linear() * Vec3(0, 0, 1);

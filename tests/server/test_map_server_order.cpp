@@ -1,4 +1,4 @@
-// Store first, order later (issue #11): keyframes of a robot delivered out of order, or with one missing for
+// Store first, order later: keyframes of a robot delivered out of order, or with one missing for
 // good, are each stored and acknowledged at once; the graph takes them in chain order through the reorder
 // buffer, and a predecessor that never comes splits the chain, which loop closure re-anchors. Over memq://
 // with the recorded keyframe stream of the synthetic loop.

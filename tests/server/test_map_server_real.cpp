@@ -73,7 +73,7 @@ void runFr1Rpy(bool send_features) {
       "%d keyframes, %d loops (%d disabled), ingest median %.1f ms\n",
       send_features ? "sent by the robot" : "extracted by the server", a_odo->rmse, a_slam->rmse, k_odo->rmse,
       k_slam->rmse, stats.keyframes, stats.loops_accepted, stats.loops_disabled, stats.ingest_ms_median);
-  // With bundle adjustment (issue #14), measured: every frame 0.0146-0.0149 m, keyframes the same.
+  // With bundle adjustment, measured: every frame 0.0146-0.0149 m, keyframes the same.
   EXPECT_LE(a_slam->rmse, 0.7 * a_odo->rmse) << "bundle adjustment must improve well on odometry";
   EXPECT_LE(a_slam->rmse, 0.018);
   EXPECT_LE(k_slam->rmse, 0.018);
@@ -85,7 +85,7 @@ TEST(MapServerReal, Fr1RpyFullSystemIsNoWorseThanOdometry) {
   runFr1Rpy(true);
 }
 
-// The robot's default since keyframes dropped their features (issue #15): the same bounds hold with the
+// The robot's default since keyframes dropped their features: the same bounds hold with the
 // server's own extraction from JPEG colour.
 TEST(MapServerReal, Fr1RpyWithFeaturesExtractedByTheServer) {
   RGBDMAP_REQUIRE_SHARED_DATA("tum_fr1_rpy_first250");

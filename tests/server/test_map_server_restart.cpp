@@ -142,7 +142,7 @@ TEST(MapServer, FeaturesPagedOutOfRamAreReadBackFromTheStoreForLoopsAndBundleAdj
 }
 
 TEST(MapServer, AfterARestartARobotThatSaysNoHelloAgainStillGetsCorrections) {
-  // Over LCM a robot that heard the killed server does not say Hello to the restarted one (issue #11,
+  // Over LCM a robot that heard the killed server does not say Hello to the restarted one (seen in
   // faults.kill9.lcm: no PoseCorrections at all after the first kill -9): its keyframes name its session.
   const OdometrySegment& seg = loopSegment(kLoopFrames, 0, kLoopFrames);
   const std::string dir = freshDir("restart_no_hello");

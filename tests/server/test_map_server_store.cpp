@@ -1,4 +1,4 @@
-// A full disk under the running server (issue #11): the failed append is not acknowledged, nor is any
+// A full disk under the running server: the failed append is not acknowledged, nor is any
 // keyframe while the store is failed (the robot keeps them and resends); once space is back the server's
 // retry recovers the store by itself, the resent keyframes are stored and acknowledged, and a restart finds
 // every one of them. The disk fills by a file size limit (RLIMIT_FSIZE: the writes really fail part-way).

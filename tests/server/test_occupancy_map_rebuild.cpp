@@ -111,7 +111,7 @@ TEST(OccupancyMap, APartialRebuildRecomputesOnlyWhereKeyframesMovedAndEqualsAWho
   EXPECT_EQ(map.stats().last_rebuild_keyframes, all.size());
 }
 
-// Issue #15: a partial rebuild keeps the moved keyframes' ray casts between its passes only up to
+// A partial rebuild keeps the moved keyframes' ray casts between its passes only up to
 // partial_rebuild_held_mb (unbounded: 378 MB of the heap's peak at 5,000 keyframes); beyond, it casts them
 // again: the same tree, three more casts for three moved keyframes.
 TEST(OccupancyMap, APartialRebuildOverItsHeldBudgetCastsAgainAndBuildsTheSameTree) {
@@ -136,7 +136,7 @@ TEST(OccupancyMap, APartialRebuildOverItsHeldBudgetCastsAgainAndBuildsTheSameTre
   });
 }
 
-// Issue #15: kept clouds beyond clouds_in_memory go to the spill file and come back for rebuilds and exports
+// Kept clouds beyond clouds_in_memory go to the spill file and come back for rebuilds and exports
 // exactly as they were: the same trees after a partial and a whole rebuild, the same exported clouds.
 TEST(OccupancyMap, ReadersNeverSeeAHalfBuiltTree) {
   const OccupancyMapConfig config = testConfig();

@@ -124,7 +124,7 @@ TEST(LoopEdgesMessage, EnabledLoopsOfEachRobotsMapWithOptimisedPositions) {
   EXPECT_TRUE(msg::validate(sent)) << msg::validate(sent).error();
 }
 
-// Issue #15: a fleet's map has tens of thousands of loops; each robot gets the newest loop_edges_max of its
+// A fleet's map has tens of thousands of loops; each robot gets the newest loop_edges_max of its
 // map (in graph order), the same list for every robot of the map.
 TEST(LoopEdgesMessage, OnlyTheNewestEdgesOfAMapUpToTheCap) {
   std::vector<IndexedNode> nodes;

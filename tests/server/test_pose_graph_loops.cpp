@@ -123,7 +123,7 @@ namespace rgbdmap {
 namespace {
 
 // A solve stopped by max_solver_time_s (a loaded machine, a large graph) leaves the poses between odometry
-// and the solution: judged there, true loops look inconsistent. It must disable none (issue #15: a 2 s cap
+// and the solution: judged there, true loops look inconsistent. It must disable none (a 2 s cap
 // disabled 5,371 of 37,000 true loops on an 8k graph); the next converged solve still rejects false ones.
 TEST(PoseGraphLoops, ASolveOutOfTimeDisablesNoLoop) {
   SynthGraph synth = makeSynthGraph(circle(1000, 0, 11, 100));

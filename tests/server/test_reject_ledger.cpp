@@ -1,4 +1,4 @@
-// Rejected messages named by their claimed sender (issue #11, "clear failure"): the rate-limited log line per
+// Rejected messages named by their claimed sender ("clear failure"): the rate-limited log line per
 // claimed id, the bounded tables hostile senders cannot grow, and end to end a robot with a wrong key showing
 // up as bad signatures of that robot in the server's stats and in the ServerStatus it publishes.
 #include <chrono>

@@ -1,4 +1,4 @@
-// Live behaviour (issue #12): a synthetic sequence paced at 30 Hz as a live camera, read through
+// Live behaviour: a synthetic sequence paced at 30 Hz as a live camera, read through
 // LatestFrameSource by an odometry slowed to ~15 Hz: frames are never delivered before the camera made them,
 // the newest wins, every dropped frame is counted, at most one frame waits, and the trajectory of the frames
 // that were tracked stays within bound. A reader that stalls does not make memory grow.

@@ -138,7 +138,7 @@ ReliableSenderStats submitOneAfterAnother(ReliableSenderOptions o, std::chrono::
   return sender.stats();
 }
 
-/// Issue #15: a server that acknowledges after 250 ms. The fixed 100 ms schedule resends (nearly) every id;
+/// A server that acknowledges after 250 ms. The fixed 100 ms schedule resends (nearly) every id;
 /// the adaptive RTO resends the first ids only, until a send is answered before its timeout (Karn).
 TEST(TransportReliableSender, AdaptiveRtoStopsResendingToASlowAcker) {
   ReliableSenderOptions o;

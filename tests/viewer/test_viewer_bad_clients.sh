@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Bad WebSocket clients against the viewer while it maps (issue #13): rgbdmap run --viewer --realtime with one
+# Bad WebSocket clients against the viewer while it maps: rgbdmap run --viewer --realtime with one
 # robot (memq://) in the private loopback-only namespace; bad_clients.js sends malformed frames, unknown ops,
 # subscribe and connection storms, forged frame lengths and slow readers that never read, while the
 # Foxglove reference client keeps receiving. Checks: the run completes as without a viewer (every keyframe

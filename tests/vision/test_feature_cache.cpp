@@ -1,4 +1,4 @@
-// FeatureCache (issue #15): the most recently used features stay in RAM, the others are read back through
+// FeatureCache: the most recently used features stay in RAM, the others are read back through
 // the loader; features a caller still holds are never loaded twice; a failed read is null and counted.
 #include <atomic>
 #include <thread>

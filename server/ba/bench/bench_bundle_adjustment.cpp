@@ -1,4 +1,4 @@
-// Bundle adjustment cost on one core (issue #14): local BA against its window size and global BA against the
+// Bundle adjustment cost on one core: local BA against its window size and global BA against the
 // map size, on synthetic scenes with exact ground truth (ba_synth.hpp: ~1,000 features a keyframe at the
 // default density, tracks from the true matches with the 4 previous keyframes, poses perturbed by 2 cm and
 // 0.6 deg). Prints one line per configuration: time (median of repeats), observations, keyframe error.

@@ -1,4 +1,4 @@
-// bench_map_growth (issue #15): grows one map keyframe by keyframe through a whole MapServer and prints, per
+// bench_map_growth: grows one map keyframe by keyframe through a whole MapServer and prints, per
 // tenth of the run, what the server spends per keyframe on each of its threads, its pose-graph solves,
 // bundle adjustments and octree rebuilds, and its RSS; at the end the keyframes' ATE against the truth.
 //

@@ -1,6 +1,6 @@
 #pragma once
 // The ingest worker: one SerialWorker ("rgbdmap-ingest") that runs the pipeline's events one at a time.
-// Each posted task serves one event, chosen when it runs (issue #11, fair share):
+// Each posted task serves one event, chosen when it runs (fair share):
 //   1. a robot's Hello (at most one pending per robot: a newer one replaces it), so a session never waits
 //      behind keyframes;
 //   2. keyframes to store and acknowledge (unless IngestPipeline::kDeferredMax placements wait), from

@@ -1,5 +1,5 @@
 #pragma once
-// Per-robot keyframe rate limit (issue #11, "fair share"): a token bucket per robot, refilled at
+// Per-robot keyframe rate limit ("fair share"): a token bucket per robot, refilled at
 // `rate_per_s` up to `burst` tokens; each keyframe message (first transmissions and retransmissions alike)
 // takes one. The inbox asks before decoding the keyframe's payload: a keyframe over the rate is dropped
 // unacknowledged (the robot resends it) and counted per robot, and costs the server nothing but the

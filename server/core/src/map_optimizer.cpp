@@ -468,7 +468,7 @@ void MapOptimizer::applyBundle(const BundleResult& r) {
   // The edges at a moved keyframe whose other end the adjustment saw too, and shares landmarks with, take
   // its relative pose. Without shared landmarks the adjustment knows nothing of that relative pose (an
   // odometry step into a room not seen before): a global BA moved such steps by up to 2.2 m, and the
-  // measurement, overwritten, no longer held the map together (issue #15, a room torn without a false loop).
+  // measurement, overwritten, no longer held the map together (a room torn without a false loop).
   // The check of this outcome (checkBundle) found them already.
   const std::vector<CovisibleEdge> edges =
       checked_.moved == r.moved ? std::move(checked_.edges) : covisibleEdgeChanges(moved);

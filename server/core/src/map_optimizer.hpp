@@ -1,5 +1,5 @@
 #pragma once
-// The map optimiser (issue #14): one worker thread that owns the optimisation state of every map
+// The map optimiser: one worker thread that owns the optimisation state of every map
 //   - the pose graph: robust loop rejection, map merging, the fast first answer after a loop;
 //   - the landmark map: tracks over the keyframes' features, local bundle adjustment after each keyframe and
 //     global bundle adjustment after a loop that closes a large cycle, a merge, or when the map is quiet.

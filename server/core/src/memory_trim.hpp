@@ -1,5 +1,5 @@
 #pragma once
-// Gives freed heap memory back to the kernel (issue #15). glibc keeps what a thread freed in its arena: an
+// Gives freed heap memory back to the kernel. glibc keeps what a thread freed in its arena: an
 // octree rebuild frees the old tree's millions of nodes, bundle adjustments and feature read-backs free
 // large blocks, and the process's RSS stays at its high-water mark (measured: 8.4 GB RSS over 4.9 GB of
 // live heap at 14,000 keyframes). Every period_s, malloc_trim(0) releases the free pages of every arena.

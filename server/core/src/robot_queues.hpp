@@ -1,5 +1,5 @@
 #pragma once
-// Per-robot keyframe queues served round-robin (issue #11, "fair share"): one robot sending faster than the
+// Per-robot keyframe queues served round-robin ("fair share"): one robot sending faster than the
 // server ingests fills only its own queue; every other robot's keyframes are taken in turn with it. Each
 // queue is bounded in keyframes and in bytes (a keyframe that does not fit is refused: the caller leaves it
 // unacknowledged and the robot resends it later), and all robots together by a total count.

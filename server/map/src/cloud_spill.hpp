@@ -1,5 +1,5 @@
 #pragma once
-// Kept keyframe clouds moved out of RAM (issue #15: server memory proportional to the working set, not to the
+// Kept keyframe clouds moved out of RAM (server memory proportional to the working set, not to the
 // map's history). One anonymous file per OccupancyMap (O_TMPFILE in the spill directory: it has no name, so
 // nothing can find it half written, and the kernel frees it when the map is destroyed, also after a crash).
 // Clouds are appended as they are spilled and read back with pread, from any thread; the file is a cache of

@@ -25,7 +25,7 @@ struct OccupancyMap::Slot {
   uint64_t revision = 0;
   /// Changed leaves (new, or occupied <-> free) since journal_base, listed under the revision that changed
   /// them, so a stream reads only what changed after its consumer's revision (not the whole journal). A
-  /// leaf changed again is listed again (6 bytes an entry: issue #15 measured ~55 bytes an entry with a
+  /// leaf changed again is listed again (6 bytes an entry: measured ~55 bytes an entry with a
   /// hash map of each leaf's latest revision); a stream takes each leaf once. Cleared on a swap or when
   /// its entries outgrow twice the config's cap.
   struct Journal {

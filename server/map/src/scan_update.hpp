@@ -22,7 +22,7 @@ struct ScanUpdate {
 ScanUpdate computeScanUpdate(const octomap::OcTree& geometry, const KeyframeCloud& cloud,
                              const SE3& T_map_cam, double max_range_m);
 /// Applies the update (occupied after free). `changed` (optional) receives the leaves it created or whose
-/// occupancy it flipped (OctoMap's change detection, without its hash set: issue #15 measured a fifth of the
+/// occupancy it flipped (OctoMap's change detection, without its hash set: measured a fifth of the
 /// map thread in filling and clearing that set). The tree's own change detection stays off.
 void applyScanUpdate(octomap::OcTree* tree, const ScanUpdate& update,
                      std::vector<octomap::OcTreeKey>* changed = nullptr);

@@ -1,5 +1,5 @@
 #pragma once
-// Keyframe features that may leave RAM (issue #15: memory proportional to the working set). The server's
+// Keyframe features that may leave RAM (memory proportional to the working set). The server's
 // loop detector and bundle adjustment hold a keyframe's features through one FeatureCache: the most
 // recently used `max_resident` stay in RAM, older ones are dropped and read back through the loader (the
 // server: from its map store) when a loop candidate, a BA window or a track needs them again. A caller

@@ -1,5 +1,5 @@
 #pragma once
-// Where a command's frames come from (issue #12): `--source URL` or `--dataset DIR` (= tum:DIR), opened
+// Where a command's frames come from: `--source URL` or `--dataset DIR` (= tum:DIR), opened
 // together with the configuration, so that the camera follows one order, lowest priority first: built-in
 // defaults, the source's own camera (a folder's camera.yaml, a bag's camera_info, the device), the camera:
 // section of --config, the command-line overrides.

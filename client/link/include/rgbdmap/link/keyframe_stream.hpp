@@ -1,7 +1,7 @@
 #pragma once
 // A recorded keyframe stream: the keyframes one robot sent, as it sent them (rgbdmap-client
 // --record-keyframes), for rgbdmap-replay to send again as any number of light robots without running
-// their odometry (issue #15: 16 robots on 2 cores).
+// their odometry (16 robots on 2 cores).
 //
 // File: the 8 bytes "RGBDKFS1", then records of [uint32 little-endian size][payload]. The first payload is
 // the robot's msg::Hello (camera, mount), every other one a msg::Keyframe, each as msg::encodePayload wrote

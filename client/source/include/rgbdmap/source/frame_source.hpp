@@ -1,5 +1,5 @@
 #pragma once
-// Where a robot's RGB-D frames come from (issue #12): a TUM folder, a ROS 1 bag, a live OpenNI2 camera.
+// Where a robot's RGB-D frames come from: a TUM folder, a ROS 1 bag, a live OpenNI2 camera.
 // Every source yields timestamped colour + depth frames registered to each other, with the camera model
 // when the source knows it; it says whether it is live (a camera: frames come at the sensor's rate whether
 // or not anyone reads them) and it can end. The odometry library knows nothing of sources; the programs

@@ -86,7 +86,7 @@ struct EdgeMatches {
 
 /// EdgeMatches as kept for long (e.g. while an edge's matches are in the tracks, to take them out again):
 /// two 16-bit feature indices per pair when every index fits (keyframes have ~1,000 features), else the
-/// pairs as they came. Issue #15: ~13 KB per keyframe of the server's heap as pairs of ints.
+/// pairs as they came. ~13 KB per keyframe of the server's heap as pairs of ints.
 struct PackedMatches {
   int64_t from = 0, to = 0;
   std::vector<uint32_t> packed;
@@ -200,7 +200,7 @@ class LandmarkMap {
     int64_t reference = -1;        ///< first observer: the landmark moves with it; -1: erased
   };
   /// Landmarks by id (ids are dense: next_landmark_ counts them): a deque of slots, an erased one keeps
-  /// only its 56 bytes (issue #15: as an unordered_map each landmark cost a node and a bucket besides).
+  /// only its 56 bytes (as an unordered_map each landmark cost a node and a bucket besides).
   class LandmarkTable {
    public:
     Landmark* find(int64_t id) {

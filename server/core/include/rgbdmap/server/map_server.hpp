@@ -62,7 +62,7 @@ struct ServerRobotStats {
                                    ///< (reorder bound or timeout) or was refused
   uint64_t waiting_for_hello = 0;  ///< keyframes that came before the robot's Hello (held, taken in with it)
   int keyframes_waiting = 0;       ///< stored, acknowledged, waiting for their predecessor now
-  /// Fair share (issue #11): keyframes left unacknowledged because its queue was full, or because it sent
+  /// Fair share: keyframes left unacknowledged because its queue was full, or because it sent
   /// over server.robot_max_keyframes_per_s; refused from the images' headers, before decoding.
   uint64_t queue_full = 0;
   /// Re-sent while the first copy was still in its queue: not queued twice, no slot taken, not demoted.
@@ -75,7 +75,7 @@ struct ServerRobotStats {
   std::optional<CameraIntrinsics> camera;
 };
 
-/// Bundle adjustment (issue #14), cumulative: landmark tracks and the local and global adjustments.
+/// Bundle adjustment, cumulative: landmark tracks and the local and global adjustments.
 struct BundleAdjustmentStats {
   int64_t local_runs = 0, local_failures = 0, global_runs = 0;
   int64_t out_of_time = 0;  ///< adjustments stopped by their wall-clock limit (local or global)

@@ -15,9 +15,9 @@
 
 namespace rgbdmap {
 
-/// Bundle adjustment on the server (issue #14): what the landmark map does and when adjustments run.
+/// Bundle adjustment on the server: what the landmark map does and when adjustments run.
 struct BundleAdjustmentConfig {
-  bool enabled = true;  ///< false: the pose graph alone (as before issue #14)
+  bool enabled = true;  ///< false: the pose graph alone
   LandmarkMapConfig landmarks;
   /// New keyframes of one optimiser batch that get a local BA (the newest); the others are matched by
   /// projection only, and the next global BA catches them up.
@@ -67,7 +67,7 @@ struct MapServerConfig {
   /// LoopEdges (for visualisers) after each optimisation: the newest this many enabled loop edges of the
   /// robot's map, per robot. The whole map's would grow with it: 50,000 loops were 4 MB per robot and result.
   int loop_edges_max = 2000;
-  /// Fair share (issue #11): each robot's keyframes wait in a queue of their own, served round-robin with
+  /// Fair share: each robot's keyframes wait in a queue of their own, served round-robin with
   /// the other robots'; a keyframe that does not fit its robot's queue (robot_queue_capacity keyframes,
   /// robot_queue_bytes encoded bytes) or the total (ingest_queue_capacity, all robots together) is left
   /// unacknowledged (the robot resends it) and counted as queue_full.
@@ -114,7 +114,7 @@ struct MapServerConfig {
   LoopDetectorConfig loop;
   PoseGraphConfig graph;
   BundleAdjustmentConfig ba;
-  /// Occupancy map (issue #5), built on its own worker thread, never on the ingest worker.
+  /// Occupancy map, built on its own worker thread, never on the ingest worker.
   bool occupancy_enabled = true;
   OccupancyMapConfig occupancy;
   SliceConfig slice;

@@ -79,7 +79,7 @@ class BinaryWordIndex {
   struct Doc {
     int keyframe_id, robot_id, robot_sequence;
   };
-  /// One word's posting list, compressed (issue #15: the index was ~36 KB per keyframe as 8-byte
+  /// One word's posting list, compressed (the index was ~36 KB per keyframe as 8-byte
   /// postings): documents in insertion order, each as a varint of (gap to the previous document << 1 |
   /// count > 1), followed by a varint of the count when it is more than 1. Most postings take one byte.
   struct PostingList {

@@ -35,7 +35,7 @@ struct LoopDetectorConfig {
   int prior_max_hops = 40;
   int prior_max_nodes = 4000;
   /// Candidates with a prior pose that one keyframe may match all against all after matching by
-  /// projection found too few matches, best retrieval score first (0: no limit). Issue #15: at 20,000
+  /// projection found too few matches, best retrieval score first (0: no limit). At 20,000
   /// keyframes of bench_map_growth that fallback was ~40 % of the ingest thread and verified 11 of 123,821;
   /// it exists for priors that drift made wrong, which that world does not measure: off by default.
   int max_fallbacks_per_keyframe = 0;
@@ -70,7 +70,7 @@ struct LoopStats {
   std::array<int, kCandidateSourceCount> candidates_by_source{};  ///< a candidate counts for every source
   int candidates = 0;                                             ///< after dedup and cap
   int verified = 0;
-  /// Candidates matched all against all (the costly path, issue #15): without a prior pose, or because
+  /// Candidates matched all against all (the costly path): without a prior pose, or because
   /// matching by projection under the prior found too few matches.
   int brute_force_no_prior = 0, brute_force_fallback = 0;
   /// Of the fallbacks, those the verification accepted (what bounding the fallback would lose at most).

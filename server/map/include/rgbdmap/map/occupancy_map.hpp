@@ -1,5 +1,5 @@
 #pragma once
-// The server's occupancy map (issue #5): every keyframe's depth integrated into an OctoMap octree at its
+// The server's occupancy map: every keyframe's depth integrated into an OctoMap octree at its
 // optimised pose, one tree per map id (a pose-graph component), rebuilt from the kept keyframe clouds in a
 // background worker when a loop closure or a merge moves keyframes, and swapped in atomically.
 // Algorithms only: plain structs in and out, no transport, no files (map_io.hpp does bytes and files).
