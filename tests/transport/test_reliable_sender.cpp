@@ -63,7 +63,7 @@ TEST(TransportReliableSender, RetransmitsWithGrowingGapsThenGivesUp) {
   // machine's load, so there is no upper bound here (the exact schedule is checked deterministically by
   // BackoffGrowsExponentiallyUpToTheCapWithBoundedJitter). Measured from the submission, not between two
   // logged sends: a send logged late (the log's clock is read after the sender's) would shorten the next
-  // gap without the sender being early (CI of stop 22 under ASan: 18.5 ms for 20).
+  // gap without the sender being early (seen under ASan: 18.5 ms for 20).
   const double due[] = {0, 20, 60, 140, 300};
   for (size_t i = 1; i < t.size(); ++i) EXPECT_GE(ms(t[i] - submitted), due[i]) << i;
   const auto s = sender.stats();

@@ -88,7 +88,7 @@ class IngestPipeline {
   /// The oldest deferred keyframe into the graph (loop detection, pose graph, map worker); false when none.
   /// The ingest worker serves new keyframes (store, acknowledgement) before these, so that a robot's
   /// acknowledgement waits for at most the one placement in progress, not for the loop detection of every
-  /// keyframe queued ahead of it (IngestQueue, docs/scaling.md stop 32).
+  /// keyframe queued ahead of it (IngestQueue).
   bool placeDeferred();
   /// Stored and acknowledged keyframes whose placement has not run yet.
   size_t deferred() const;

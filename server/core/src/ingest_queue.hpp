@@ -15,7 +15,7 @@
 //   4. the placement of the oldest stored keyframe (loop detection, pose graph, map worker). Stored and
 //      acknowledged keyframes go before it, so that an acknowledgement waits for the one placement in
 //      progress, not for the loop detection of every keyframe queued ahead (the 16-robot fleet run:
-//      ack p90 1.7 s in the minute the loop detection fell behind for ~30 s, docs/scaling.md stop 32).
+//      ack p90 1.7 s in the minute the loop detection fell behind for ~30 s).
 // A periodic tick on the same thread lets the pipeline give up on predecessors that do not come.
 // Tracks the submitted and applied optimisation revisions, so that waitIdle() also waits for the solves in
 // flight and their corrections.

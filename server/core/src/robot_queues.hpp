@@ -10,7 +10,7 @@
 // push() reports it as a duplicate and the queued copy is answered when served. Without that, a robot whose
 // acknowledgements are late (the server behind for a while) filled its queue with copies of the same few
 // keyframes, went "over its share", was demoted and fell further behind with every round of resends: the
-// 16-robot fleet run lost two robots that way (docs/scaling.md, stop 32). Not thread-safe: IngestQueue
+// 16-robot fleet run lost two robots that way. Not thread-safe: IngestQueue
 // guards it with its own mutex.
 #include <chrono>
 #include <cstddef>

@@ -41,7 +41,7 @@ struct BundleAdjustmentConfig {
   /// on. In bench_map_growth's revisited rooms every global BA past ~4,000 keyframes ran out of its time and
   /// was refused (edges between keyframes sharing landmarks changed by metres), while its window, at least
   /// landmarks.min_frame_observations per keyframe, grew with the map: the RSS rose by 0.66-0.70 GB during
-  /// each one at 12,800-16,000 keyframes (docs/scaling.md, stop 34). A windowed or submap global step is
+  /// each one at 12,800-16,000 keyframes (docs/scaling.md). A windowed or submap global step is
   /// not built.
   int global_max_keyframes = 4000;
   /// An adjustment that changes the relative pose of two keyframes sharing landmarks (an edge between
@@ -51,7 +51,7 @@ struct BundleAdjustmentConfig {
   /// A global BA takes the pose-graph edges its landmarks do not cover (keyframes sharing fewer than
   /// landmarks.min_covisibility: odometry steps into a room not seen before) as relative-pose priors, so its
   /// optimum agrees with the pose graph's and a whole-graph solve after it has little left to move. Off until
-  /// measured beyond 2,400 keyframes and in the fleet (docs/scaling.md, stop 27).
+  /// measured beyond 2,400 keyframes and in the fleet (docs/scaling.md).
   bool global_step_priors = false;
   double max_edge_change_m = 0.5;
   double max_edge_change_deg = 15.0;
