@@ -146,7 +146,7 @@ echo "minute  keyframes  p50_ms  p90_ms   (all robots)"
 awk '{printf "%6d %10d %7.0f %7.0f\n", $1, $2, $3, $4}' "$out/per_minute.txt"
 worst_p90=$(awk 'BEGIN {m = 0} $4 > m {m = $4} END {print m}' "$out/per_minute.txt")
 sj="$out/map/server_summary.json"
-skf=$(jq .keyframes "$sj"); maps=$(jq .maps "$sj"); loops=$(jq .loops "$sj"); groups=$(jq -c .merged_maps "$sj")
+skf=$(jq .keyframes "$sj"); maps=$(jq .maps "$sj"); loops=$(jq .loops_accepted "$sj"); groups=$(jq -c .merged_maps "$sj")
 one_map=0; [ "$(jq '.merged_maps | length' "$sj")" -eq 1 ] && one_map=1
 [ "$robots" -eq 1 ] && one_map=1
 srv_cpu=n/a srv_mb=n/a

@@ -30,36 +30,12 @@ std::optional<AteResult> jointAte(const Trajectory& ground_truth, Trajectory est
   return std::nullopt;
 }
 
+/// The server's figures (serverStatsJson, the keys of server_summary.json) and the run's evaluation.
 Json serverJson(const MapServerStats& s, const ServerOutcome& server, size_t robot_count) {
-  Json rejected = Json::object();
-  for (int r = 1; r < kLoopRejectionCount; ++r)
-    rejected[toString(static_cast<LoopRejection>(r))] = s.loops_rejected_by_reason[r];
-  return {{"keyframes", s.keyframes},
-          {"loops_accepted", s.loops_accepted},
-          {"loops_rejected_by_graph", s.loops_disabled},
-          {"loop_candidates", s.loop_candidates},
-          {"loop_candidates_rejected", rejected},
-          {"optimizations", s.optimizations},
-          {"graph_solves", s.graph_solves},
-          {"graph_solves_skipped", s.graph_solves_skipped},
-          {"graph_merges_aligned", s.graph_merges_aligned},
-          {"graph_solves_local", s.graph_solves_local},
-          {"graph_solves_local_refused", s.graph_solves_local_refused},
-          {"bundle_adjustment", bundleAdjustmentJson(s.ba)},
-          {"server_ms_per_keyframe_median", jsonNumber(s.ingest_ms_median)},
-          {"server_ms_per_keyframe_p90", jsonNumber(s.ingest_ms_p90)},
-          {"server_cpu_ms_per_keyframe_median", jsonNumber(s.ingest_cpu_ms_median)},
-          {"server_decode_cpu_ms_per_keyframe_median", jsonNumber(s.decode_cpu_ms_median)},
-          {"keyframes_features_extracted", s.keyframes_features_extracted},
-          {"messages_rejected", s.messages_rejected},
-          {"octree_leaves", s.map_leaves},
-          {"octree_occupied_leaves", s.map_occupied_leaves},
-          {"octree_memory_bytes", s.map_tree_memory_bytes},
-          {"octree_rebuilds", s.map_rebuilds},
-          {"slices_sent", s.slices_sent},
-          {"maps", server.maps},
-          {"merged", server.maps.size() == 1 && robot_count > 1},
-          {"joint_ate_rmse_m", ateOrNull(server.joint)}};
+  Json j = serverStatsJson(s, server.maps);
+  j["merged"] = server.maps.size() == 1 && robot_count > 1;
+  j["joint_ate_rmse_m"] = ateOrNull(server.joint);
+  return j;
 }
 
 Json robotJson(const RunOptions& o, const RobotPlan& plan, const RobotOutcome& robot,
@@ -80,7 +56,7 @@ Json robotJson(const RunOptions& o, const RobotPlan& plan, const RobotOutcome& r
           {"keyframes", r.keyframes},
           {"keyframes_acked", l.keyframes_acked},
           {"keyframes_stored_by_server", sr ? sr->keyframes : 0},
-          {"loops", sr ? sr->loops : 0},
+          {"loops_accepted", sr ? sr->loops : 0},
           {"tracking_losses", r.losses},
           {"ate_rmse_m", ateOrNull(robot.ate)},
           {"ate_rmse_odometry_only_m", ateOrNull(robot.ate_odometry)},

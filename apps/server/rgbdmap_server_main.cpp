@@ -34,9 +34,7 @@ const char* kUsage =
     "  --log-level L       debug|info|warn|error\n"
     "On SIGINT/SIGTERM it stops and writes keyframes_<robot>.txt (optimised, map frame) into the map "
     "directory,\n"
-    "server_summary.json (keyframes, loops, maps, ingest times, per-robot counters, merged_maps, "
-    "rejects_by_robot, rejects_unknown_robot, store_state) and "
-    "(map.enabled)\n"
+    "server_summary.json (the server's figures: deploy/schemas/server_stats.schema.json) and (map.enabled)\n"
     "the map files: map.bt, map.ot, map.ply, map.png, slice_<robot>.pgm/.yaml, map_<id>.pgm/.yaml (the 2-D\n"
     "map of each map, ROS map_server / nav2), each written to a temporary\n"
     "name, synced and renamed. Exit status: 0 stopped and every file written; 1 start-up failure, or a file\n"
@@ -44,66 +42,7 @@ const char* kUsage =
 
 /// server_summary.json in the map directory: what the deployment scripts and tests check after a run.
 rgbdmap::Json summaryJson(const rgbdmap::MapServer& server) {
-  using rgbdmap::Json;
-  using rgbdmap::jsonNumber;
-  const rgbdmap::MapServerStats s = server.stats();
-  Json robots = Json::array();
-  for (const rgbdmap::ServerRobotStats& r : s.robots)
-    robots.push_back({{"robot", r.robot_id},
-                      {"keyframes", r.keyframes},
-                      {"sessions", r.sessions},
-                      {"loops", r.loops},
-                      {"map_id", r.map_id},
-                      {"merged", r.merged},
-                      {"bytes_received", r.bytes_received},
-                      {"bytes_sent", r.bytes_sent},
-                      {"refused", r.keyframes_refused},
-                      {"duplicates", r.duplicates},
-                      {"out_of_order", r.out_of_order},
-                      {"chain_splits", r.chain_splits},
-                      {"waiting", r.keyframes_waiting},
-                      {"before_hello", r.waiting_for_hello},
-                      {"queue_full", r.queue_full},
-                      {"duplicates_queued", r.duplicates_queued},
-                      {"throttled", r.throttled},
-                      {"refused_before_decode", r.refused_before_decode}});
-  Json rejects_by_robot = Json::object(), rejects_unknown = Json::object();
-  for (const rgbdmap::msg::RejectCount& r : s.rejects)
-    (r.robot_id.empty() ? rejects_unknown : rejects_by_robot[r.robot_id])[r.reason] = r.count;
-  return {{"keyframes", s.keyframes},
-          {"loops", s.loops_accepted},
-          {"loops_disabled", s.loops_disabled},
-          {"maps", s.maps},
-          {"optimizations", s.optimizations},
-          {"graph_solves", s.graph_solves},
-          {"graph_solves_skipped", s.graph_solves_skipped},
-          {"graph_merges_aligned", s.graph_merges_aligned},
-          {"graph_solves_local", s.graph_solves_local},
-          {"graph_solves_local_refused", s.graph_solves_local_refused},
-          {"bundle_adjustment", rgbdmap::bundleAdjustmentJson(s.ba)},
-          {"optimizations_for_heartbeats", s.optimizations_for_heartbeats},
-          {"corrections_resent", s.corrections_resent},
-          {"messages_rejected", s.messages_rejected},
-          {"keyframes_waiting", s.keyframes_waiting},
-          {"keyframes_deferred_max", s.keyframes_deferred_max},
-          {"keyframes_held_for_hello", s.keyframes_held_for_hello},
-          {"keyframes_hold_dropped", s.keyframes_hold_dropped},
-          {"keyframes_queue_full", s.keyframes_dropped_queue_full},
-          {"keyframes_duplicates_queued", s.keyframes_duplicates_queued},
-          {"keyframes_throttled", s.keyframes_throttled},
-          {"ingest_ms_median", jsonNumber(s.ingest_ms_median)},
-          {"ingest_ms_p90", jsonNumber(s.ingest_ms_p90)},
-          {"ingest_cpu_ms_median", jsonNumber(s.ingest_cpu_ms_median)},
-          {"decode_cpu_ms_median", jsonNumber(s.decode_cpu_ms_median)},  // the decode thread's, per keyframe
-          {"keyframes_features_extracted", s.keyframes_features_extracted},
-          {"robots", robots},
-          {"merged_maps", server.mergedMaps()},
-          {"rejects_by_robot", rejects_by_robot},      // claimed robot -> reason -> count (known robots)
-          {"rejects_unknown_robot", rejects_unknown},  // reason -> count for every other claimed sender
-          {"store_state", s.store_failed ? "failed" : "ok"},
-          {"store_failures", s.store_failures},
-          {"store_recoveries", s.store_recoveries},
-          {"keyframes_unacked_store_failed", s.keyframes_unacked_store_failed}};
+  return rgbdmap::serverStatsJson(server.stats(), server.mergedMaps());
 }
 
 /// SIGINT and SIGTERM, blocked in every thread (call before any thread starts: threads inherit the mask)

@@ -17,7 +17,7 @@ for transport in lcm dds; do
     echo "FAIL: run over $transport exited non-zero"; tail -n 20 "$tmp/log"; fail=1; continue
   fi
   r="$out/report.json"
-  ok "one merged map $(jq -c .server.maps "$r")" '.server.merged and (.server.maps | length) == 1'
+  ok "one merged map $(jq -c .server.merged_maps "$r")" '.server.merged and (.server.merged_maps | length) == 1'
   for name in $(jq -r '.robots | keys_unsorted[]' "$r"); do
     robot=".robots[\"$name\"]"
     ok "$name: every keyframe acknowledged and stored ($(jq "$robot.keyframes" "$r"))" \

@@ -43,6 +43,10 @@ for transport in lcm dds; do
   kf=$(jq .keyframes "$tmp/$transport/map/server_summary.json")
   [ "$n" -eq "$kf" ] && [ "$n" -ge 20 ] && echo "ok: $n keyframes in the server's files" \
     || { echo "FAIL: $transport: $n keyframes in files, summary says $kf"; fail=1; }
+  # One key set for the server's figures, the same as report.json's "server" (tests/cli/test_cli.sh).
+  python3 "$repo/deploy/check_json_schema.py" "$repo/deploy/schemas/server_stats.schema.json" \
+    "$tmp/$transport/map/server_summary.json" && echo "ok: $transport: server_summary.json matches the schema" \
+    || { echo "FAIL: $transport: server_summary.json does not match deploy/schemas/server_stats.schema.json"; fail=1; }
 done
 # rgbdmap-replay's command line, and a small fleet of light robots replaying what robot0 sent over LCM
 # (deploy/bench_fleet.sh --check: every keyframe acknowledged, each minute's p90 ack latency at most 5 s, one

@@ -27,7 +27,7 @@ for _ in $(seq 1 240); do
   sleep 0.5
 done
 grep -q "the map stays at" "$tmp/run.log" || { echo "FAIL: the run did not finish with the viewer open"; tail -20 "$tmp/run.log"; exit 1; }
-maps=$(jq -c '.server.maps' "$tmp/out/report.json")
+maps=$(jq -c '.server.merged_maps' "$tmp/out/report.json")
 [ "$maps" = '[["robot0","robot1"]]' ] || { echo "FAIL: expected one merged map, report says $maps"; exit 1; }
 # Occupied voxels of map.bt at the finest resolution (pruned leaves counted by volume).
 voxels=$("$bin/rgbdmap" view-map "$tmp/out/map.bt" | awk '/^resolution_m/ {r = $2} /^occupied_volume_m3/ {v = $2}

@@ -26,6 +26,11 @@ const controls = new THREE.OrbitControls(camera, renderer.domElement);
 controls.target.set(0, 0, 0);
 const grid = new THREE.GridHelper(20, 40, 0xcccccc, 0xe0e0e0);
 scene.add(grid);
+// The scene is drawn only when something in it changed: new data, the camera, the window. Drawing every
+// animation frame would keep a software-rendered page (no GPU) busy for nothing.
+let needsRender = true;
+const requestRender = () => { needsRender = true; };
+controls.addEventListener('change', requestRender);
 
 function robot(name) {
   if (state.robots[name]) return state.robots[name];
@@ -183,6 +188,7 @@ document.getElementById('grids').onclick = () => {
   showGrids = !showGrids;
   for (const r of Object.values(state.robots)) r.grid.visible = showGrids && r.gridCells > 0;
   document.getElementById('grids').textContent = showGrids ? 'hide 2-D map' : 'show 2-D map';
+  requestRender();
 };
 
 let topDown = false;
@@ -193,6 +199,7 @@ document.getElementById('topdown').onclick = () => {
   else camera.position.set(t.x + d * 0.5, t.y + d * 0.6, t.z + d * 0.6);
   document.getElementById('topdown').textContent = topDown ? 'perspective view' : 'top-down view';
   controls.update();
+  requestRender();
 };
 
 function frameMap() {  // point the camera at the map once, when the first voxels arrive
@@ -237,6 +244,7 @@ function connect() {
     const m = JSON.parse(new TextDecoder().decode(new Uint8Array(event.data, 13)));
     const r = robot(sub.robot);
     ++state.messages;
+    if (sub.kind !== 'status') requestRender();
     if (sub.kind === 'voxel_delta') applyVoxels(r, m);
     else if (sub.kind === 'trajectory') applyTrajectory(r, m);
     else if (sub.kind === 'pose') applyPose(r, m);
@@ -253,7 +261,10 @@ function animate() {
   for (const r of Object.values(state.robots)) if (r.dirty) { rebuildVoxels(r); changed = true; }
   if (changed && !framed) framed = frameMap();
   controls.update();
-  renderer.render(scene, camera);
+  if (needsRender || changed) {
+    renderer.render(scene, camera);
+    needsRender = false;
+  }
   if (changed) legend();
   document.body.dataset.state = `${renderer.domElement.width}x${renderer.domElement.height} cam ${camera.position.toArray().map((v) => v.toFixed(2))} target ${controls.target.toArray().map((v) => v.toFixed(2))} framed ${framed} voxels ${state.voxels} msgs ${state.messages} grids ${state.grids} poses ${state.poses}`;
   if (state.voxels > 0 && framed) {
@@ -265,6 +276,7 @@ window.addEventListener('resize', () => {
   camera.aspect = window.innerWidth / window.innerHeight;
   camera.updateProjectionMatrix();
   renderer.setSize(window.innerWidth, window.innerHeight);
+  requestRender();
 });
 setInterval(legend, 500);
 connect();

@@ -1,6 +1,104 @@
 #include "rgbdmap/server/stats_json.hpp"
 
 namespace rgbdmap {
+namespace {
+
+Json loopsJson(const MapServerStats& s) {
+  Json rejected = Json::object();
+  for (int r = 1; r < kLoopRejectionCount; ++r)
+    rejected[toString(static_cast<LoopRejection>(r))] = s.loops_rejected_by_reason[r];
+  return {{"loops_accepted", s.loops_accepted},
+          {"loops_disabled", s.loops_disabled},
+          {"loop_candidates", s.loop_candidates},
+          {"loop_candidates_rejected", rejected}};
+}
+
+Json optimisationJson(const MapServerStats& s) {
+  return {{"optimizations", s.optimizations},
+          {"graph_solves", s.graph_solves},
+          {"graph_solves_skipped", s.graph_solves_skipped},
+          {"graph_merges_aligned", s.graph_merges_aligned},
+          {"graph_solves_local", s.graph_solves_local},
+          {"graph_solves_local_refused", s.graph_solves_local_refused},
+          {"bundle_adjustment", bundleAdjustmentJson(s.ba)},
+          {"optimizations_for_heartbeats", s.optimizations_for_heartbeats},
+          {"corrections_resent", s.corrections_resent}};
+}
+
+Json intakeJson(const MapServerStats& s) {
+  return {{"messages_rejected", s.messages_rejected},
+          {"keyframes_waiting", s.keyframes_waiting},
+          {"keyframes_deferred_max", s.keyframes_deferred_max},
+          {"keyframes_held_for_hello", s.keyframes_held_for_hello},
+          {"keyframes_hold_dropped", s.keyframes_hold_dropped},
+          {"keyframes_queue_full", s.keyframes_dropped_queue_full},
+          {"keyframes_duplicates_queued", s.keyframes_duplicates_queued},
+          {"keyframes_throttled", s.keyframes_throttled},
+          {"keyframes_features_extracted", s.keyframes_features_extracted}};
+}
+
+Json timesJson(const MapServerStats& s) {  // per keyframe, from dequeue to the graph update
+  return {{"ingest_ms_median", jsonNumber(s.ingest_ms_median)},
+          {"ingest_ms_p90", jsonNumber(s.ingest_ms_p90)},
+          {"ingest_cpu_ms_median", jsonNumber(s.ingest_cpu_ms_median)},
+          {"decode_cpu_ms_median", jsonNumber(s.decode_cpu_ms_median)}};  // the decode thread's
+}
+
+Json occupancyJson(const MapServerStats& s) {
+  return {{"octree_leaves", s.map_leaves},
+          {"octree_occupied_leaves", s.map_occupied_leaves},
+          {"octree_memory_bytes", s.map_tree_memory_bytes},
+          {"octree_rebuilds", s.map_rebuilds},
+          {"slices_sent", s.slices_sent}};
+}
+
+Json storeJson(const MapServerStats& s) {
+  return {{"store_state", s.store_failed ? "failed" : "ok"},
+          {"store_failures", s.store_failures},
+          {"store_recoveries", s.store_recoveries},
+          {"keyframes_unacked_store_failed", s.keyframes_unacked_store_failed}};
+}
+
+Json rejectsJson(const MapServerStats& s) {
+  Json by_robot = Json::object(), unknown = Json::object();
+  for (const msg::RejectCount& r : s.rejects) (r.robot_id.empty() ? unknown : by_robot[r.robot_id])[r.reason] = r.count;
+  return {{"rejects_by_robot", by_robot},      // claimed robot -> reason -> count (known robots)
+          {"rejects_unknown_robot", unknown}};  // reason -> count for every other claimed sender
+}
+
+}  // namespace
+
+Json serverRobotStatsJson(const ServerRobotStats& r) {
+  return {{"robot", r.robot_id},
+          {"keyframes", r.keyframes},
+          {"sessions", r.sessions},
+          {"loops_accepted", r.loops},
+          {"map_id", r.map_id},
+          {"merged", r.merged},
+          {"bytes_received", r.bytes_received},
+          {"bytes_sent", r.bytes_sent},
+          {"refused", r.keyframes_refused},
+          {"duplicates", r.duplicates},
+          {"out_of_order", r.out_of_order},
+          {"chain_splits", r.chain_splits},
+          {"waiting", r.keyframes_waiting},
+          {"before_hello", r.waiting_for_hello},
+          {"queue_full", r.queue_full},
+          {"duplicates_queued", r.duplicates_queued},
+          {"throttled", r.throttled},
+          {"refused_before_decode", r.refused_before_decode}};
+}
+
+Json serverStatsJson(const MapServerStats& s, const std::vector<std::vector<std::string>>& merged_maps) {
+  Json j = {{"keyframes", s.keyframes}, {"maps", s.maps}, {"merged_maps", merged_maps}};
+  for (const Json& part : {loopsJson(s), optimisationJson(s), intakeJson(s), timesJson(s), occupancyJson(s),
+                           storeJson(s), rejectsJson(s)})
+    j.update(part);
+  Json robots = Json::array();
+  for (const ServerRobotStats& r : s.robots) robots.push_back(serverRobotStatsJson(r));
+  j["robots"] = std::move(robots);
+  return j;
+}
 
 Json bundleAdjustmentJson(const BundleAdjustmentStats& s) {
   const LandmarkStats& l = s.landmarks;
