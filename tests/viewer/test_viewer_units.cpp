@@ -11,9 +11,9 @@
 
 #include <octomap/OcTree.h>
 
-#include "client_session.hpp"
-#include "foxglove_json.hpp"
-#include "map_view.hpp"
+#include "rgbdmap/viewer/client_session.hpp"
+#include "rgbdmap/viewer/foxglove_json.hpp"
+#include "rgbdmap/viewer/map_view.hpp"
 #include "rgbdmap/map/map_io.hpp"
 #include "rgbdmap/proto/map_payload.hpp"
 

@@ -1,4 +1,4 @@
-#include "client_session.hpp"
+#include "rgbdmap/viewer/client_session.hpp"
 
 #include <utility>
 

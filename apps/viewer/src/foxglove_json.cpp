@@ -1,6 +1,6 @@
 // The Foxglove schemas as JSON Schema (the subset of fields this viewer fills, with the public schemas'
 // names and types) and the message builders.
-#include "foxglove_json.hpp"
+#include "rgbdmap/viewer/foxglove_json.hpp"
 
 #include <algorithm>
 #include <cmath>

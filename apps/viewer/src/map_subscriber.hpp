@@ -9,7 +9,7 @@
 #include <mutex>
 #include <string>
 
-#include "map_view.hpp"
+#include "rgbdmap/viewer/map_view.hpp"
 #include "rgbdmap/proto/envelope.hpp"
 #include "rgbdmap/transport/transport.hpp"
 

@@ -1,4 +1,4 @@
-#include "map_view.hpp"
+#include "rgbdmap/viewer/map_view.hpp"
 
 #include <octomap/OcTree.h>
 

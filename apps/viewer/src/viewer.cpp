@@ -3,7 +3,7 @@
 
 #include <filesystem>
 
-#include "foxglove_json.hpp"
+#include "rgbdmap/viewer/foxglove_json.hpp"
 #include "rgbdmap/common/atomic_file.hpp"
 #include "rgbdmap/common/data_files.hpp"
 #include "viewer_impl.hpp"

@@ -12,7 +12,7 @@
 #include <vector>
 
 #include "map_subscriber.hpp"
-#include "map_view.hpp"
+#include "rgbdmap/viewer/map_view.hpp"
 #include "rgbdmap/viewer/viewer.hpp"
 #include "ws_server.hpp"
 

@@ -16,7 +16,7 @@
 
 #include <nlohmann/json_fwd.hpp>
 
-#include "client_session.hpp"
+#include "rgbdmap/viewer/client_session.hpp"
 #include "rgbdmap/common/result.hpp"
 
 struct mg_context;

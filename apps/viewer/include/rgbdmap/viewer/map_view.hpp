@@ -13,7 +13,7 @@
 #include <string>
 #include <vector>
 
-#include "foxglove_json.hpp"
+#include "rgbdmap/viewer/foxglove_json.hpp"
 #include "rgbdmap/map/occupancy_slice.hpp"
 #include "rgbdmap/proto/messages.hpp"
 
