@@ -18,12 +18,8 @@
 #                                 at -O0 (cmake/RgbdmapWarnings.cmake): only the GoogleTest executables and
 #                                 the relay they start are built, unity; the long server runs, the cli tier's multi-process
 #                                 runs and the accuracy tests run in Release only: under ASan they take 1-2 min
-#                                 each and repeat code paths the sanitize tier covers). On a fresh Debian 12
-#                                 root, 2 cores (../shared/tools/fresh-check.sh): 17 min after deploy/run.sh
-#                                 (stop 25: Release tests 6.7 min, sanitizer build ~6.4 min from scratch,
-#                                 sanitizer tests 3.9 min); 22 min at stop 24, when npm's retries without a
-#                                 registry took 2 x 2.3 min (deploy/install_deps.sh) and every library was
-#                                 at -O1
+#                                 each and repeat code paths the sanitize tier covers). Its time on a fresh
+#                                 Debian 12 root with 2 cores is in docs/results.md
 #   bash deploy/test.sh --quick   the unit tier only, Release, no sanitizers (about a minute after the build)
 #   Further arguments go to both ctest runs, e.g. `bash deploy/test.sh -L e2e` or `-R '^server\.'`.
 # Tests needing ../shared/data skip when it is absent. By hand: `ctest --test-dir build -L unit` (or e2e,

@@ -28,7 +28,7 @@ check "rgbdmap run, two robots" 0 "$bin/rgbdmap" run --dataset "$data" --robots 
 json "one merged map" "$tmp/two/report.json" '.server.merged == true'
 json "joint ATE <= 0.018 m" "$tmp/two/report.json" '.server.joint_ate_rmse_m <= 0.018'
 # Two robots sharing the work map the sequence about as well as one robot doing all of it. 20 % for thread
-# timing (which keyframes a batch, a local and a global BA see): in 6 runs on 2 cores (stop 24) one robot
+# timing (which keyframes a batch, a local and a global BA see): in 6 runs on 2 cores one robot
 # gave 0.0147-0.0153 m and the joint map 0.0151-0.0172 m (ratio up to 1.12; 1 run in 5 failed at 1.1).
 json "joint ATE no worse than one robot on the whole sequence" "$tmp/two/report.json" \
   ".server.joint_ate_rmse_m <= 1.2 * $one"
