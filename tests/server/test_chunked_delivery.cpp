@@ -14,7 +14,7 @@
 #include <mutex>
 #include <random>
 
-#include "client/link_test_util.hpp"
+#include "link/link_test_util.hpp"
 #include "rgbdmap/link/robot_link.hpp"
 #include "rgbdmap/proto/chunking.hpp"
 #include "rgbdmap/server/map_server.hpp"

@@ -16,7 +16,7 @@
 #include <gtest/gtest.h>
 
 #include "common/temp_dir.hpp"
-#include "server/map_store_test_util.hpp"
+#include "store/map_store_test_util.hpp"
 
 namespace rgbdmap {
 namespace {

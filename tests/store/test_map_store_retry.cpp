@@ -8,7 +8,7 @@
 
 #include "common/file_size_limit.hpp"
 #include "common/temp_dir.hpp"
-#include "server/map_store_test_util.hpp"
+#include "store/map_store_test_util.hpp"
 
 namespace rgbdmap {
 namespace {
