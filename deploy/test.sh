@@ -1,5 +1,6 @@
 #!/usr/bin/env bash
-# Builds rgbdmap and runs its tests through CTest. Every test carries tier labels (tests/CMakeLists.txt):
+# Builds rgbdmap and runs its tests through CTest. Every test carries tier labels (tests/CMakeLists.txt;
+# a GoogleTest case's next to it in its source, tests/test_tier.hpp):
 #   unit   fast, no I/O beyond temporary files, no network
 #   e2e    end-to-end runs on synthetic or real data (odometry, loop closure, the server, the programs)
 #   slow   more than ~20 s in Release (always e2e too)
@@ -42,7 +43,7 @@ if [ "${RGBDMAP_SKIP_SANITIZERS:-0}" != "1" ]; then
   echo "== sanitizer pass (ASan + UBSan): the sanitize tier"
   # The server tests' recorded keyframe stream is copied from the Release tree (byte-identical). Only the
   # GoogleTest executables (rgbdmap_test_executables), unity (16 sources per compiler run), the libraries at
-  # -O1 -g1 and the tests' own code at -O0 (tests/CMakeLists.txt). Not built in the background during the
+  # -O1 -g1 and the tests' own code at -O0 (tests/cmake/test_suite.cmake). Not built in the background during the
   # Release tests: the viewer's headless-Chromium page test (viewer.page.netns) fails under CPU load.
   BUILD_DIR="$root/build-asan" BUILD_TYPE=RelWithDebInfo BUILD_TARGETS=rgbdmap_test_executables \
   CMAKE_EXTRA_ARGS="-DRGBDMAP_SANITIZE=ON -DRGBDMAP_BUILD_BENCHMARKS=OFF \

@@ -14,6 +14,7 @@
 #include "rgbdmap/common/camera.hpp"
 #include "rgbdmap/common/camera_mount.hpp"
 #include "rgbdmap/common/synth.hpp"
+#include "test_tier.hpp"
 
 namespace rgbdmap {
 namespace {
@@ -89,6 +90,7 @@ msg::OccupancySlice projectSlice(const octomap::OcTree& tree, const SE3& T_map_c
   return s;
 }
 
+RGBDMAP_TEST_TIER("AvoidanceE2E.*", "e2e");
 TEST(AvoidanceE2E, CommandsReactToTheObstacleAheadInTheSyntheticRoom) {
   SynthConfig cfg;
   cfg.frames = 2;

@@ -7,6 +7,7 @@
 #include "rgbdmap/common/synth.hpp"
 #include "rgbdmap/common/tum_dataset.hpp"
 #include "test_data.hpp"
+#include "test_tier.hpp"
 
 namespace rgbdmap {
 namespace {
@@ -42,6 +43,8 @@ SynthRun runSynthetic(const std::string& scene, int frames, const std::vector<in
   return run;
 }
 
+RGBDMAP_TEST_TIER("OdometryE2E.*", "e2e");
+RGBDMAP_TEST_TIER("OdometryE2E.SyntheticSweepIsAccurate", "accuracy");
 TEST(OdometryE2E, SyntheticSweepIsAccurate) {
   const SynthRun run = runSynthetic("sweep", 90);
   const auto ate = computeAte(run.gt, run.est);
@@ -52,6 +55,7 @@ TEST(OdometryE2E, SyntheticSweepIsAccurate) {
   EXPECT_GE(run.keyframes, 2u);
 }
 
+RGBDMAP_TEST_TIER("OdometryE2E.SyntheticLoopDriftIsBounded", "accuracy");
 TEST(OdometryE2E, SyntheticLoopDriftIsBounded) {
   const SynthRun run = runSynthetic("loop", 150);
   const auto ate = computeAte(run.gt, run.est);
@@ -78,6 +82,7 @@ TEST(OdometryE2E, BlankFramesAreLossesAndTrackingRecovers) {
   EXPECT_LT(ate->rmse, 0.008);
 }
 
+RGBDMAP_TEST_TIER("OdometryE2E.RealFr1RpyWithinBound", "accuracy");
 TEST(OdometryE2E, RealFr1RpyWithinBound) {
   RGBDMAP_REQUIRE_SHARED_DATA("tum_fr1_rpy_first250");
   const auto dataset = TumDataset::open(testing::sharedDataDir("tum_fr1_rpy_first250"));
@@ -105,6 +110,7 @@ TEST(OdometryE2E, RealFr1RpyWithinBound) {
 namespace rgbdmap {
 namespace {
 
+RGBDMAP_TEST_TIER("OdometryE2E.SparseFramesNeverCrashAndAreReported", "e2e sanitize");
 TEST(OdometryE2E, SparseFramesNeverCrashAndAreReported) {
   // A textured frame, then near-blank frames with a few small texture patches: tracking is lost, new
   // segments may start on sparse keyframes, and nothing may crash (regression for an empty inlier mask).

@@ -9,6 +9,7 @@
 #include "rgbdmap/common/synth.hpp"
 #include "rgbdmap/link/robot_client_config.hpp"
 #include "rgbdmap/link/robot_runner.hpp"
+#include "test_tier.hpp"
 
 namespace rgbdmap {
 namespace {
@@ -41,6 +42,8 @@ class RobotRun : public ::testing::Test {
 rgbdmap::testing::TempDir* RobotRun::dir_ = nullptr;
 SynthConfig RobotRun::config_;
 
+RGBDMAP_TEST_TIER("RobotRun.*", "e2e");
+RGBDMAP_TEST_TIER("RobotRun.FinalMapIsTheServersTransformTimesOdometry", "e2e sanitize");
 TEST_F(RobotRun, FinalMapIsTheServersTransformTimesOdometry) {
   auto transport = testing::makeMemq();
   testing::FakeServerOptions so;

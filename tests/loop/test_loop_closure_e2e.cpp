@@ -10,6 +10,7 @@
 #include "rgbdmap/common/tum_dataset.hpp"
 #include "rgbdmap/loop/loop_detector.hpp"
 #include "test_data.hpp"
+#include "test_tier.hpp"
 
 namespace rgbdmap {
 namespace {
@@ -69,6 +70,7 @@ SE3 drifted(const SE3& T_world_cam, int k) {
   return drift * T_world_cam;
 }
 
+RGBDMAP_TEST_TIER("SyntheticLoop.*", "e2e");
 TEST(SyntheticLoop, RevisitFoundByRetrievalVerifiedAndAccurate) {
   const KeyframeSet& set = syntheticLoop();
   ASSERT_EQ(set.features.size(), 30u);
@@ -214,6 +216,7 @@ TEST(SyntheticLoop, AMeasuredPriorVetoesCandidatesThatDisagreeRetrievalHitsInclu
       right.edges, right.revisits, right.worst_edge_error_mm, wrong.edges, wrong.inconsistent);
 }
 
+RGBDMAP_TEST_TIER("LoopDetectorApi.*", "e2e sanitize");
 TEST(LoopDetectorApi, RejectsDuplicateIdsAndInconsistentFeaturesAndUpdatesPoses) {
   const KeyframeSet& set = syntheticLoop();
   ASSERT_FALSE(set.features.empty());
@@ -272,6 +275,7 @@ PoseError worstTriangle(const std::vector<LoopEdge>& edges) {
   return worst;
 }
 
+RGBDMAP_TEST_TIER("RealLoop.*", "e2e");
 TEST(RealLoop, Fr1RpyLocalLoopsAgreeWithGroundTruth) {
   RGBDMAP_REQUIRE_SHARED_DATA("tum_fr1_rpy_first250");
   const auto set = loadFr1RpyKeyframes();

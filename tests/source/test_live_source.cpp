@@ -13,6 +13,7 @@
 #include "rgbdmap/common/evaluation.hpp"
 #include "rgbdmap/source/live_source.hpp"
 #include "source/source_test_util.hpp"
+#include "test_tier.hpp"
 
 namespace rgbdmap {
 namespace {
@@ -75,6 +76,7 @@ double residentMb() {
   return static_cast<double>(resident) * static_cast<double>(sysconf(_SC_PAGESIZE)) / 1e6;
 }
 
+RGBDMAP_TEST_TIER("LiveRate.*", "e2e");
 TEST(LiveRate, SlowOdometryDropsFramesCountsThemAndStaysOnTrack) {
   const SynthConfig config = testing::sourceTestConfig(90);  // 3 s at 30 Hz
   auto scene = SyntheticScene::build(config);
@@ -132,6 +134,7 @@ TEST(LiveRate, MemoryStaysFlatWhileTheReaderStalls) {
               s.dropped, peak_mb - before_mb);
 }
 
+RGBDMAP_TEST_TIER("LiveRate.CloseEndsABlockedRead", "e2e sanitize");
 TEST(LiveRate, CloseEndsABlockedRead) {
   LatestFrameSource live(std::make_unique<GeneratedCamera>(1000000));
   ASSERT_EQ(live.next().kind, FrameRead::Kind::kFrame);

@@ -9,6 +9,7 @@
 #include <cstdlib>
 
 #include "transport_test_util.hpp"
+#include "test_tier.hpp"
 
 extern char** environ;
 
@@ -41,6 +42,7 @@ bool stopPeer(Transport& t, pid_t pid) {
   return waitpid(pid, &status, 0) == pid && WIFEXITED(status) && WEXITSTATUS(status) == 0;
 }
 
+RGBDMAP_TEST_TIER("NetPeer.*", "elsewhere");  // run in the network namespace (transport.netns)
 // The peer: keyframe -> echo, server/map -> peer/status (transient local), until quit or 30 s.
 TEST(NetPeer, Echo) {
   const char* url = std::getenv(kPeerEnv);
@@ -97,6 +99,7 @@ void crossProcessRoundTrip(const std::string& url) {
   EXPECT_EQ(echo.payloadsLongerThan(1), sent);
 }
 
+RGBDMAP_TEST_TIER("NetCrossProcess.*", "elsewhere");  // run in the network namespace (transport.netns)
 TEST(NetCrossProcess, UdpmRoundTrip) {
   RGBDMAP_REQUIRE_NETNS();
   crossProcessRoundTrip(testing::kUdpmUrl);

@@ -8,6 +8,7 @@
 
 #include "rgbdmap/transport/reliable.hpp"
 #include "transport_test_util.hpp"
+#include "test_tier.hpp"
 
 namespace rgbdmap::transport {
 namespace {
@@ -111,6 +112,7 @@ TEST(TransportLoss, MemqEveryKeyframeArrivesExactlyOnce) {
   runLossTest(**t, **t, 200, 110 * 1024);
 }
 
+RGBDMAP_TEST_TIER("NetLoss.*", "elsewhere");  // run in the network namespace (transport.netns)
 TEST(NetLoss, UdpmEveryKeyframeArrivesExactlyOnce) {
   RGBDMAP_REQUIRE_NETNS();
   auto tx = makeTransport(testing::kUdpmUrl);

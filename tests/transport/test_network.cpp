@@ -5,6 +5,7 @@
 #include <chrono>
 
 #include "transport_test_util.hpp"
+#include "test_tier.hpp"
 
 namespace rgbdmap::transport {
 namespace {
@@ -39,11 +40,13 @@ void roundTrip(const std::string& url) {
   EXPECT_EQ(tx->stats().send_errors, 0u);
 }
 
+RGBDMAP_TEST_TIER("NetUdpm.*", "elsewhere");  // run in the network namespace (transport.netns)
 TEST(NetUdpm, SmallAndLargeRoundTrip) {
   RGBDMAP_REQUIRE_NETNS();
   roundTrip(testing::kUdpmUrl);
 }
 
+RGBDMAP_TEST_TIER("NetDds.*", "elsewhere");  // run in the network namespace (transport.netns)
 TEST(NetDds, SmallAndLargeRoundTrip) {
   RGBDMAP_REQUIRE_NETNS();
   roundTrip("dds://?domain=0");

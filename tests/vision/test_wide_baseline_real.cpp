@@ -10,6 +10,7 @@
 #include "rgbdmap/vision/pose_refiner.hpp"
 #include "rgbdmap/vision/ransac.hpp"
 #include "test_data.hpp"
+#include "test_tier.hpp"
 
 namespace rgbdmap {
 namespace {
@@ -38,6 +39,7 @@ WideBaseline load(const CameraIntrinsics& k, const OdometryConfig& config) {
   return wb;
 }
 
+RGBDMAP_TEST_TIER("WideBaselineReal.*", "e2e sanitize");
 TEST(WideBaselineReal, AccurateWhereViewsOverlapAndRejectedWhereTheyDoNot) {
   RGBDMAP_REQUIRE_SHARED_DATA("kinect_5frames_mm");
   CameraIntrinsics k;  // the data's README: fx 518, fy 519, cx 325.5, cy 253.5, no distortion, millimetres
