@@ -4,11 +4,14 @@
 # Layers (a library links only libraries of a lower layer; the robot's and the server's stacks never link
 # each other, what they share lives in a "shared" library below both):
 #   0  common                                       shared
-#   1  proto, transport                             shared
-#   2  vision                                       shared
-#   3  client (odometry)                            robot    | loop, graph, store, map, export   server
-#   4  link (robot side of the protocol)            robot    | server (the mapping service)      server
-#   5  cli (what the programs in apps/ share)       app
+#   1  codec, dataset                               shared
+#   2  synth, proto, transport                      shared
+#   3  vision                                       shared   | source (frame sources)            robot
+#   4  client (odometry)                            robot    | loop, graph, ba, store, map,      server
+#                                                            |   export, backend
+#   5  link (robot side of the protocol)            robot    | server (the mapping service)      server
+#   6  cli, viewer (what the programs in apps/ share)   app
+#   7  cli_source (--source / --dataset for the programs) app
 # Programs (apps/, benchmarks, tests) are executables on top and may link anything.
 
 set_property(GLOBAL PROPERTY RGBDMAP_LIBRARIES "")

@@ -5,10 +5,10 @@
 
 #include "commands.hpp"
 #include "rgbdmap/cli/cli.hpp"
-#include "rgbdmap/common/evaluation.hpp"
-#include "rgbdmap/common/evaluation_json.hpp"
 #include "rgbdmap/common/logging.hpp"
-#include "rgbdmap/common/trajectory.hpp"
+#include "rgbdmap/dataset/evaluation.hpp"
+#include "rgbdmap/dataset/evaluation_json.hpp"
+#include "rgbdmap/dataset/trajectory.hpp"
 
 namespace rgbdmap::cmd {
 namespace {

@@ -5,7 +5,7 @@
 
 #include "commands.hpp"
 #include "rgbdmap/cli/cli.hpp"
-#include "rgbdmap/common/synth.hpp"
+#include "rgbdmap/synth/synth.hpp"
 
 namespace rgbdmap::cmd {
 namespace {

@@ -5,7 +5,7 @@
 
 #include "rgbdmap/cli/odometry_setup.hpp"
 #include "rgbdmap/client/odometry.hpp"
-#include "rgbdmap/common/trajectory.hpp"
+#include "rgbdmap/dataset/trajectory.hpp"
 #include "rgbdmap/source/frame_source.hpp"
 
 namespace rgbdmap::app {

@@ -5,7 +5,7 @@
 #include <tuple>
 #include <utility>
 
-#include "rgbdmap/common/trajectory.hpp"
+#include "rgbdmap/dataset/trajectory.hpp"
 #include "rgbdmap/server/stats_json.hpp"
 
 namespace rgbdmap::cmd {

@@ -5,9 +5,9 @@
 #include <string>
 #include <vector>
 
-#include "rgbdmap/common/evaluation.hpp"
 #include "rgbdmap/common/json_output.hpp"
-#include "rgbdmap/common/tum_dataset.hpp"
+#include "rgbdmap/dataset/evaluation.hpp"
+#include "rgbdmap/dataset/tum_dataset.hpp"
 #include "rgbdmap/link/robot_runner.hpp"
 #include "rgbdmap/server/map_server.hpp"
 #include "run_plan.hpp"

@@ -14,7 +14,7 @@
 #include "rgbdmap/common/json_output.hpp"
 #include "rgbdmap/common/logging.hpp"
 #include "rgbdmap/common/text_lines.hpp"
-#include "rgbdmap/common/trajectory.hpp"
+#include "rgbdmap/dataset/trajectory.hpp"
 #include "rgbdmap/server/map_server.hpp"
 #include "rgbdmap/server/server_config.hpp"
 #include "rgbdmap/server/stats_json.hpp"

@@ -11,8 +11,8 @@
 #include <opencv2/core.hpp>
 
 #include "rgbdmap/client/odometry.hpp"
-#include "rgbdmap/common/evaluation.hpp"
-#include "rgbdmap/common/tum_dataset.hpp"
+#include "rgbdmap/dataset/evaluation.hpp"
+#include "rgbdmap/dataset/tum_dataset.hpp"
 #include "rgbdmap/vision/matcher.hpp"
 #include "rgbdmap/vision/pose_refiner.hpp"
 #include "rgbdmap/vision/ransac.hpp"

@@ -1,6 +1,7 @@
 #include "rgbdmap/client/odometry_config_io.hpp"
 
 #include "rgbdmap/common/common_config_tables.hpp"
+#include "rgbdmap/dataset/dataset_config_table.hpp"
 #include "rgbdmap/vision/vision_config_tables.hpp"
 
 namespace rgbdmap {

@@ -13,7 +13,7 @@
 #include "rgbdmap/client/avoidance.hpp"
 #include "rgbdmap/common/camera.hpp"
 #include "rgbdmap/common/camera_mount.hpp"
-#include "rgbdmap/common/synth.hpp"
+#include "rgbdmap/synth/synth.hpp"
 #include "test_tier.hpp"
 
 namespace rgbdmap {

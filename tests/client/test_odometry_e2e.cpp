@@ -3,9 +3,9 @@
 #include <gtest/gtest.h>
 
 #include "rgbdmap/client/odometry.hpp"
-#include "rgbdmap/common/evaluation.hpp"
-#include "rgbdmap/common/synth.hpp"
-#include "rgbdmap/common/tum_dataset.hpp"
+#include "rgbdmap/dataset/evaluation.hpp"
+#include "rgbdmap/dataset/tum_dataset.hpp"
+#include "rgbdmap/synth/synth.hpp"
 #include "test_data.hpp"
 #include "test_tier.hpp"
 

@@ -11,7 +11,6 @@
 #include "common/temp_dir.hpp"
 #include "rgbdmap/common/atomic_file.hpp"
 #include "rgbdmap/common/text_lines.hpp"
-#include "rgbdmap/common/trajectory.hpp"
 
 namespace rgbdmap {
 namespace {
@@ -81,24 +80,6 @@ TEST(AtomicFile, FolderOf) {
   EXPECT_EQ(folderOf("/c"), "/");
   EXPECT_TRUE(syncFolder("."));
   EXPECT_FALSE(syncFolder("/nonexistent-rgbdmap-folder"));
-}
-
-TEST(AtomicFile, TrajectoryWriterKeepsTheOldFileOnFailure) {
-  testing::TempDir dir;
-  const std::string path = dir.path("keyframes_robot0.txt");
-  Trajectory small, large;
-  small.push_back({1.0, SE3::Identity()});
-  for (int i = 0; i < 2000; ++i) large.push_back({1.0 + i, SE3::Identity()});
-  ASSERT_TRUE(writeTumTrajectory(path, small, "old"));
-  const std::string old_text = *readTextFile(path);
-  {
-    testing::FileSizeLimit full(1024);
-    ASSERT_TRUE(full.ok());
-    EXPECT_FALSE(writeTumTrajectory(path, large, "new"));
-  }
-  EXPECT_EQ(*readTextFile(path), old_text);
-  ASSERT_EQ(readTumTrajectory(path)->size(), 1u);
-  EXPECT_EQ(filesIn(dir.dir()), 1u);
 }
 
 }  // namespace

@@ -6,9 +6,9 @@
 #include "fake_map_server.hpp"
 #include "link_test_util.hpp"
 #include "rgbdmap/client/odometry_config_io.hpp"
-#include "rgbdmap/common/synth.hpp"
 #include "rgbdmap/link/robot_client_config.hpp"
 #include "rgbdmap/link/robot_runner.hpp"
+#include "rgbdmap/synth/synth.hpp"
 #include "test_tier.hpp"
 
 namespace rgbdmap {

@@ -6,9 +6,9 @@
 
 #include <gtest/gtest.h>
 
-#include "rgbdmap/common/synth.hpp"
-#include "rgbdmap/common/tum_dataset.hpp"
+#include "rgbdmap/dataset/tum_dataset.hpp"
 #include "rgbdmap/loop/loop_detector.hpp"
+#include "rgbdmap/synth/synth.hpp"
 #include "test_data.hpp"
 #include "test_tier.hpp"
 

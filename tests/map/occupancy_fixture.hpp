@@ -8,8 +8,8 @@
 #include <gtest/gtest.h>
 #include <octomap/OcTree.h>
 
-#include "rgbdmap/common/synth.hpp"
 #include "rgbdmap/map/occupancy_map.hpp"
+#include "rgbdmap/synth/synth.hpp"
 
 namespace rgbdmap::testing {
 

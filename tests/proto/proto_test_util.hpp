@@ -6,7 +6,7 @@
 
 #include <opencv2/core.hpp>
 
-#include "rgbdmap/common/image_codec.hpp"
+#include "rgbdmap/codec/image_codec.hpp"
 #include "rgbdmap/proto/envelope.hpp"
 #include "rgbdmap/proto/map_payload.hpp"
 #include "rgbdmap/proto/messages.hpp"

@@ -8,7 +8,7 @@
 #include <future>
 
 #include "rgbdmap/client/odometry.hpp"
-#include "rgbdmap/common/synth.hpp"
+#include "rgbdmap/synth/synth.hpp"
 #include "rgbdmap/vision/keyframe_message.hpp"
 #include "server/keyframe_fixture.hpp"
 

@@ -2,7 +2,7 @@
 // system must be no worse than the client's odometry alone, on keyframes and on every frame.
 #include <gtest/gtest.h>
 
-#include "rgbdmap/common/tum_dataset.hpp"
+#include "rgbdmap/dataset/tum_dataset.hpp"
 #include "server/server_test_util.hpp"
 #include "test_data.hpp"
 

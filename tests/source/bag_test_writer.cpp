@@ -9,7 +9,7 @@
 
 #include <opencv2/imgproc.hpp>
 
-#include "rgbdmap/common/tum_dataset.hpp"
+#include "rgbdmap/dataset/tum_dataset.hpp"
 #include "rgbdmap/source/ros_messages.hpp"
 
 namespace rgbdmap::testing {

@@ -6,7 +6,7 @@
 #include <cstring>
 
 #include "bag_test_writer.hpp"
-#include "rgbdmap/common/tum_dataset.hpp"
+#include "rgbdmap/dataset/tum_dataset.hpp"
 
 int main(int argc, char** argv) {
   if (argc < 3) {

@@ -8,8 +8,8 @@
 #include <gtest/gtest.h>
 
 #include "common/temp_dir.hpp"
-#include "rgbdmap/common/synth.hpp"
 #include "rgbdmap/source/frame_source.hpp"
+#include "rgbdmap/synth/synth.hpp"
 
 namespace rgbdmap::testing {
 

@@ -10,7 +10,7 @@
 #include <unistd.h>
 
 #include "rgbdmap/client/odometry.hpp"
-#include "rgbdmap/common/evaluation.hpp"
+#include "rgbdmap/dataset/evaluation.hpp"
 #include "rgbdmap/source/live_source.hpp"
 #include "source/source_test_util.hpp"
 #include "test_tier.hpp"

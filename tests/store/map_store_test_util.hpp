@@ -7,10 +7,10 @@
 
 #include <gtest/gtest.h>
 
-#include "rgbdmap/common/image_codec.hpp"
+#include "rgbdmap/codec/image_codec.hpp"
 #include "rgbdmap/common/logging.hpp"
-#include "rgbdmap/common/synth.hpp"
 #include "rgbdmap/store/map_store.hpp"
+#include "rgbdmap/synth/synth.hpp"
 
 namespace rgbdmap::testing {
 

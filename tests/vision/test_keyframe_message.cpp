@@ -2,8 +2,8 @@
 #include <gtest/gtest.h>
 
 #include "rgbdmap/client/odometry.hpp"
-#include "rgbdmap/common/synth.hpp"
 #include "rgbdmap/proto/codec.hpp"
+#include "rgbdmap/synth/synth.hpp"
 #include "rgbdmap/vision/keyframe_message.hpp"
 
 namespace rgbdmap {

@@ -10,10 +10,10 @@
 #include <benchmark/benchmark.h>
 
 #include "rgbdmap/common/logging.hpp"
-#include "rgbdmap/common/synth.hpp"
 #include "rgbdmap/link/robot_link.hpp"
 #include "rgbdmap/proto/channels.hpp"
 #include "rgbdmap/proto/envelope.hpp"
+#include "rgbdmap/synth/synth.hpp"
 #include "rgbdmap/vision/features.hpp"
 
 namespace {

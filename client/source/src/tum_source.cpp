@@ -1,7 +1,7 @@
 // tum:DIR - a TUM-layout folder through TumDataset (frames [first, end) of it).
 #include <algorithm>
 
-#include "rgbdmap/common/tum_dataset.hpp"
+#include "rgbdmap/dataset/tum_dataset.hpp"
 #include "sources.hpp"
 
 namespace rgbdmap::source_detail {

@@ -45,14 +45,14 @@
 #include <vector>
 
 #include "bench_common.hpp"
+#include "rgbdmap/codec/image_codec.hpp"
 #include "rgbdmap/common/config_reader.hpp"
-#include "rgbdmap/common/evaluation.hpp"
-#include "rgbdmap/common/image_codec.hpp"
 #include "rgbdmap/common/logging.hpp"
-#include "rgbdmap/common/synth.hpp"
+#include "rgbdmap/dataset/evaluation.hpp"
 #include "rgbdmap/proto/channels.hpp"
 #include "rgbdmap/server/map_server.hpp"
 #include "rgbdmap/server/server_config.hpp"
+#include "rgbdmap/synth/synth.hpp"
 
 using namespace rgbdmap;
 

@@ -17,10 +17,10 @@
 
 #include "bench_common.hpp"
 #include "rgbdmap/client/odometry.hpp"
-#include "rgbdmap/common/synth.hpp"
-#include "rgbdmap/common/tum_dataset.hpp"
+#include "rgbdmap/dataset/tum_dataset.hpp"
 #include "rgbdmap/proto/channels.hpp"
 #include "rgbdmap/server/map_server.hpp"
+#include "rgbdmap/synth/synth.hpp"
 #include "rgbdmap/vision/keyframe_message.hpp"
 
 using namespace rgbdmap;

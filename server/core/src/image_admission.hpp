@@ -8,8 +8,8 @@
 #include <cstddef>
 #include <string>
 
+#include "rgbdmap/codec/image_codec.hpp"
 #include "rgbdmap/common/camera.hpp"
-#include "rgbdmap/common/image_codec.hpp"
 
 namespace rgbdmap {
 

@@ -7,10 +7,10 @@
 #include <filesystem>
 
 #include "rgbdmap/common/camera.hpp"
-#include "rgbdmap/common/synth.hpp"
 #include "rgbdmap/export/map_picture.hpp"
 #include "rgbdmap/export/point_cloud_export.hpp"
 #include "rgbdmap/export/slice_export.hpp"
+#include "rgbdmap/synth/synth.hpp"
 
 namespace rgbdmap {
 namespace {

@@ -9,8 +9,8 @@
 #include <benchmark/benchmark.h>
 #include <opencv2/core.hpp>
 
-#include "rgbdmap/common/synth.hpp"
 #include "rgbdmap/loop/loop_detector.hpp"
+#include "rgbdmap/synth/synth.hpp"
 
 namespace rgbdmap {
 namespace {

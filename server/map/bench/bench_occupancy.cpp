@@ -12,12 +12,12 @@
 #include <ctime>
 #include <memory>
 
-#include "rgbdmap/common/association.hpp"
-#include "rgbdmap/common/synth.hpp"
-#include "rgbdmap/common/tum_dataset.hpp"
+#include "rgbdmap/dataset/association.hpp"
+#include "rgbdmap/dataset/tum_dataset.hpp"
 #include "rgbdmap/map/map_io.hpp"
 #include "rgbdmap/map/occupancy_slice.hpp"
 #include "rgbdmap/proto/map_payload.hpp"
+#include "rgbdmap/synth/synth.hpp"
 
 namespace {
 

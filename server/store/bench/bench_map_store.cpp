@@ -12,10 +12,10 @@
 #include <benchmark/benchmark.h>
 #include <unistd.h>
 
-#include "rgbdmap/common/image_codec.hpp"
+#include "rgbdmap/codec/image_codec.hpp"
 #include "rgbdmap/common/logging.hpp"
-#include "rgbdmap/common/synth.hpp"
 #include "rgbdmap/store/map_store.hpp"
+#include "rgbdmap/synth/synth.hpp"
 
 namespace {
 

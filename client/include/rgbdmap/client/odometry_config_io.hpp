@@ -9,7 +9,7 @@
 #include "rgbdmap/common/camera.hpp"
 #include "rgbdmap/common/config_reader.hpp"
 #include "rgbdmap/common/config_table.hpp"
-#include "rgbdmap/common/tum_dataset.hpp"
+#include "rgbdmap/dataset/tum_dataset.hpp"
 
 namespace rgbdmap {
 

@@ -1,9 +1,8 @@
 #pragma once
-// Config tables (config_table.hpp) of the camera and the dataset reader: keys, ranges, meanings.
+// Config tables (config_table.hpp) of the camera and its mount: keys, ranges, meanings.
 #include "rgbdmap/common/camera.hpp"
 #include "rgbdmap/common/camera_mount.hpp"
 #include "rgbdmap/common/config_table.hpp"
-#include "rgbdmap/common/tum_dataset.hpp"
 
 namespace rgbdmap {
 
@@ -12,8 +11,5 @@ const ConfigTable<CameraIntrinsics>& cameraConfigTable();
 
 /// xyz_m, rpy_deg: the camera's pose on the robot (camera_mount.hpp).
 const ConfigTable<CameraMount>& cameraMountConfigTable();
-
-/// max_time_diff (the `dataset:` section); depth_scale and the expected image size are set by code.
-const ConfigTable<DatasetOptions>& datasetConfigTable();
 
 }  // namespace rgbdmap

@@ -7,9 +7,9 @@
 #include <string>
 #include <vector>
 
+#include "rgbdmap/codec/image_codec.hpp"
 #include "rgbdmap/common/camera.hpp"
 #include "rgbdmap/common/camera_mount.hpp"
-#include "rgbdmap/common/image_codec.hpp"
 #include "rgbdmap/common/se3.hpp"
 
 namespace rgbdmap::msg {

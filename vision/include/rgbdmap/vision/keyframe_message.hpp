@@ -3,8 +3,8 @@
 // back from a received message to the features the server's loop closure works on.
 #include <string>
 
+#include "rgbdmap/codec/image_codec.hpp"
 #include "rgbdmap/common/camera.hpp"
-#include "rgbdmap/common/image_codec.hpp"
 #include "rgbdmap/common/result.hpp"
 #include "rgbdmap/proto/messages.hpp"
 #include "rgbdmap/vision/features.hpp"

@@ -10,7 +10,7 @@
 #include "rgbdmap/client/odometry_config_io.hpp"
 #include "rgbdmap/common/camera.hpp"
 #include "rgbdmap/common/config_reader.hpp"
-#include "rgbdmap/common/tum_dataset.hpp"
+#include "rgbdmap/dataset/tum_dataset.hpp"
 
 namespace rgbdmap::app {
 

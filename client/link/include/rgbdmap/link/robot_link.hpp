@@ -25,9 +25,9 @@
 #include <string>
 
 #include "rgbdmap/client/odometry.hpp"
+#include "rgbdmap/codec/image_codec.hpp"
 #include "rgbdmap/common/camera.hpp"
 #include "rgbdmap/common/camera_mount.hpp"
-#include "rgbdmap/common/image_codec.hpp"
 #include "rgbdmap/common/result.hpp"
 #include "rgbdmap/common/rgbd_frame.hpp"
 #include "rgbdmap/common/se3.hpp"

@@ -13,8 +13,8 @@
 #include "rgbdmap/client/avoidance.hpp"
 #include "rgbdmap/client/odometry.hpp"
 #include "rgbdmap/common/camera.hpp"
-#include "rgbdmap/common/trajectory.hpp"
-#include "rgbdmap/common/tum_dataset.hpp"
+#include "rgbdmap/dataset/trajectory.hpp"
+#include "rgbdmap/dataset/tum_dataset.hpp"
 #include "rgbdmap/link/robot_link.hpp"
 #include "rgbdmap/source/frame_source.hpp"
 

@@ -9,7 +9,7 @@
 #include "rgbdmap/common/camera.hpp"
 #include "rgbdmap/common/result.hpp"
 #include "rgbdmap/common/rgbd_frame.hpp"
-#include "rgbdmap/common/trajectory.hpp"
+#include "rgbdmap/dataset/trajectory.hpp"
 #include "rgbdmap/source/frame_source.hpp"
 
 namespace rgbdmap {

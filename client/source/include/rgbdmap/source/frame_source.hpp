@@ -13,8 +13,8 @@
 #include "rgbdmap/common/camera.hpp"
 #include "rgbdmap/common/result.hpp"
 #include "rgbdmap/common/rgbd_frame.hpp"
-#include "rgbdmap/common/trajectory.hpp"
-#include "rgbdmap/common/tum_dataset.hpp"
+#include "rgbdmap/dataset/trajectory.hpp"
+#include "rgbdmap/dataset/tum_dataset.hpp"
 
 namespace rgbdmap {
 
