@@ -6,9 +6,12 @@
 #   0  common                                       shared
 #   1  proto, transport                             shared
 #   2  vision                                       shared
-#   3  client (odometry)                            robot    | loop, graph, store, map, export   server
-#   4  link (robot side of the protocol)            robot    | server (the mapping service)      server
-#   5  cli (what the programs in apps/ share)       app
+#   3  client (odometry)                            robot    | loop, graph, ba, store, map, export  server
+#   4  link (robot side of the protocol)            robot    | backend (the map back-end)          server
+#   5                                                        | server workers (threads)            server
+#   6                                                        | server (the mapping service)        server
+#   7  cli (what the programs in apps/ share), viewer   app
+#   8  cli source                                   app
 # Programs (apps/, benchmarks, tests) are executables on top and may link anything.
 
 set_property(GLOBAL PROPERTY RGBDMAP_LIBRARIES "")

@@ -8,7 +8,7 @@
 #include <vector>
 
 #include "rgbdmap/graph/pose_graph_synth.hpp"
-#include "server/map_optimizer_test_util.hpp"
+#include "workers/map_optimizer_test_util.hpp"
 
 namespace rgbdmap {
 namespace {

@@ -10,7 +10,7 @@
 #include <random>
 
 #include "rgbdmap/ba/ba_synth.hpp"
-#include "server/map_optimizer_test_util.hpp"
+#include "workers/map_optimizer_test_util.hpp"
 
 namespace rgbdmap {
 namespace {
