@@ -8,10 +8,12 @@
 #   2  synth, proto, transport                      shared
 #   3  vision                                       shared   | source (frame sources)            robot
 #   4  client (odometry)                            robot    | loop, graph, ba, store, map,      server
-#                                                            |   export, backend
-#   5  link (robot side of the protocol)            robot    | server (the mapping service)      server
-#   6  cli, viewer (what the programs in apps/ share)   app
-#   7  cli_source (--source / --dataset for the programs) app
+#                                                            |   export
+#   5  link (robot side of the protocol)            robot    | backend (the map back-end)        server
+#   6                                                        | server workers (threads)          server
+#   7                                                        | server (the mapping service)      server
+#   8  cli, viewer (what the programs in apps/ share)   app
+#   9  cli_source (--source / --dataset for the programs) app
 # Programs (apps/, benchmarks, tests) are executables on top and may link anything.
 
 set_property(GLOBAL PROPERTY RGBDMAP_LIBRARIES "")

@@ -40,8 +40,8 @@ TEST(GlobalBundleSchedule, AStartedRunCountsGrowthFromZeroAndClearsTheChange) {
 
 TEST(GlobalBundleSchedule, AskingGivesEveryChangedMapAndLargeChangesOnlyGrownOnes) {
   GlobalBundleSchedule s({0, 0.5, 0});
-  addKeyframes(&s, 1, 2);   // of 10: not grown by half
-  addKeyframes(&s, 2, 6);   // of 10: grown
+  addKeyframes(&s, 1, 2);                                                // of 10: not grown by half
+  addKeyframes(&s, 2, 6);                                                // of 10: grown
   EXPECT_TRUE(s.dueAfterBatch(false, false, constantSize(10)).empty());  // every_keyframes 0: only on change
   EXPECT_EQ(s.dueAfterBatch(false, true, constantSize(10)), std::set<int>{2});
   EXPECT_EQ(s.dueAfterBatch(true, false, constantSize(10)), (std::set<int>{1, 2}));

@@ -12,6 +12,7 @@
 #include <filesystem>
 #include <mutex>
 #include <set>
+#include <string>
 
 #include <opencv2/core.hpp>
 
@@ -60,44 +61,23 @@ Sequence prepare(bool robot_features) {
   return seq;
 }
 
-}  // namespace
-
-int main(int argc, char** argv) {
-  bool occupancy = true, robot_features = false;  // A/B switches on a shared machine
-  for (int i = 1; i < argc; ++i) {
-    const std::string a = argv[i];
-    if (a == "--no-occupancy") {
-      occupancy = false;
-    } else if (a == "--robot-features") {
-      robot_features = true;
-    } else {
-      std::fprintf(stderr, "usage: bench_map_server [--no-occupancy] [--robot-features]\n");
-      return 2;
-    }
-  }
-  cv::setNumThreads(1);
-  log::setLevel(log::Level::kWarn);
-  const Sequence seq = prepare(robot_features);
-  auto transport = std::move(transport::makeTransport("memq://").value());
-  MapServerConfig config = bench::serverConfig(
-      (std::filesystem::temp_directory_path() / "rgbdmap_bench_map_server").string(), occupancy);
-  std::filesystem::remove_all(config.map_dir);
-  MapServer server(config, *transport, msg::KeyStore::openMode());
-  if (!server.start() || !transport->start()) return 1;
-
-  bench::AckWaiter acks(*transport);
+/// The sequence's keyframes one at a time (each acknowledged and through the map worker); the wall time (s).
+double sendOneAtATime(const Sequence& seq, MapServer& server, transport::Transport& transport) {
+  bench::AckWaiter acks(transport);
   msg::Signer signer("robot0", {});
-  bench::sayHello(*transport, signer, seq.camera);
+  bench::sayHello(transport, signer, seq.camera);
   const auto t0 = std::chrono::steady_clock::now();
   for (const msg::Keyframe& kf : seq.keyframes) {
-    (void)transport->publish(*msg::channelFor(msg::MessageType::kKeyframe, "robot0"),
-                             signer.seal(kf, 1).value());
+    (void)transport.publish(*msg::channelFor(msg::MessageType::kKeyframe, "robot0"),
+                            signer.seal(kf, 1).value());
     (void)acks.waitFor(kf.keyframe_id, 30.0);
     server.waitIdle(30.0);  // one keyframe at a time (its octree insertion too): no queueing in the numbers
   }
-  const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-  server.waitIdle(60.0);
-  const MapServerStats s = server.stats();
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
+
+void printIngest(const Sequence& seq, const MapServerStats& s, bool occupancy, bool robot_features,
+                 double wall) {
   std::printf(
       "bench_map_server: %s, %d keyframes, store fdatasync on, one keyframe in flight, octree %s, features "
       "%s\n",
@@ -121,13 +101,11 @@ int main(int argc, char** argv) {
               s.loops_accepted, s.loops_disabled, s.loop_candidates, s.optimizations, s.last_optimize_ms);
   std::printf("  wall %.2f s for the sequence (%.1f keyframes/s including acknowledgements and octree)\n",
               wall, s.keyframes / wall);
-  const std::string out = config.map_dir + "_out";
-  if (!occupancy) {
-    transport->stop();
-    server.stop();
-    std::filesystem::remove_all(config.map_dir);
-    return 0;
-  }
+}
+
+/// The occupancy map's numbers, with the map files written to `out`.
+void printOccupancy(MapServer& server, const MapServerConfig& config, const MapServerStats& s,
+                    const std::string& out) {
   const auto t_out = std::chrono::steady_clock::now();
   const Status written = server.writeMapOutputs(out);
   const double out_ms =
@@ -158,9 +136,41 @@ int main(int argc, char** argv) {
       "KB\n",
       written ? "written" : written.error().c_str(), out_ms, size_kb("map.bt"), size_kb("map.ot"),
       size_kb("map.ply"), size_kb("map.png"));
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  bool occupancy = true, robot_features = false;  // A/B switches on a shared machine
+  for (int i = 1; i < argc; ++i) {
+    const std::string a = argv[i];
+    if (a == "--no-occupancy") {
+      occupancy = false;
+    } else if (a == "--robot-features") {
+      robot_features = true;
+    } else {
+      std::fprintf(stderr, "usage: bench_map_server [--no-occupancy] [--robot-features]\n");
+      return 2;
+    }
+  }
+  cv::setNumThreads(1);
+  log::setLevel(log::Level::kWarn);
+  const Sequence seq = prepare(robot_features);
+  auto transport = std::move(transport::makeTransport("memq://").value());
+  MapServerConfig config = bench::serverConfig(
+      (std::filesystem::temp_directory_path() / "rgbdmap_bench_map_server").string(), occupancy);
+  std::filesystem::remove_all(config.map_dir);
+  MapServer server(config, *transport, msg::KeyStore::openMode());
+  if (!server.start() || !transport->start()) return 1;
+  const double wall = sendOneAtATime(seq, server, *transport);
+  server.waitIdle(60.0);
+  const MapServerStats s = server.stats();
+  printIngest(seq, s, occupancy, robot_features, wall);
+  const std::string out = config.map_dir + "_out";
+  if (occupancy) printOccupancy(server, config, s, out);
   transport->stop();
   server.stop();
   std::filesystem::remove_all(config.map_dir);
-  std::filesystem::remove_all(out);
+  if (occupancy) std::filesystem::remove_all(out);
   return 0;
 }

@@ -2,9 +2,9 @@
 // loop edges; an optimisation result applied and turned into PoseCorrections and map worker pose updates.
 #include <utility>
 
-#include "edge_information.hpp"
 #include "ingest_pipeline.hpp"
 #include "pose_corrections.hpp"
+#include "rgbdmap/backend/edge_information.hpp"
 #include "rgbdmap/common/logging.hpp"
 
 namespace rgbdmap {
@@ -98,7 +98,9 @@ void IngestPipeline::addToGraphLocked(const IndexedNode& node, const msg::Keyfra
   const bool first = graph_.nodes().size() == 1;  // the first keyframe of the first robot holds the gauge
   if (first) graph_.setFixed(id);
   batch_.nodes.push_back({id, node.chain, node.kf.T_map_kf, first});
-  if (prev) addOdometryEdgeLocked(id, *prev, kf.T_prev_cur, odometryInformation(kf.information, config_));
+  if (prev)
+    addOdometryEdgeLocked(id, *prev, kf.T_prev_cur,
+                          odometryInformation(kf.information, config_.edgeInformation()));
 }
 
 void IngestPipeline::addToBatchLocked(const IndexedNode& node,
@@ -138,7 +140,7 @@ Status IngestPipeline::addLoopEdgeLocked(const LoopEdge& edge) {
   e.from = edge.from_id;
   e.to = edge.to_id;
   e.T_from_to = edge.T_from_to;
-  e.information = loopInformation(edge.information, config_);
+  e.information = loopInformation(edge.information, config_.edgeInformation());
   e.kind = index_.node(edge.from_id).chain != index_.node(edge.to_id).chain ? EdgeKind::kInterRobot
                                                                             : EdgeKind::kLoop;
   if (const Status s = graph_.addEdge(e); !s) return s;

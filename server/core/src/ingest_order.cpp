@@ -6,8 +6,8 @@
 // joins the two chains.
 #include <utility>
 
-#include "edge_information.hpp"
 #include "ingest_pipeline.hpp"
+#include "rgbdmap/backend/edge_information.hpp"
 #include "rgbdmap/common/logging.hpp"
 
 namespace rgbdmap {
@@ -86,7 +86,8 @@ void IngestPipeline::noteSplitLocked(const IndexedNode& node, const msg::Keyfram
   log::info("server: keyframe ", kf.keyframe_id, " of ", kf.robot_id, " starts a new chain: its predecessor ",
             kf.previous_keyframe_id, refused ? " was refused" : " did not come");
   if (!refused)
-    split_heads_[missing] = {node.kf.node_id, kf.T_prev_cur, odometryInformation(kf.information, config_)};
+    split_heads_[missing] = {node.kf.node_id, kf.T_prev_cur,
+                             odometryInformation(kf.information, config_.edgeInformation())};
 }
 
 void IngestPipeline::joinSplitSuccessorLocked(const IndexedNode& node) {

@@ -12,7 +12,7 @@
 #include "inbox.hpp"
 #include "ingest_pipeline.hpp"
 #include "ingest_queue.hpp"
-#include "map_optimizer.hpp"
+#include "rgbdmap/workers/map_optimizer.hpp"
 #include "map_worker.hpp"
 #include "memory_trim.hpp"
 #include "rgbdmap/common/logging.hpp"

@@ -1,4 +1,4 @@
-#include "edge_information.hpp"
+#include "rgbdmap/backend/edge_information.hpp"
 
 #include <cmath>
 
@@ -22,13 +22,13 @@ Mat6 withCovarianceFloor(const Mat6& information, double sigma_t, double sigma_r
   return 0.5 * (out + out.transpose());
 }
 
-Mat6 flooredInformation(const Mat6& information, const MapServerConfig& config) {
+Mat6 flooredInformation(const Mat6& information, const EdgeInformationConfig& config) {
   if (config.edge_sigma_floor_m <= 0.0 && config.edge_sigma_floor_deg <= 0.0) return information;
   return withCovarianceFloor(information, config.edge_sigma_floor_m,
                              config.edge_sigma_floor_deg * M_PI / 180.0);
 }
 
-Mat6 odometryInformation(const Mat6& reported, const MapServerConfig& config) {
+Mat6 odometryInformation(const Mat6& reported, const EdgeInformationConfig& config) {
   if (isPositiveDefinite(reported)) return flooredInformation(reported, config);
   const double st = config.default_odometry_sigma_m;
   const double sr = config.default_odometry_sigma_deg * M_PI / 180.0;
@@ -37,7 +37,7 @@ Mat6 odometryInformation(const Mat6& reported, const MapServerConfig& config) {
   return info;
 }
 
-Mat6 loopInformation(const Mat6& reported, const MapServerConfig& config) {
+Mat6 loopInformation(const Mat6& reported, const EdgeInformationConfig& config) {
   return isPositiveDefinite(reported) ? flooredInformation(reported, config) : reported;
 }
 

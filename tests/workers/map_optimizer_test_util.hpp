@@ -6,7 +6,7 @@
 #include <memory>
 #include <mutex>
 
-#include "../../server/core/src/map_optimizer.hpp"
+#include "rgbdmap/workers/map_optimizer.hpp"
 
 namespace rgbdmap::testing {
 

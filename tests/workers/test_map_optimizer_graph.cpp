@@ -8,7 +8,8 @@
 #include <vector>
 
 #include "rgbdmap/graph/pose_graph_synth.hpp"
-#include "server/map_optimizer_test_util.hpp"
+#include "workers/map_optimizer_test_util.hpp"
+#include "test_tier.hpp"
 
 namespace rgbdmap {
 namespace {
@@ -106,6 +107,7 @@ TEST(MapOptimizer, OnlyLoopsTheEstimateDoesNotSatisfyGetAWholeGraphSolve) {
   EXPECT_LT(gated.rms_m, every.rms_m + 0.005);
 }
 
+RGBDMAP_TEST_TIER("MapOptimizer.LoopsInARevisitedRoomAreSolvedInTheirNeighbourhood", "e2e");
 // in a room many passes revisit (every keyframe with loops to 4 earlier passes, noisy edges, 3
 // false loops), new loops are solved in their neighbourhood; only what the neighbourhood cannot explain (the
 // false loops, drift it cannot absorb) goes to a whole-graph solve, which alone disables loops. Once quiet,

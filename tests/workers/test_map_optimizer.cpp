@@ -10,7 +10,8 @@
 #include <random>
 
 #include "rgbdmap/ba/ba_synth.hpp"
-#include "server/map_optimizer_test_util.hpp"
+#include "workers/map_optimizer_test_util.hpp"
+#include "test_tier.hpp"
 
 namespace rgbdmap {
 namespace {
@@ -114,6 +115,7 @@ TEST(MapOptimizer, BundleAdjustmentBeatsThePoseGraphAlone) {
   EXPECT_EQ(graph_only.result->ba.landmarks.landmarks, 0);
 }
 
+RGBDMAP_TEST_TIER("MapOptimizer.GlobalBundleAdjustmentsAfterLargeCyclesWaitForTheMapToGrow", "e2e");
 TEST(MapOptimizer, GlobalBundleAdjustmentsAfterLargeCyclesWaitForTheMapToGrow) {
   const BaSynthScene s = scene();
   // Every loop (2 and 3 keyframes back) counts as a large cycle here; one batch at a time, so no batches
@@ -170,6 +172,7 @@ TEST(MapOptimizer, AMapPastTheGlobalLimitGetsNoGlobalBundleAdjustment) {
   EXPECT_GT(all.result->ba.global_keyframes_last, 12);
 }
 
+RGBDMAP_TEST_TIER("MapOptimizer.GlobalBundleAdjustmentsThatGainNothingBackOff", "e2e");
 // A global BA that ends at its time limit without lowering the error (in the fleet run: 9,600
 // keyframes under the observation cap, rms 1.15 px before and after, 3 s each) doubles the growth its map
 // must reach before the next one; one that helps resets it.
