@@ -40,12 +40,14 @@ class InboxTest : public ::testing::Test {
 
   template <typename T>
   void deliver(Inbox& inbox, const T& message, msg::Signer& signer) {
-    const msg::Bytes bytes = signer.seal(message, 1000).value();
-    inbox.onMessage(msg::channelFor(T::kType, "robot_1").value(), bytes.data(), bytes.size());
+    const Result<msg::Bytes> sealed = signer.seal(message, 1000);
+    ASSERT_TRUE(sealed) << sealed.error();
+    inbox.onMessage(msg::channelFor(T::kType, "robot_1").value(), sealed->data(), sealed->size());
   }
   msg::Keyframe keyframe(int id) const {
     msg::Keyframe k = kf_;
     k.keyframe_id = id;
+    k.previous_keyframe_id = id - 1;
     return k;
   }
 
