@@ -62,7 +62,7 @@ void printStatus(const rgbdmap::MapServer& server) {
                "[server] robots %zu keyframes %d (+%d stored, not placed yet) loops %d (disabled %d) maps %d "
                "ingest %.1f ms rejected %llu%s\n",
                s.robots.size(), s.keyframes, s.keyframes_deferred, s.loops_accepted, s.loops_disabled, s.maps,
-               s.ingest_ms_median, static_cast<unsigned long long>(s.messages_rejected),
+               s.ingest_ms_median, static_cast<unsigned long long>(s.inbox.messages_rejected),
                s.store_failed ? (" STORE FAILED: " + s.store_error).c_str() : "");
 }
 

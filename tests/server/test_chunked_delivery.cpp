@@ -153,9 +153,9 @@ TEST(ChunkedDelivery, ForgedAndWrongKeyChunksAreRejectedAndCounted) {
     const msg::Bytes bytes = robot.seal(c, 1).value();
     ASSERT_TRUE(harness.transport->publish(channel, bytes.data(), bytes.size()));
   }
-  for (int i = 0; i < 100 && harness.server->stats().messages_rejected < 11; ++i)
+  for (int i = 0; i < 100 && harness.server->stats().inbox.messages_rejected < 11; ++i)
     std::this_thread::sleep_for(std::chrono::milliseconds(20));
-  EXPECT_EQ(harness.server->stats().messages_rejected, 11u);
+  EXPECT_EQ(harness.server->stats().inbox.messages_rejected, 11u);
   EXPECT_EQ(harness.server->stats().keyframes, 0);
   std::filesystem::remove_all(dir);
 }

@@ -165,18 +165,18 @@ TEST(MapServer, BadInputIsCountedRefusedOrIgnoredAndNothingStoredIsLost) {
   // stored and acknowledged without being sent again.
   robot.send(seg.keyframes[0]);
   robot.send(seg.keyframes[0]);
-  ASSERT_TRUE(testing::eventually([&] { return h.server->stats().keyframes_held_for_hello == 1; }, 30.0));
+  ASSERT_TRUE(testing::eventually([&] { return h.server->stats().hello_hold.keyframes_held == 1; }, 30.0));
   ASSERT_TRUE(h.server->waitIdle(30.0));
   EXPECT_TRUE(robot.acks().empty());
-  EXPECT_EQ(h.server->stats().keyframes_held_for_hello, 1);
+  EXPECT_EQ(h.server->stats().hello_hold.keyframes_held, 1);
   EXPECT_EQ(h.server->stats().keyframes, 0);
   robot.hello(seg.camera);
   ASSERT_TRUE(robot.waitAcked({seg.keyframes[0].keyframe_id}, 30.0));
   EXPECT_EQ(robot.acks().at(seg.keyframes[0].keyframe_id), true);
   ASSERT_TRUE(h.server->waitIdle(30.0));
-  EXPECT_EQ(h.server->stats().keyframes_held_for_hello, 0);
+  EXPECT_EQ(h.server->stats().hello_hold.keyframes_held, 0);
   EXPECT_EQ(h.server->stats().keyframes, 1);
-  const uint64_t rejected_before = h.server->stats().messages_rejected;
+  const uint64_t rejected_before = h.server->stats().inbox.messages_rejected;
   // Garbage, truncated and forged envelopes on the keyframe channel.
   robot.publishRaw("keyframe", msg::Bytes(100, 0xAB));
   auto good = robot.signer().seal(seg.keyframes[1], 1);
@@ -200,7 +200,7 @@ TEST(MapServer, BadInputIsCountedRefusedOrIgnoredAndNothingStoredIsLost) {
   stranger.hello(seg.camera);
   ASSERT_TRUE(h.server->waitIdle(30.0));
   const MapServerStats s = h.server->stats();
-  EXPECT_GE(s.messages_rejected, rejected_before + 4) << "garbage, truncated, forged, impostor";
+  EXPECT_GE(s.inbox.messages_rejected, rejected_before + 4) << "garbage, truncated, forged, impostor";
   EXPECT_EQ(s.keyframes_refused, 1u);
   EXPECT_EQ(s.keyframes, 1) << "the stored keyframe is kept, nothing bad was added";
   // A good keyframe still goes through afterwards.

@@ -228,8 +228,8 @@ TEST(MapServerFair, AFloodingRobotDoesNotDelayAWellBehavedOne) {
   EXPECT_GT(flood_stats->keyframes, 0);
   EXPECT_LE(flood_stats->keyframes_queued_max, static_cast<int>(config.robot_queue_capacity));
   EXPECT_LE(good_stats->keyframes_queued_max, static_cast<int>(config.robot_queue_capacity));
-  EXPECT_EQ(s.keyframes_throttled, flood_stats->throttled);
-  EXPECT_EQ(s.keyframes_dropped_queue_full, flood_stats->queue_full);
+  EXPECT_EQ(s.inbox.keyframes_throttled, flood_stats->throttled);
+  EXPECT_EQ(s.inbox.keyframes_dropped_queue_full, flood_stats->queue_full);
   EXPECT_LE(static_cast<uint64_t>(flood_stats->keyframes) + flood_stats->throttled + flood_stats->queue_full,
             static_cast<uint64_t>(flood_sent));
 }
@@ -319,7 +319,7 @@ TEST(MapServerFair, ResendsOfQueuedKeyframesDoNotFillTheRobotsQueue) {
   EXPECT_EQ(r->duplicates_queued + r->duplicates, static_cast<uint64_t>(n * (copies - 1)));
   EXPECT_LE(r->keyframes_queued_max, n);
   EXPECT_EQ(r->keyframes, n);
-  EXPECT_EQ(h.server->stats().keyframes_duplicates_queued, r->duplicates_queued);
+  EXPECT_EQ(h.server->stats().inbox.keyframes_duplicates_queued, r->duplicates_queued);
 }
 
 TEST(MapServerFair, ImagesThatDoNotMatchTheCameraAreRefusedBeforeDecoding) {

@@ -27,7 +27,7 @@ void IngestPipeline::placeLocked(WaitingKeyframe waiting, const DecodedImages* i
   const std::optional<KeyframeKey> prev = predecessorOf(waiting.stored);
   if (prev && !index_.contains(*prev) && !index_.refused(*prev)) {
     if (live) {
-      registry_.countOutOfOrder(waiting.stored.keyframe.robot_id);
+      registry_.recordKeyframe(waiting.stored.keyframe.robot_id, RobotRegistry::KeyframeOutcome::kOutOfOrder);
       log::debug("server: keyframe ", waiting.stored.keyframe.keyframe_id, " of ",
                  waiting.stored.keyframe.robot_id, " stored, waits for its predecessor ",
                  waiting.stored.keyframe.previous_keyframe_id);
@@ -49,7 +49,7 @@ void IngestPipeline::integrateWithSuccessorsLocked(WaitingKeyframe first, const 
       addLiveLocked(ready[i].stored, ready[i].features, i == 0 ? images : nullptr);
     } else {
       integrateLocked(ready[i].stored, ready[i].features, false, nullptr);
-      registry_.countKeyframe(ready[i].stored.keyframe.robot_id);
+      registry_.recordKeyframe(ready[i].stored.keyframe.robot_id, RobotRegistry::KeyframeOutcome::kPlaced);
       ++counters_.keyframes;
     }
     for (WaitingKeyframe& next : reorder_.takeSuccessors(key)) ready.push_back(std::move(next));
@@ -82,7 +82,7 @@ void IngestPipeline::onStop() {
 void IngestPipeline::noteSplitLocked(const IndexedNode& node, const msg::Keyframe& kf) {
   const KeyframeKey missing{node.robot, node.kf.session, node.kf.segment, kf.previous_keyframe_id};
   const bool refused = index_.refused(missing);
-  registry_.countChainSplit(kf.robot_id);
+  registry_.recordKeyframe(kf.robot_id, RobotRegistry::KeyframeOutcome::kChainSplit);
   log::info("server: keyframe ", kf.keyframe_id, " of ", kf.robot_id, " starts a new chain: its predecessor ",
             kf.previous_keyframe_id, refused ? " was refused" : " did not come");
   if (!refused)

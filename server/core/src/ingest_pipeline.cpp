@@ -6,8 +6,8 @@
 
 #include <utility>
 
-#include "image_admission.hpp"
 #include "rgbdmap/common/logging.hpp"
+#include "rgbdmap/intake/image_admission.hpp"
 #include "rgbdmap/vision/keyframe_message.hpp"
 
 namespace rgbdmap {
@@ -115,7 +115,7 @@ void IngestPipeline::onKeyframe(Prepared prepared) {
   const std::optional<CameraIntrinsics> camera = registry_.camera(kf.robot_id);
   if (robot < 0 || !camera) {
     // No Hello yet (lost or overtaken): held until it comes (not acknowledged before).
-    registry_.countWaitingForHello(kf.robot_id);
+    registry_.recordKeyframe(kf.robot_id, RobotRegistry::KeyframeOutcome::kWaitingForHello);
     hello_hold_.hold(kf);
     return;
   }
@@ -124,7 +124,7 @@ void IngestPipeline::onKeyframe(Prepared prepared) {
   if (!admitLocked(kf, key, lock)) return;
   const ImageLimits limits{config_.max_image_pixels, config_.max_image_bytes};
   if (std::string why = imagesRefusedBeforeDecode(kf.images, *camera, limits); !why.empty()) {
-    registry_.countRefusedBeforeDecode(kf.robot_id);
+    registry_.recordKeyframe(kf.robot_id, RobotRegistry::KeyframeOutcome::kRefusedBeforeDecode);
     return refuseLocked(kf, key, why, lock);
   }
   if (!storeWritableLocked()) return;  // not acknowledged: the robot sends it again
@@ -205,7 +205,7 @@ bool IngestPipeline::admitLocked(const msg::Keyframe& kf, const KeyframeKey& key
       std::any_of(deferred_.begin(), deferred_.end(), [&](const Deferred& d) { return d.key == key; });
   if (!index_.contains(key) && !reorder_.contains(key) && !index_.refused(key) && !deferred) return true;
   const bool accepted = !index_.refused(key);
-  registry_.countDuplicate(kf.robot_id);
+  registry_.recordKeyframe(kf.robot_id, RobotRegistry::KeyframeOutcome::kDuplicate);
   lock.unlock();
   publisher_.acknowledge(kf.robot_id, kf.keyframe_id, accepted, accepted ? "duplicate" : "refused before");
   return false;
@@ -216,7 +216,7 @@ void IngestPipeline::refuseLocked(const msg::Keyframe& kf, const KeyframeKey& ke
   index_.refuse(key);
   noteSeen(key);
   ++counters_.keyframes_refused;
-  registry_.countRefused(kf.robot_id);
+  registry_.recordKeyframe(kf.robot_id, RobotRegistry::KeyframeOutcome::kRefused);
   // Keyframes that waited for this one will not get it: they start a new chain.
   for (WaitingKeyframe& w : reorder_.takeSuccessors(key))
     integrateWithSuccessorsLocked(std::move(w), nullptr, true);
@@ -298,7 +298,7 @@ void IngestPipeline::addLiveLocked(const StoredKeyframe& stored, const FrameFeat
   const int added = addDetectedLoopsLocked(edges, n.robot);
   counters_.loops_accepted += added;
   ++counters_.keyframes;
-  registry_.countKeyframe(n.kf.robot_id);
+  registry_.recordKeyframe(n.kf.robot_id, RobotRegistry::KeyframeOutcome::kPlaced);
   // With bundle adjustment every keyframe goes to the optimiser (a local BA refines it and its neighbours);
   // a pose-graph solve when loops came or chains joined. Without, the additions wait for the next solve.
   const bool joined = std::exchange(graph_joined_, false);
@@ -358,8 +358,7 @@ MapServerStats IngestPipeline::stats() const {
   s.maps = static_cast<int>(index_.mapCount());
   s.keyframes_waiting = static_cast<int>(reorder_.size());
   s.keyframes_deferred = static_cast<int>(deferred_.size());
-  s.keyframes_held_for_hello = static_cast<int>(hello_hold_.held());
-  s.keyframes_hold_dropped = hello_hold_.dropped();
+  s.hello_hold = hello_hold_.stats();
   const FeatureCacheStats fc = features_->stats();
   s.features_resident = fc.resident;
   s.features_loads = fc.loads;

@@ -24,7 +24,7 @@
 #include <string>
 #include <vector>
 
-#include "hello_hold.hpp"
+#include "rgbdmap/intake/hello_hold.hpp"
 #include "ingest_timings.hpp"
 #include "keyframe_index.hpp"
 #include "map_worker.hpp"
@@ -38,7 +38,7 @@
 #include "rgbdmap/store/map_store.hpp"
 #include "rgbdmap/vision/features.hpp"
 #include "robot_publisher.hpp"
-#include "robot_registry.hpp"
+#include "rgbdmap/intake/robot_registry.hpp"
 
 namespace rgbdmap {
 

@@ -31,7 +31,7 @@
 
 #include "ingest_pipeline.hpp"
 #include "rgbdmap/common/serial_worker.hpp"
-#include "robot_queues.hpp"
+#include "rgbdmap/intake/robot_queues.hpp"
 
 namespace rgbdmap {
 

@@ -9,19 +9,19 @@
 #include <chrono>
 #include <map>
 
-#include "inbox.hpp"
 #include "ingest_pipeline.hpp"
 #include "ingest_queue.hpp"
 #include "rgbdmap/workers/map_optimizer.hpp"
 #include "map_worker.hpp"
 #include "memory_trim.hpp"
 #include "rgbdmap/common/logging.hpp"
+#include "rgbdmap/intake/inbox.hpp"
+#include "rgbdmap/intake/robot_registry.hpp"
+#include "rgbdmap/intake/transport_gate.hpp"
 #include "rgbdmap/proto/channels.hpp"
 #include "robot_publisher.hpp"
-#include "robot_registry.hpp"
 #include "status_publisher.hpp"
 #include "store_retry.hpp"
-#include "transport_gate.hpp"
 
 namespace rgbdmap {
 
@@ -39,6 +39,25 @@ void fillStoreStats(const MapStoreHealth& h, MapServerStats* s) {
   s->store_recover_attempts = h.recover_attempts;
   s->store_recoveries = h.recoveries;
 }
+/// The inbox's side of the ingest queue (a stopped queue ignores what it is given).
+InboxQueue inboxQueue(IngestQueue& queue) {
+  InboxQueue q;
+  q.hello = [&queue](msg::Hello hello) { queue.pushHello(std::move(hello)); };
+  q.keyframe = [&queue](msg::Keyframe keyframe, size_t bytes) {
+    switch (queue.pushKeyframe(std::move(keyframe), bytes)) {
+      case IngestQueue::Pushed::kFull:
+        return RobotQueues::Pushed::kFull;
+      case IngestQueue::Pushed::kDuplicate:
+        return RobotQueues::Pushed::kDuplicate;
+      case IngestQueue::Pushed::kQueued:
+      case IngestQueue::Pushed::kStopped:
+        break;
+    }
+    return RobotQueues::Pushed::kQueued;
+  };
+  q.demote = [&queue](const std::string& robot) { queue.demote(robot); };
+  return q;
+}
 }  // namespace
 
 struct MapServer::Impl {
@@ -51,7 +70,8 @@ struct MapServer::Impl {
         pipeline(config, registry, publisher, server_session / 1000000 * 1000000),
         queue({config.robot_queue_capacity, config.robot_queue_bytes, config.ingest_queue_capacity},
               reorderTick(config), pipeline),
-        inbox(config, keys, registry, queue),
+        inbox(InboxConfig{config.robots, config.robot_max_keyframes_per_s, config.robot_keyframe_burst}, keys,
+              registry, inboxQueue(queue)),
         status(config.status_period_s, registry, publisher, [this] { return pipeline.graphRevision(); }),
         gate([this](const std::string& channel, const uint8_t* data, size_t size) {
           inbox.onMessage(channel, data, size);
@@ -205,16 +225,11 @@ bool MapServer::flushMapStreams(double timeout_s) {
 MapServerStats MapServer::stats() const {
   const Impl& m = *impl_;
   MapServerStats s = m.pipeline.stats();
-  s.messages_rejected = m.inbox.rejected();
-  s.keyframes_dropped_queue_full = m.inbox.queueFull();
-  s.keyframes_duplicates_queued = m.inbox.duplicatesQueued();
-  s.keyframes_throttled = m.inbox.throttled();
+  s.inbox = m.inbox.stats();
   for (ServerRobotStats& r : s.robots) {
     r.keyframes_queued = static_cast<int>(m.queue.queued(r.robot_id));
     r.keyframes_queued_max = static_cast<int>(m.queue.queuedHighWater(r.robot_id));
   }
-  s.unknown_robot_messages = m.inbox.unknownRobot();
-  s.rejects = m.inbox.rejectCounts();
   if (m.store) fillStoreStats(m.store->health(), &s);
   if (m.memory_trim) {
     const MemoryTrimStats t = m.memory_trim->stats();

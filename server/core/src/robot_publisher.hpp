@@ -12,7 +12,7 @@
 #include "rgbdmap/proto/channels.hpp"
 #include "rgbdmap/proto/envelope.hpp"
 #include "rgbdmap/transport/transport.hpp"
-#include "robot_registry.hpp"
+#include "rgbdmap/intake/robot_registry.hpp"
 
 namespace rgbdmap {
 

@@ -26,14 +26,14 @@ Json optimisationJson(const MapServerStats& s) {
 }
 
 Json intakeJson(const MapServerStats& s) {
-  return {{"messages_rejected", s.messages_rejected},
+  return {{"messages_rejected", s.inbox.messages_rejected},
           {"keyframes_waiting", s.keyframes_waiting},
           {"keyframes_deferred_max", s.keyframes_deferred_max},
-          {"keyframes_held_for_hello", s.keyframes_held_for_hello},
-          {"keyframes_hold_dropped", s.keyframes_hold_dropped},
-          {"keyframes_queue_full", s.keyframes_dropped_queue_full},
-          {"keyframes_duplicates_queued", s.keyframes_duplicates_queued},
-          {"keyframes_throttled", s.keyframes_throttled},
+          {"keyframes_held_for_hello", s.hello_hold.keyframes_held},
+          {"keyframes_hold_dropped", s.hello_hold.keyframes_dropped},
+          {"keyframes_queue_full", s.inbox.keyframes_dropped_queue_full},
+          {"keyframes_duplicates_queued", s.inbox.keyframes_duplicates_queued},
+          {"keyframes_throttled", s.inbox.keyframes_throttled},
           {"keyframes_features_extracted", s.keyframes_features_extracted}};
 }
 
@@ -61,8 +61,9 @@ Json storeJson(const MapServerStats& s) {
 
 Json rejectsJson(const MapServerStats& s) {
   Json by_robot = Json::object(), unknown = Json::object();
-  for (const msg::RejectCount& r : s.rejects) (r.robot_id.empty() ? unknown : by_robot[r.robot_id])[r.reason] = r.count;
-  return {{"rejects_by_robot", by_robot},      // claimed robot -> reason -> count (known robots)
+  for (const msg::RejectCount& r : s.inbox.rejects)
+    (r.robot_id.empty() ? unknown : by_robot[r.robot_id])[r.reason] = r.count;
+  return {{"rejects_by_robot", by_robot},       // claimed robot -> reason -> count (known robots)
           {"rejects_unknown_robot", unknown}};  // reason -> count for every other claimed sender
 }
 

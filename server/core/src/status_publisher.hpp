@@ -9,7 +9,7 @@
 
 #include "rgbdmap/common/serial_worker.hpp"
 #include "robot_publisher.hpp"
-#include "robot_registry.hpp"
+#include "rgbdmap/intake/robot_registry.hpp"
 
 namespace rgbdmap {
 

@@ -1,6 +1,6 @@
 #pragma once
 // Splitting a signed keyframe envelope into KeyframeChunk messages (robot side) and reading a ChunkAck's
-// bitmap. Reassembly is the server's (server/core/src/chunk_reassembly.hpp).
+// bitmap. Reassembly is the server's (server/core/intake/include/rgbdmap/intake/chunk_reassembly.hpp).
 #include <cstdint>
 #include <string>
 #include <vector>

@@ -35,6 +35,7 @@
 #include "rgbdmap/common/se3.hpp"
 #include "rgbdmap/graph/pose_graph.hpp"
 #include "rgbdmap/graph/pose_graph_optimizer.hpp"
+#include "rgbdmap/intake/intake_stats.hpp"
 #include "rgbdmap/loop/loop_detector.hpp"
 #include "rgbdmap/map/occupancy_map.hpp"
 #include "rgbdmap/map/occupancy_slice.hpp"
@@ -45,36 +46,6 @@
 #include "rgbdmap/transport/transport.hpp"
 
 namespace rgbdmap {
-
-struct ServerRobotStats {
-  std::string robot_id;
-  int keyframes = 0;
-  int sessions = 0;     ///< robot processes seen (a restart is a new session)
-  int chains = 0;       ///< odometry chains (segments over all sessions)
-  int loops = 0;        ///< accepted loop edges touching this robot's keyframes
-  int map_id = -1;      ///< graph component of its newest keyframe (first node id of the component)
-  bool merged = false;  ///< its newest keyframe shares a component with another robot
-  uint64_t bytes_received = 0;
-  uint64_t bytes_sent = 0;
-  uint64_t keyframes_refused = 0;  ///< acknowledged with accepted = false
-  uint64_t duplicates = 0;         ///< re-sent keyframes acknowledged again
-  uint64_t out_of_order = 0;       ///< stored before their predecessor was in the graph (they waited)
-  uint64_t chain_splits = 0;       ///< keyframes that started a new chain: their predecessor never came
-                                   ///< (reorder bound or timeout) or was refused
-  uint64_t waiting_for_hello = 0;  ///< keyframes that came before the robot's Hello (held, taken in with it)
-  int keyframes_waiting = 0;       ///< stored, acknowledged, waiting for their predecessor now
-  /// Fair share: keyframes left unacknowledged because its queue was full, or because it sent
-  /// over server.robot_max_keyframes_per_s; refused from the images' headers, before decoding.
-  uint64_t queue_full = 0;
-  /// Re-sent while the first copy was still in its queue: not queued twice, no slot taken, not demoted.
-  uint64_t duplicates_queued = 0;
-  uint64_t throttled = 0;
-  uint64_t refused_before_decode = 0;
-  int keyframes_queued = 0;      ///< in its ingest queue now
-  int keyframes_queued_max = 0;  ///< the most it has had queued at once (at most robot_queue_capacity)
-  int64_t last_utime = 0;
-  std::optional<CameraIntrinsics> camera;
-};
 
 struct MapServerStats {
   int keyframes = 0;
@@ -117,26 +88,17 @@ struct MapServerStats {
   uint64_t corrections_resent = 0;
   uint64_t optimizations_for_heartbeats = 0;
   int64_t graph_revision = 0;
-  int maps = 0;                               ///< connected components of the graph
-  uint64_t messages_rejected = 0;             ///< RejectCounters total (auth, replay, malformed, ...)
-  uint64_t keyframes_dropped_queue_full = 0;  ///< all robots' queue_full
-  uint64_t keyframes_duplicates_queued = 0;   ///< all robots' duplicates_queued
-  uint64_t keyframes_throttled = 0;           ///< all robots' throttled
-  uint64_t keyframes_decoded = 0;             ///< keyframes whose images were decoded (passed the headers)
+  int maps = 0;                    ///< connected components of the graph
+  uint64_t keyframes_decoded = 0;  ///< keyframes whose images were decoded (passed the headers)
   uint64_t keyframes_decoded_ahead =
       0;  ///< decoded on the decode thread (not the ingest worker); a resend is not
   uint64_t keyframes_features_extracted = 0;  ///< of those, sent without features: extracted here
   uint64_t keyframes_refused = 0;
-  uint64_t unknown_robot_messages = 0;
   int keyframes_waiting = 0;  ///< in the reorder buffer: stored and acknowledged, not in the graph yet
   /// Stored and acknowledged, their loop detection and graph insertion not run yet (the ingest worker
   /// stores and acknowledges new keyframes first): now, and the most at once (how far the map lagged).
   int keyframes_deferred = 0;
   int keyframes_deferred_max = 0;
-  /// Keyframes that came before their robot's Hello, held (not stored or acknowledged yet) until it comes,
-  /// and those the hold's bounds pushed out (the robot sends them again).
-  int keyframes_held_for_hello = 0;
-  uint64_t keyframes_hold_dropped = 0;
   /// Per keyframe, from dequeue to the graph update (decode + validate images, features, durable store,
   /// acknowledgement, loop candidates and verification, graph insertion).
   double ingest_ms_median = 0.0, ingest_ms_p90 = 0.0, ingest_ms_max = 0.0;
@@ -165,10 +127,10 @@ struct MapServerStats {
   uint64_t slices_sent = 0;
   uint64_t map_updates_sent = 0, map_bytes_sent = 0;  ///< MapUpdate messages and their compressed bytes
   MapStoreRecovery recovery;
-  std::vector<ServerRobotStats> robots;
-  /// Rejected messages per claimed robot and reason, largest first (robot_id "" = every claimed sender
-  /// that is not a known robot); what ServerStatus::rejects carries.
-  std::vector<msg::RejectCount> rejects;
+  /// The receive side's counters, each filled by its part (rgbdmap/intake/intake_stats.hpp).
+  InboxStats inbox;
+  HelloHoldStats hello_hold;
+  std::vector<ServerRobotStats> robots;  ///< RobotRegistry's, with the placement's figures filled in
   /// The map store now (MapStore::health): failed after an I/O error (a full disk) until a retry
   /// (store_retry_s) recovers it; meanwhile keyframes are left unacknowledged.
   bool store_failed = false;

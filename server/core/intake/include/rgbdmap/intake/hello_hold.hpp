@@ -11,6 +11,7 @@
 #include <string>
 #include <vector>
 
+#include "rgbdmap/intake/intake_stats.hpp"
 #include "rgbdmap/proto/messages.hpp"
 
 namespace rgbdmap {
@@ -31,6 +32,7 @@ class HelloHold {
 
   size_t held() const;                           ///< keyframes held now, all robots
   uint64_t dropped() const { return dropped_; }  ///< pushed out by the bounds
+  HelloHoldStats stats() const { return {static_cast<int>(held()), dropped_}; }
 
   static size_t bytesOf(const msg::Keyframe& kf);
 

@@ -1,4 +1,4 @@
-#include "keyframe_throttle.hpp"
+#include "rgbdmap/intake/keyframe_throttle.hpp"
 
 #include <algorithm>
 

@@ -1,4 +1,4 @@
-#include "image_admission.hpp"
+#include "rgbdmap/intake/image_admission.hpp"
 
 #include <algorithm>
 #include <cstdint>

@@ -1,4 +1,4 @@
-#include "robot_registry.hpp"
+#include "rgbdmap/intake/robot_registry.hpp"
 
 #include <cmath>
 #include <cstdio>
@@ -164,49 +164,46 @@ void RobotRegistry::addBytesSent(const std::string& robot_id, size_t bytes) {
   entry(robot_id).stats.bytes_sent += bytes;
 }
 
-void RobotRegistry::countKeyframe(const std::string& robot_id) {
+void RobotRegistry::recordKeyframe(const std::string& robot_id, KeyframeOutcome outcome) {
   std::lock_guard<std::mutex> lock(mutex_);
-  ++entry(robot_id).stats.keyframes;
+  ServerRobotStats& s = entry(robot_id).stats;
+  switch (outcome) {
+    case KeyframeOutcome::kPlaced:
+      ++s.keyframes;
+      return;
+    case KeyframeOutcome::kDuplicate:
+      ++s.duplicates;
+      return;
+    case KeyframeOutcome::kRefused:
+      ++s.keyframes_refused;
+      return;
+    case KeyframeOutcome::kRefusedBeforeDecode:
+      ++s.refused_before_decode;
+      return;
+    case KeyframeOutcome::kOutOfOrder:
+      ++s.out_of_order;
+      return;
+    case KeyframeOutcome::kChainSplit:
+      ++s.chain_splits;
+      return;
+    case KeyframeOutcome::kWaitingForHello:
+      ++s.waiting_for_hello;
+      return;
+    case KeyframeOutcome::kQueueFull:
+      ++s.queue_full;
+      return;
+    case KeyframeOutcome::kDuplicateQueued:
+      ++s.duplicates_queued;
+      return;
+    case KeyframeOutcome::kThrottled:
+      ++s.throttled;
+      return;
+  }
 }
+
 void RobotRegistry::countLoop(const std::string& robot_id) {
   std::lock_guard<std::mutex> lock(mutex_);
   ++entry(robot_id).stats.loops;
-}
-void RobotRegistry::countDuplicate(const std::string& robot_id) {
-  std::lock_guard<std::mutex> lock(mutex_);
-  ++entry(robot_id).stats.duplicates;
-}
-void RobotRegistry::countRefused(const std::string& robot_id) {
-  std::lock_guard<std::mutex> lock(mutex_);
-  ++entry(robot_id).stats.keyframes_refused;
-}
-void RobotRegistry::countOutOfOrder(const std::string& robot_id) {
-  std::lock_guard<std::mutex> lock(mutex_);
-  ++entry(robot_id).stats.out_of_order;
-}
-void RobotRegistry::countChainSplit(const std::string& robot_id) {
-  std::lock_guard<std::mutex> lock(mutex_);
-  ++entry(robot_id).stats.chain_splits;
-}
-void RobotRegistry::countWaitingForHello(const std::string& robot_id) {
-  std::lock_guard<std::mutex> lock(mutex_);
-  ++entry(robot_id).stats.waiting_for_hello;
-}
-void RobotRegistry::countQueueFull(const std::string& robot_id) {
-  std::lock_guard<std::mutex> lock(mutex_);
-  ++entry(robot_id).stats.queue_full;
-}
-void RobotRegistry::countDuplicateQueued(const std::string& robot_id) {
-  std::lock_guard<std::mutex> lock(mutex_);
-  ++entry(robot_id).stats.duplicates_queued;
-}
-void RobotRegistry::countThrottled(const std::string& robot_id) {
-  std::lock_guard<std::mutex> lock(mutex_);
-  ++entry(robot_id).stats.throttled;
-}
-void RobotRegistry::countRefusedBeforeDecode(const std::string& robot_id) {
-  std::lock_guard<std::mutex> lock(mutex_);
-  ++entry(robot_id).stats.refused_before_decode;
 }
 
 void RobotRegistry::noteHeartbeat(const msg::Heartbeat& heartbeat,

@@ -7,9 +7,9 @@
 #include <vector>
 
 // Private headers of the server library (server/core/src): the classes are internal, the tests are of them.
-#include "../../server/core/src/image_admission.hpp"
-#include "../../server/core/src/keyframe_throttle.hpp"
-#include "../../server/core/src/robot_queues.hpp"
+#include "rgbdmap/intake/image_admission.hpp"
+#include "rgbdmap/intake/keyframe_throttle.hpp"
+#include "rgbdmap/intake/robot_queues.hpp"
 
 namespace rgbdmap {
 namespace {

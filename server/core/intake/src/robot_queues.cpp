@@ -1,4 +1,4 @@
-#include "robot_queues.hpp"
+#include "rgbdmap/intake/robot_queues.hpp"
 
 #include <algorithm>
 #include <utility>

@@ -5,7 +5,7 @@
 #include <algorithm>
 #include <random>
 
-#include "../../server/core/src/chunk_reassembly.hpp"
+#include "rgbdmap/intake/chunk_reassembly.hpp"
 #include "rgbdmap/proto/chunking.hpp"
 #include "rgbdmap/proto/validate.hpp"
 

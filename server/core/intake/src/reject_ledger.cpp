@@ -1,4 +1,4 @@
-#include "reject_ledger.hpp"
+#include "rgbdmap/intake/reject_ledger.hpp"
 
 #include <algorithm>
 #include <utility>

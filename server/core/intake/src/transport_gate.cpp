@@ -1,4 +1,4 @@
-#include "transport_gate.hpp"
+#include "rgbdmap/intake/transport_gate.hpp"
 
 #include <utility>
 

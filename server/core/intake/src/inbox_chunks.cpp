@@ -1,6 +1,6 @@
 // Inbox: chunked keyframe transfers (udpm:// robots). Each chunk is an authenticated envelope of its own;
 // the reassembled bytes are a keyframe envelope, opened and checked exactly like one that came whole.
-#include "inbox.hpp"
+#include "rgbdmap/intake/inbox.hpp"
 
 namespace rgbdmap {
 

@@ -1,4 +1,4 @@
-#include "hello_hold.hpp"
+#include "rgbdmap/intake/hello_hold.hpp"
 
 #include <algorithm>
 

@@ -1,20 +1,19 @@
-#include "inbox.hpp"
+#include "rgbdmap/intake/inbox.hpp"
 
 #include <algorithm>
 #include <chrono>
+#include <utility>
 
 #include "rgbdmap/proto/channels.hpp"
 
 namespace rgbdmap {
 
-Inbox::Inbox(const MapServerConfig& config, const msg::KeyStore& keys, RobotRegistry& registry,
-             IngestQueue& queue)
-    : config_(config),
+Inbox::Inbox(InboxConfig config, const msg::KeyStore& keys, RobotRegistry& registry, InboxQueue queue)
+    : config_(std::move(config)),
       keys_(keys),
       registry_(registry),
-      queue_(queue),
-      throttle_(config.robot_max_keyframes_per_s, config.robot_keyframe_burst),
-
+      queue_(std::move(queue)),
+      throttle_(config_.max_keyframes_per_s, config_.keyframe_burst),
       ledger_(RejectLedgerOptions{}, [this](const std::string& robot) { return known(robot); }) {}
 
 void Inbox::onMessage(const std::string& channel, const uint8_t* data, size_t size) {
@@ -61,6 +60,17 @@ void Inbox::onMessage(const std::string& channel, const uint8_t* data, size_t si
   }
 }
 
+InboxStats Inbox::stats() const {
+  InboxStats s;
+  s.messages_rejected = rejects_.total();
+  s.unknown_robot_messages = unknown_robot_.load();
+  s.keyframes_dropped_queue_full = queue_full_.load();
+  s.keyframes_duplicates_queued = duplicates_queued_.load();
+  s.keyframes_throttled = throttled_.load();
+  s.rejects = ledger_.counts();
+  return s;
+}
+
 bool Inbox::known(const std::string& robot) const {
   return admitted(robot) && (keys_.find(robot) != nullptr || registry_.index(robot) >= 0);
 }
@@ -76,7 +86,7 @@ void Inbox::onHello(const msg::OpenedEnvelope& opened, const std::string& robot)
   if (hello->robot_id != robot)
     return reject(robot, msg::RejectReason::kInvalidContent,
                   "hello for '" + hello->robot_id + "' from " + robot);
-  queue_.pushHello(std::move(*hello));
+  queue_.hello(std::move(*hello));
 }
 
 void Inbox::onKeyframe(const msg::OpenedEnvelope& opened, const std::string& robot) {
@@ -85,9 +95,7 @@ void Inbox::onKeyframe(const msg::OpenedEnvelope& opened, const std::string& rob
   // new one (RobotQueues): only a new one that does not fit counts as queue_full and demotes the robot.
   if (!throttle_.allow(robot, KeyframeThrottle::Clock::now())) {
     ++throttled_;
-    registry_.countThrottled(robot);
-    queue_.demote(robot);
-    return;
+    return countOverShare(robot, RobotRegistry::KeyframeOutcome::kThrottled);
   }
   const size_t bytes = opened.payload.size();
   auto keyframe = decodeFrom<msg::Keyframe>(opened, robot);
@@ -95,14 +103,14 @@ void Inbox::onKeyframe(const msg::OpenedEnvelope& opened, const std::string& rob
   if (keyframe->robot_id != robot)
     return reject(robot, msg::RejectReason::kInvalidContent,
                   "keyframe for '" + keyframe->robot_id + "' from " + robot);
-  switch (queue_.pushKeyframe(std::move(*keyframe), bytes)) {
-    case IngestQueue::Pushed::kFull:
-      return countQueueFull(robot);
-    case IngestQueue::Pushed::kDuplicate:
+  switch (queue_.keyframe(std::move(*keyframe), bytes)) {
+    case RobotQueues::Pushed::kFull:
+      ++queue_full_;
+      return countOverShare(robot, RobotRegistry::KeyframeOutcome::kQueueFull);
+    case RobotQueues::Pushed::kDuplicate:
       ++duplicates_queued_;
-      return registry_.countDuplicateQueued(robot);
-    case IngestQueue::Pushed::kQueued:
-    case IngestQueue::Pushed::kStopped:
+      return registry_.recordKeyframe(robot, RobotRegistry::KeyframeOutcome::kDuplicateQueued);
+    case RobotQueues::Pushed::kQueued:
       return;
   }
 }
@@ -113,9 +121,8 @@ void Inbox::reject(const std::string& robot, msg::RejectReason reason, const std
   ledger_.add(robot, RejectLedger::reasonKey(reason), ledger_detail);
 }
 
-void Inbox::countQueueFull(const std::string& robot) {
-  ++queue_full_;
-  registry_.countQueueFull(robot);
+void Inbox::countOverShare(const std::string& robot, RobotRegistry::KeyframeOutcome outcome) {
+  registry_.recordKeyframe(robot, outcome);
   queue_.demote(robot);
 }
 

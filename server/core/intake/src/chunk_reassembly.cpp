@@ -1,4 +1,4 @@
-#include "chunk_reassembly.hpp"
+#include "rgbdmap/intake/chunk_reassembly.hpp"
 
 #include <algorithm>
 #include <cstring>

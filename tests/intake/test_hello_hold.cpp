@@ -1,7 +1,7 @@
 // HelloHold: keyframes that came before their robot's Hello, bounded per robot and in robots.
 #include <gtest/gtest.h>
 
-#include "../../server/core/src/hello_hold.hpp"
+#include "rgbdmap/intake/hello_hold.hpp"
 
 namespace rgbdmap {
 namespace {

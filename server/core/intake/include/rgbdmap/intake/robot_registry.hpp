@@ -15,8 +15,8 @@
 #include "rgbdmap/common/camera.hpp"
 #include "rgbdmap/common/camera_mount.hpp"
 #include "rgbdmap/common/result.hpp"
+#include "rgbdmap/intake/intake_stats.hpp"
 #include "rgbdmap/proto/messages.hpp"
-#include "rgbdmap/server/map_server.hpp"
 
 namespace rgbdmap {
 
@@ -43,17 +43,22 @@ class RobotRegistry {
 
   void addBytesReceived(const std::string& robot_id, size_t bytes, int64_t utime);
   void addBytesSent(const std::string& robot_id, size_t bytes);
-  void countKeyframe(const std::string& robot_id);
+  /// What became of one keyframe message of a robot, each counted in its own ServerRobotStats field.
+  enum class KeyframeOutcome {
+    kPlaced,               ///< in the graph (keyframes)
+    kDuplicate,            ///< seen before, acknowledged again (duplicates)
+    kRefused,              ///< acknowledged with accepted = false (keyframes_refused)
+    kRefusedBeforeDecode,  ///< its image headers refused it (refused_before_decode; kRefused follows)
+    kOutOfOrder,           ///< stored before its predecessor was in the graph (out_of_order)
+    kChainSplit,           ///< started a new chain: its predecessor never came or was refused (chain_splits)
+    kWaitingForHello,      ///< came before the robot's Hello (waiting_for_hello)
+    kQueueFull,            ///< its robot's queue had no room (queue_full)
+    kDuplicateQueued,      ///< a copy is still queued (duplicates_queued)
+    kThrottled,            ///< over its robot's rate (throttled)
+  };
+  void recordKeyframe(const std::string& robot_id, KeyframeOutcome outcome);
+  /// An accepted loop edge touching a keyframe of the robot.
   void countLoop(const std::string& robot_id);
-  void countDuplicate(const std::string& robot_id);
-  void countRefused(const std::string& robot_id);
-  void countOutOfOrder(const std::string& robot_id);
-  void countChainSplit(const std::string& robot_id);
-  void countWaitingForHello(const std::string& robot_id);
-  void countQueueFull(const std::string& robot_id);
-  void countDuplicateQueued(const std::string& robot_id);
-  void countThrottled(const std::string& robot_id);
-  void countRefusedBeforeDecode(const std::string& robot_id);
 
   /// A robot's newest Heartbeat: the keyframe it sent last, when it was heard, and since when it has been
   /// naming that keyframe (a robot that stopped sending keeps naming its last one).

@@ -4,27 +4,45 @@
 // its robot's rate (KeyframeThrottle) is dropped before its payload is decoded; one that does not fit its
 // robot's queue after decoding; both unacknowledged (the robot resends) and counted per robot (throttled,
 // queue_full). A retransmission of a keyframe still queued is dropped and counted (duplicates_queued).
-// Rejections are counted (and logged, rate-limited) by RejectCounters.
+// Rejections are counted (and logged, rate-limited) by RejectCounters. The queue behind it (the server's
+// ingest queue) is given as an InboxQueue of three calls.
 #include <atomic>
 #include <cstdint>
 #include <functional>
 #include <string>
+#include <vector>
 
-#include "chunk_reassembly.hpp"
-#include "ingest_queue.hpp"
-#include "keyframe_throttle.hpp"
-#include "reject_ledger.hpp"
+#include "rgbdmap/intake/chunk_reassembly.hpp"
+#include "rgbdmap/intake/intake_stats.hpp"
+#include "rgbdmap/intake/keyframe_throttle.hpp"
+#include "rgbdmap/intake/reject_ledger.hpp"
+#include "rgbdmap/intake/robot_queues.hpp"
+#include "rgbdmap/intake/robot_registry.hpp"
 #include "rgbdmap/proto/envelope.hpp"
-#include "rgbdmap/server/map_server_config.hpp"
-#include "robot_registry.hpp"
 
 namespace rgbdmap {
+
+struct InboxConfig {
+  /// server.robots: the robots served (empty: any robot the KeyStore admits).
+  std::vector<std::string> robots;
+  double max_keyframes_per_s = 30.0;  ///< server.robot_max_keyframes_per_s (KeyframeThrottle; 0: off)
+  double keyframe_burst = 256.0;      ///< server.robot_keyframe_burst
+};
+
+/// Where the inbox hands what it accepted.
+struct InboxQueue {
+  std::function<void(msg::Hello)> hello;
+  /// `bytes`: the keyframe's encoded size. kFull: not queued (counted as queue_full, the robot demoted);
+  /// kDuplicate: the same keyframe is queued already (counted as duplicates_queued).
+  std::function<RobotQueues::Pushed(msg::Keyframe, size_t bytes)> keyframe;
+  /// `robot` went over its share (throttled, or its queue was full).
+  std::function<void(const std::string& robot)> demote;
+};
 
 class Inbox {
  public:
   /// References must outlive the inbox.
-  Inbox(const MapServerConfig& config, const msg::KeyStore& keys, RobotRegistry& registry,
-        IngestQueue& queue);
+  Inbox(InboxConfig config, const msg::KeyStore& keys, RobotRegistry& registry, InboxQueue queue);
 
   /// A transport handler (one call at a time, on the receive thread).
   void onMessage(const std::string& channel, const uint8_t* data, size_t size);
@@ -33,19 +51,16 @@ class Inbox {
   using ChunkAckSink = std::function<void(const std::string& robot, const msg::ChunkAck& ack)>;
   void setChunkAckSink(ChunkAckSink sink) { chunk_ack_sink_ = std::move(sink); }
 
-  uint64_t rejected() const { return rejects_.total(); }
-  uint64_t unknownRobot() const { return unknown_robot_.load(); }
-  uint64_t throttled() const { return throttled_.load(); }
-  uint64_t queueFull() const { return queue_full_.load(); }
-  uint64_t duplicatesQueued() const { return duplicates_queued_.load(); }
+  /// Its counters now (any thread).
+  InboxStats stats() const;
   /// Rejections per claimed robot and reason (RejectLedger; "" = not a known robot), largest first.
   std::vector<msg::RejectCount> rejectCounts() const { return ledger_.counts(); }
 
  private:
-  bool admitted(const std::string& robot) const;  ///< in config.robots (or the list is empty)
+  bool admitted(const std::string& robot) const;  ///< in config_.robots (or the list is empty)
   void onHello(const msg::OpenedEnvelope& opened, const std::string& robot);
   void onKeyframe(const msg::OpenedEnvelope& opened, const std::string& robot);
-  void countQueueFull(const std::string& robot);
+  void countOverShare(const std::string& robot, RobotRegistry::KeyframeOutcome outcome);
   bool known(const std::string& robot) const;  ///< admitted and holds a key or said Hello
   /// Counts a rejected message in RejectCounters (totals, rate-limited log) and, for the claimed robot, in
   /// the ledger (ServerStatus::rejects).
@@ -61,10 +76,10 @@ class Inbox {
   void onChunk(const msg::OpenedEnvelope& opened, const std::string& robot);  ///< inbox_chunks.cpp
   void onReassembled(const std::string& robot, const msg::Bytes& envelope);
 
-  const MapServerConfig& config_;
+  const InboxConfig config_;
   const msg::KeyStore& keys_;
   RobotRegistry& registry_;
-  IngestQueue& queue_;
+  const InboxQueue queue_;
   msg::ReplayGuard guard_;
   msg::RejectCounters rejects_;
   std::atomic<uint64_t> unknown_robot_{0};
