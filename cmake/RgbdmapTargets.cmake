@@ -7,8 +7,10 @@
 #   1  proto, transport                             shared
 #   2  vision                                       shared
 #   3  client (odometry)                            robot    | loop, graph, store, map, export   server
-#   4  link (robot side of the protocol)            robot    | server (the mapping service)      server
-#   5  cli (what the programs in apps/ share)       app
+#   4  link (robot side of the protocol)            robot    | server units (server/core)        server
+#   5  cli (what the programs in apps/ share)       app      | server workers                    server
+#   6  cli source                                   app      | server ingest                     server
+#   7                                                        | server (the mapping service)      server
 # Programs (apps/, benchmarks, tests) are executables on top and may link anything.
 
 set_property(GLOBAL PROPERTY RGBDMAP_LIBRARIES "")

@@ -11,9 +11,9 @@
 #include <string>
 
 #include "chunk_reassembly.hpp"
-#include "ingest_queue.hpp"
 #include "keyframe_throttle.hpp"
 #include "reject_ledger.hpp"
+#include "rgbdmap/ingest/ingest_queue.hpp"
 #include "rgbdmap/proto/envelope.hpp"
 #include "rgbdmap/server/map_server_config.hpp"
 #include "robot_registry.hpp"

@@ -10,17 +10,17 @@
 #include <map>
 
 #include "inbox.hpp"
-#include "ingest_pipeline.hpp"
-#include "ingest_queue.hpp"
 #include "map_optimizer.hpp"
-#include "map_worker.hpp"
-#include "memory_trim.hpp"
 #include "rgbdmap/common/logging.hpp"
+#include "rgbdmap/ingest/ingest_pipeline.hpp"
+#include "rgbdmap/ingest/ingest_queue.hpp"
 #include "rgbdmap/proto/channels.hpp"
-#include "robot_publisher.hpp"
+#include "rgbdmap/workers/map_worker.hpp"
+#include "rgbdmap/workers/memory_trim.hpp"
+#include "rgbdmap/workers/robot_publisher.hpp"
+#include "rgbdmap/workers/status_publisher.hpp"
+#include "rgbdmap/workers/store_retry.hpp"
 #include "robot_registry.hpp"
-#include "status_publisher.hpp"
-#include "store_retry.hpp"
 #include "transport_gate.hpp"
 
 namespace rgbdmap {

@@ -6,8 +6,8 @@
 
 #include <gtest/gtest.h>
 
-#include "../../server/core/src/map_worker.hpp"
 #include "rgbdmap/proto/codec.hpp"
+#include "rgbdmap/workers/map_worker.hpp"
 #include "server/server_test_util.hpp"
 
 namespace rgbdmap {

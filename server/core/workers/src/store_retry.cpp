@@ -1,4 +1,4 @@
-#include "store_retry.hpp"
+#include "rgbdmap/workers/store_retry.hpp"
 
 #include "rgbdmap/common/logging.hpp"
 

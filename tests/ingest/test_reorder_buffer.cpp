@@ -5,7 +5,7 @@
 #include <chrono>
 
 // A private header of the server library (server/core/src): the class is internal, the test is of it.
-#include "../../server/core/src/reorder_buffer.hpp"
+#include "rgbdmap/ingest/reorder_buffer.hpp"
 
 namespace rgbdmap {
 namespace {

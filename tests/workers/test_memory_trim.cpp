@@ -8,7 +8,7 @@
 #include <vector>
 
 // A private header of the server library (server/core/src): the class is internal, the test is of it.
-#include "../../server/core/src/memory_trim.hpp"
+#include "rgbdmap/workers/memory_trim.hpp"
 
 namespace rgbdmap {
 namespace {

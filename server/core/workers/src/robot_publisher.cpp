@@ -1,4 +1,4 @@
-#include "robot_publisher.hpp"
+#include "rgbdmap/workers/robot_publisher.hpp"
 
 #include <chrono>
 

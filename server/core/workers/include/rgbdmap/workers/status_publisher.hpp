@@ -8,7 +8,7 @@
 #include <vector>
 
 #include "rgbdmap/common/serial_worker.hpp"
-#include "robot_publisher.hpp"
+#include "rgbdmap/workers/robot_publisher.hpp"
 #include "robot_registry.hpp"
 
 namespace rgbdmap {

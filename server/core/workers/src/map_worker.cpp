@@ -1,4 +1,4 @@
-#include "map_worker.hpp"
+#include "rgbdmap/workers/map_worker.hpp"
 
 #include <algorithm>
 #include <chrono>
@@ -9,7 +9,7 @@
 #include "rgbdmap/map/occupancy_slice.hpp"
 #include "rgbdmap/proto/codec.hpp"
 
-#include "ingest_timings.hpp"
+#include "rgbdmap/workers/thread_time.hpp"
 
 namespace rgbdmap {
 namespace {

@@ -1,18 +1,6 @@
-#include "ingest_timings.hpp"
-
-#include <ctime>
+#include "rgbdmap/ingest/ingest_timings.hpp"
 
 namespace rgbdmap {
-
-double threadCpuMs() {
-  timespec ts{};
-  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
-  return ts.tv_sec * 1e3 + ts.tv_nsec * 1e-6;
-}
-
-double msSince(std::chrono::steady_clock::time_point t0) {
-  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
-}
 
 void IngestTimings::add(const KeyframeTiming& t) {
   decode_ms_.add(t.decode_ms);
@@ -23,7 +11,7 @@ void IngestTimings::add(const KeyframeTiming& t) {
   ingest_cpu_ms_.add(t.cpu_ms);
 }
 
-void IngestTimings::fill(MapServerStats* s) const {
+void IngestTimings::fill(IngestStats* s) const {
   s->ingest_ms_median = ingest_ms_.median();
   s->ingest_ms_p90 = ingest_ms_.quantile(0.9);
   s->ingest_ms_max = ingest_ms_.max();

@@ -1,11 +1,11 @@
-#include "memory_trim.hpp"
+#include "rgbdmap/workers/memory_trim.hpp"
 
 #include <malloc.h>
 #include <unistd.h>
 
 #include <cstdio>
 
-#include "ingest_timings.hpp"
+#include "rgbdmap/workers/thread_time.hpp"
 
 namespace rgbdmap {
 namespace {

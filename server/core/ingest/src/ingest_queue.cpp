@@ -1,4 +1,4 @@
-#include "ingest_queue.hpp"
+#include "rgbdmap/ingest/ingest_queue.hpp"
 
 #include <algorithm>
 #include <utility>

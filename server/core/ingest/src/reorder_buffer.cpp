@@ -1,4 +1,4 @@
-#include "reorder_buffer.hpp"
+#include "rgbdmap/ingest/reorder_buffer.hpp"
 
 #include <utility>
 

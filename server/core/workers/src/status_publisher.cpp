@@ -1,4 +1,4 @@
-#include "status_publisher.hpp"
+#include "rgbdmap/workers/status_publisher.hpp"
 
 #include <set>
 #include <string>

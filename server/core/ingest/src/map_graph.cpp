@@ -1,32 +1,43 @@
-// The ingest pipeline's graph side: a stored keyframe into the index, the pose graph and the loop detector;
-// loop edges; an optimisation result applied and turned into PoseCorrections and map worker pose updates.
+// A stored keyframe into the index, the pose graph and the loop detector; odometry and loop edges, split
+// chains joined by a late predecessor; an optimisation result applied.
+#include "rgbdmap/ingest/map_graph.hpp"
+
+#include <algorithm>
 #include <utility>
 
 #include "edge_information.hpp"
-#include "ingest_pipeline.hpp"
-#include "pose_corrections.hpp"
 #include "rgbdmap/common/logging.hpp"
 
 namespace rgbdmap {
 
-std::vector<LoopEdge> IngestPipeline::integrateLocked(const StoredKeyframe& stored,
-                                                      const FrameFeatures& features, bool detect,
-                                                      LoopStats* loop_stats) {
+MapGraph::MapGraph(const MapServerConfig& config, RobotRegistry& registry,
+                   std::shared_ptr<FeatureCache> features, IngestStats& stats, int64_t revision_base)
+    : config_(config),
+      registry_(registry),
+      features_(std::move(features)),
+      stats_(stats),
+      revision_base_(revision_base),
+      detector_(CameraIntrinsics{}, config.loop) {
+  detector_.setFeatureCache(features_);
+}
+
+std::vector<LoopEdge> MapGraph::integrate(const StoredKeyframe& stored, const FrameFeatures& features,
+                                          bool detect, LoopStats* loop_stats) {
   const msg::Keyframe& kf = stored.keyframe;
   const int robot = registry_.index(kf.robot_id);
   std::optional<int64_t> prev;
   if (kf.previous_keyframe_id >= 0)
     prev = index_.find({robot, stored.session, kf.segment_id, kf.previous_keyframe_id});
   const bool split = kf.previous_keyframe_id >= 0 && !prev;
-  const IndexedNode node = makeNodeLocked(stored, robot, prev, split);
+  const IndexedNode node = makeNode(stored, robot, prev, split);
   index_.add(node);
-  addToGraphLocked(node, kf, prev);
-  if (split) noteSplitLocked(node, kf);
-  joinSplitSuccessorLocked(node);
+  addToGraph(node, kf, prev);
+  if (split) noteSplit(node, kf);
+  joinSplitSuccessor(node);
   // One copy of the features, shared by the loop detector and the bundle adjustment's landmark map.
   auto shared = std::make_shared<const FrameFeatures>(features);
   features_->add(stored.node_id, shared);  // the cache decides how long they stay in RAM
-  addToBatchLocked(node, shared);
+  addToBatch(node, shared);
   LoopKeyframe lk(static_cast<int>(stored.node_id), robot, node.kf.map_id, node.kf.T_map_kf,
                   std::move(shared));
   if (!detect) {
@@ -49,8 +60,8 @@ std::vector<LoopEdge> IngestPipeline::integrateLocked(const StoredKeyframe& stor
 }
 
 /// The node of a stored keyframe: chained to its predecessor's optimised pose, or a map of its own.
-IndexedNode IngestPipeline::makeNodeLocked(const StoredKeyframe& stored, int robot,
-                                           std::optional<int64_t> prev, bool split) {
+IndexedNode MapGraph::makeNode(const StoredKeyframe& stored, int robot, std::optional<int64_t> prev,
+                               bool split) {
   const msg::Keyframe& kf = stored.keyframe;
   IndexedNode node;
   node.valid = true;
@@ -88,8 +99,7 @@ IndexedNode IngestPipeline::makeNodeLocked(const StoredKeyframe& stored, int rob
   return node;
 }
 
-void IngestPipeline::addToGraphLocked(const IndexedNode& node, const msg::Keyframe& kf,
-                                      std::optional<int64_t> prev) {
+void MapGraph::addToGraph(const IndexedNode& node, const msg::Keyframe& kf, std::optional<int64_t> prev) {
   const int64_t id = node.kf.node_id;
   if (const Status s = graph_.addNode(id, node.chain, node.kf.T_map_kf); !s) {
     log::error("server: graph node ", id, ": ", s.error());
@@ -98,11 +108,10 @@ void IngestPipeline::addToGraphLocked(const IndexedNode& node, const msg::Keyfra
   const bool first = graph_.nodes().size() == 1;  // the first keyframe of the first robot holds the gauge
   if (first) graph_.setFixed(id);
   batch_.nodes.push_back({id, node.chain, node.kf.T_map_kf, first});
-  if (prev) addOdometryEdgeLocked(id, *prev, kf.T_prev_cur, odometryInformation(kf.information, config_));
+  if (prev) addOdometryEdge(id, *prev, kf.T_prev_cur, odometryInformation(kf.information, config_));
 }
 
-void IngestPipeline::addToBatchLocked(const IndexedNode& node,
-                                      const std::shared_ptr<const FrameFeatures>& features) {
+void MapGraph::addToBatch(const IndexedNode& node, const std::shared_ptr<const FrameFeatures>& features) {
   const std::optional<CameraIntrinsics> camera = registry_.camera(node.kf.robot_id);
   if (!camera || !config_.ba.enabled) return;
   LandmarkKeyframe k;
@@ -116,8 +125,7 @@ void IngestPipeline::addToBatchLocked(const IndexedNode& node,
   batch_.keyframes.push_back(std::move(k));
 }
 
-void IngestPipeline::addOdometryEdgeLocked(int64_t from, int64_t to, const SE3& T_prev_cur,
-                                           const Mat6& information) {
+void MapGraph::addOdometryEdge(int64_t from, int64_t to, const SE3& T_prev_cur, const Mat6& information) {
   PoseGraphEdge e;
   e.id = next_edge_id_++;
   e.from = from;
@@ -132,7 +140,7 @@ void IngestPipeline::addOdometryEdgeLocked(int64_t from, int64_t to, const SE3& 
   batch_.edges.push_back(e);
 }
 
-Status IngestPipeline::addLoopEdgeLocked(const LoopEdge& edge) {
+Status MapGraph::addLoopEdge(const LoopEdge& edge) {
   PoseGraphEdge e;
   e.id = next_edge_id_++;
   e.from = edge.from_id;
@@ -147,55 +155,28 @@ Status IngestPipeline::addLoopEdgeLocked(const LoopEdge& edge) {
   return Status::success();
 }
 
-void IngestPipeline::onOptimized(const MapOptimization& result) {
-  Lock lock(mutex_);
-  if (!result.graph.ok) {
-    log::warn("server: optimisation ", result.revision, " failed: ", result.graph.error);
-    return;
-  }
-  applyOptimizedLocked(result);
-  // Corrections for each robot's current process: its keyframes and T_map_odom of its newest segment.
-  const auto corrections =
-      buildCorrections(index_.nodes(), currentSessionsLocked(), counters_.graph_revision);
-  noteCorrectionsLocked(corrections, std::chrono::steady_clock::now());
-  std::vector<std::string> robots;  // the loop edges of each corrected robot's map (for visualisers)
-  for (const auto& [robot, c] : corrections) robots.push_back(robot);
-  const auto loops = buildLoopEdges(index_.nodes(), graph_.edges(), graph_.disabledEdges(), robots,
-                                    counters_.graph_revision, config_.loop_edges_max);
-  std::vector<MapNodePose> map_poses = mapPosesLocked();
-  const uint64_t epoch = ++map_pose_epoch_;
-  lock.unlock();
-  if (map_worker_) map_worker_->updatePoses(std::move(map_poses), epoch);
-  for (const auto& [robot, c] : corrections) {
-    log::debug("server: corrections to ", robot, ": ", c.keyframes.size(), " keyframes");
-    publisher_.publish(robot, c);
-  }
-  if (config_.loop_edges_max > 0)
-    for (const auto& [robot, l] : loops) publisher_.publish(robot, l);
-}
-
-void IngestPipeline::applyOptimizedLocked(const MapOptimization& optimization) {
+void MapGraph::applyOptimized(const MapOptimization& optimization) {
   const OptimizedPoses& result = optimization.graph;
   graph_.applyOptimized(result.T_map_kf, result.disabled_edges);
   for (const PoseGraphNode& n : graph_.nodes()) index_.node(n.id).kf.T_map_kf = n.T_map_kf;
   index_.setComponents(graph_.components());
   for (const IndexedNode& n : index_.nodes())
     if (n.valid) detector_.updatePose(static_cast<int>(n.kf.node_id), n.kf.map_id, n.kf.T_map_kf);
-  ++counters_.optimizations;
+  ++stats_.optimizations;
   if (optimization.graph_solved) {
-    ++counters_.graph_solves;
-    counters_.last_optimize_ms = result.report.time_ms;
+    ++stats_.graph_solves;
+    stats_.last_optimize_ms = result.report.time_ms;
   }
-  counters_.ba = optimization.ba;
-  counters_.graph_solves_skipped = optimization.solves_skipped;
-  counters_.graph_merges_aligned = optimization.merges_aligned;
-  counters_.graph_solves_local = optimization.local_solves;
-  counters_.graph_solves_local_refused = optimization.local_refused;
-  counters_.loops_disabled = static_cast<int>(graph_.disabledEdges().size());
-  counters_.graph_revision = revision_base_ + static_cast<int64_t>(optimization.revision);
+  ba_ = optimization.ba;
+  stats_.graph_solves_skipped = optimization.solves_skipped;
+  stats_.graph_merges_aligned = optimization.merges_aligned;
+  stats_.graph_solves_local = optimization.local_solves;
+  stats_.graph_solves_local_refused = optimization.local_refused;
+  stats_.loops_disabled = static_cast<int>(graph_.disabledEdges().size());
+  stats_.graph_revision = revision_base_ + static_cast<int64_t>(optimization.revision);
 }
 
-std::map<std::string, int64_t> IngestPipeline::currentSessionsLocked() const {
+std::map<std::string, int64_t> MapGraph::currentSessions() const {
   std::map<std::string, int64_t> sessions;
   for (const IndexedNode& n : index_.nodes())
     if (n.valid && !sessions.count(n.kf.robot_id))
@@ -203,13 +184,83 @@ std::map<std::string, int64_t> IngestPipeline::currentSessionsLocked() const {
   return sessions;
 }
 
-std::vector<MapNodePose> IngestPipeline::mapPosesLocked() const {
+std::vector<MapNodePose> MapGraph::mapPoses() const {
   std::vector<MapNodePose> map_poses;
-  if (!map_worker_) return map_poses;
   map_poses.reserve(index_.nodes().size());
   for (const IndexedNode& n : index_.nodes())
     if (n.valid) map_poses.push_back({n.kf.node_id, n.kf.map_id, n.kf.T_map_kf});
   return map_poses;
+}
+
+void MapGraph::noteSplit(const IndexedNode& node, const msg::Keyframe& kf) {
+  const KeyframeKey missing{node.robot, node.kf.session, node.kf.segment, kf.previous_keyframe_id};
+  const bool refused = index_.refused(missing);
+  registry_.countChainSplit(kf.robot_id);
+  log::info("server: keyframe ", kf.keyframe_id, " of ", kf.robot_id, " starts a new chain: its predecessor ",
+            kf.previous_keyframe_id, refused ? " was refused" : " did not come");
+  if (!refused)
+    split_heads_[missing] = {node.kf.node_id, kf.T_prev_cur, odometryInformation(kf.information, config_)};
+}
+
+void MapGraph::joinSplitSuccessor(const IndexedNode& node) {
+  const auto it = split_heads_.find({node.robot, node.kf.session, node.kf.segment, node.kf.keyframe_id});
+  if (it == split_heads_.end()) return;
+  const SplitHead head = it->second;
+  split_heads_.erase(it);
+  addOdometryEdge(head.node_id, node.kf.node_id, head.T_prev_cur, head.information);
+  graph_joined_ = true;
+  log::info("server: keyframe ", node.kf.keyframe_id, " of ", node.kf.robot_id,
+            " came late: its odometry edge joins the chain split off at node ", head.node_id);
+}
+
+/// Adds the detector's loop edges to the graph. Returns those added, as they are stored.
+std::vector<StoredLoop> MapGraph::addDetectedLoops(const std::vector<LoopEdge>& edges, int robot) {
+  std::vector<StoredLoop> added;
+  for (const LoopEdge& edge : edges) {
+    if (const Status s = addLoopEdge(edge); !s) {
+      log::warn("server: loop edge ", edge.from_id, "-", edge.to_id, ": ", s.error());
+      continue;
+    }
+    added.push_back({edge.from_id, edge.to_id, edge.T_from_to, edge.information, edge.inliers,
+                     edge.motion_measure, edge.inlier_pairs});
+    // Between two maps (as the last applied result has them): they merge; the optimiser moves the one met
+    // for the first time onto the other and solves if the edges still disagree.
+    if (index_.node(edge.from_id).kf.map_id != index_.node(edge.to_id).kf.map_id) batch_.merge = true;
+    registry_.countLoop(index_.node(edge.from_id).kf.robot_id);
+    if (index_.node(edge.to_id).robot != robot) registry_.countLoop(index_.node(edge.to_id).kf.robot_id);
+  }
+  return added;
+}
+
+Status MapGraph::restoreLoopEdge(const LoopEdge& edge) {
+  if (const Status s = addLoopEdge(edge); !s) return s;
+  detector_.restoreEdge(edge);
+  return Status::success();
+}
+
+void MapGraph::submit(bool solve, bool must_solve) {
+  batch_.solve = batch_.solve || solve || must_solve;
+  batch_.must_solve = batch_.must_solve || must_solve;
+  if (submit_) submit_(std::exchange(batch_, {}));
+}
+
+std::vector<ServerLoop> MapGraph::loops() const {
+  const std::vector<int64_t>& disabled = graph_.disabledEdges();  // sorted
+  std::vector<ServerLoop> out;
+  for (const PoseGraphEdge& e : graph_.edges())
+    if (e.kind != EdgeKind::kOdometry)
+      out.push_back({e.from, e.to, e.T_from_to, e.kind == EdgeKind::kInterRobot,
+                     !std::binary_search(disabled.begin(), disabled.end(), e.id)});
+  return out;
+}
+
+void MapGraph::fillStats(IngestStats* s) const {
+  s->maps = static_cast<int>(index_.mapCount());
+  const FeatureCacheStats fc = features_->stats();
+  s->features_resident = fc.resident;
+  s->features_loads = fc.loads;
+  s->features_load_failures = fc.load_failures;
+  s->retrieval_index_bytes = detector_.retrievalIndexBytes();
 }
 
 }  // namespace rgbdmap

@@ -29,8 +29,8 @@
 #include <memory>
 #include <mutex>
 
-#include "ingest_pipeline.hpp"
 #include "rgbdmap/common/serial_worker.hpp"
+#include "rgbdmap/ingest/ingest_pipeline.hpp"
 #include "robot_queues.hpp"
 
 namespace rgbdmap {
