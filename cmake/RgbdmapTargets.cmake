@@ -7,13 +7,16 @@
 #   1  codec, dataset                               shared
 #   2  synth, proto, transport                      shared
 #   3  vision                                       shared   | source (frame sources)            robot
+#                                                            | server intake (receive side)      server
 #   4  client (odometry)                            robot    | loop, graph, ba, store, map,      server
 #                                                            |   export
 #   5  link (robot side of the protocol)            robot    | backend (the map back-end)        server
-#   6                                                        | server workers (threads)          server
-#   7                                                        | server (the mapping service)      server
-#   8  cli, viewer (what the programs in apps/ share)   app
-#   9  cli_source (--source / --dataset for the programs) app
+#   6                                                        | server model (config, records)    server
+#   7                                                        | server workers (threads)          server
+#   8                                                        | server ingest                     server
+#   9                                                        | server (the mapping service)      server
+#  10  cli, viewer (what the programs in apps/ share)   app
+#  11  cli_source (--source / --dataset for the programs) app
 # Programs (apps/, benchmarks, tests) are executables on top and may link anything.
 
 set_property(GLOBAL PROPERTY RGBDMAP_LIBRARIES "")

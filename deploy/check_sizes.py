@@ -23,7 +23,7 @@ EXTENSIONS = (".cpp", ".hpp", ".h", ".cc")
 EXEMPT = ()
 # Data tables, by file and function: a configuration table (one entry per key) and a list of message schemas.
 DATA_TABLES = {
-    "server/core/src/map_server_config.cpp": {"ownTable"},
+    "server/core/model/src/map_server_config.cpp": {"ownTable"},
     "apps/viewer/src/foxglove_json.cpp": {"buildSchemas"},
 }
 SCOPE_WORDS = re.compile(r"\b(namespace|class|struct|union|enum)\b")

@@ -51,7 +51,7 @@ function(rgbdmap_read_test_tiers prefix)
 endfunction()
 
 function(rgbdmap_add_test_suite name)
-  cmake_parse_arguments(ARG "" "TEST_PREFIX" "SOURCES;LIBS;E2E;SANITIZE;ACCURACY;EXCLUDE" ${ARGN})
+  cmake_parse_arguments(ARG "" "TEST_PREFIX" "SOURCES;LIBS" ${ARGN})
   add_executable(${name} ${ARG_SOURCES})
   target_link_libraries(${name} PRIVATE ${ARG_LIBS} GTest::gtest GTest::gtest_main)
   target_compile_definitions(${name} PRIVATE RGBDMAP_SHARED_DATA_DIR="${RGBDMAP_SHARED_DATA_DIR}"
@@ -65,10 +65,6 @@ function(rgbdmap_add_test_suite name)
   endif()
   add_dependencies(rgbdmap_test_executables ${name})
   rgbdmap_read_test_tiers(tier ${ARG_SOURCES})
-  list(APPEND tier_E2E ${ARG_E2E} ${ARG_SANITIZE})  # LEGACY-LISTS
-  list(APPEND tier_SANITIZE ${ARG_SANITIZE})  # LEGACY-LISTS
-  list(APPEND tier_ACCURACY ${ARG_ACCURACY})  # LEGACY-LISTS
-  list(APPEND tier_ELSEWHERE ${ARG_EXCLUDE})  # LEGACY-LISTS
   set(discover TEST_PREFIX "${ARG_TEST_PREFIX}" DISCOVERY_TIMEOUT 60)
   list(JOIN tier_ELSEWHERE ":" elsewhere)
   set(not_unit ${tier_E2E} ${tier_ACCURACY} ${tier_ELSEWHERE})

@@ -6,7 +6,6 @@
 #include <string>
 #include <vector>
 
-// Private headers of the server library (server/core/src): the classes are internal, the tests are of them.
 #include "rgbdmap/intake/image_admission.hpp"
 #include "rgbdmap/intake/keyframe_throttle.hpp"
 #include "rgbdmap/intake/robot_queues.hpp"

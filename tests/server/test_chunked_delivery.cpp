@@ -19,6 +19,7 @@
 #include "rgbdmap/proto/chunking.hpp"
 #include "rgbdmap/server/map_server.hpp"
 #include "server/server_test_util.hpp"
+#include "test_tier.hpp"
 
 extern char** environ;
 
@@ -88,6 +89,8 @@ uint64_t sendAndWait(RobotLink& link, int count, double timeout_s, int width = 3
   return link.stats().keyframes_acked;
 }
 
+RGBDMAP_TEST_TIER("ChunkedDelivery.*", "e2e");
+RGBDMAP_TEST_TIER("ChunkedDelivery.LostChunksAreResentUntilEveryKeyframeIsStored", "e2e sanitize");
 TEST(ChunkedDelivery, LostChunksAreResentUntilEveryKeyframeIsStored) {
   const std::string dir = freshDir("chunked_loss");
   ServerHarness harness(serverTestConfig(dir, {"robot0"}));
@@ -133,6 +136,7 @@ TEST(ChunkedDelivery, ARobotStartedBeforeItsServerSaysHelloUntilRegistered) {
   std::filesystem::remove_all(dir);
 }
 
+RGBDMAP_TEST_TIER("ChunkedDelivery.ForgedAndWrongKeyChunksAreRejectedAndCounted", "e2e sanitize");
 TEST(ChunkedDelivery, ForgedAndWrongKeyChunksAreRejectedAndCounted) {
   const std::string dir = freshDir("chunked_forged");
   ServerHarness harness(serverTestConfig(dir, {"robot0"}));
@@ -186,6 +190,7 @@ class Relay {
   pid_t pid_ = -1;
 };
 
+RGBDMAP_TEST_TIER("NetChunk.*", "elsewhere");
 TEST(NetChunk, EveryKeyframeAcknowledgedThroughFivePercentPacketLoss) {
   if (std::getenv("RGBDMAP_TRANSPORT_NETNS") == nullptr) GTEST_SKIP() << "only inside run_in_netns.sh";
   const char* env_chunk = std::getenv("RGBDMAP_TEST_CHUNK_BYTES");

@@ -7,6 +7,7 @@
 #include <gtest/gtest.h>
 
 #include "server/server_test_util.hpp"
+#include "test_tier.hpp"
 
 namespace rgbdmap {
 namespace {
@@ -34,6 +35,7 @@ bool heartbeatUntil(testing::ScriptedRobot& robot, const msg::Keyframe& last,
   return true;
 }
 
+RGBDMAP_TEST_TIER("CorrectionsFollowHeartbeats.*", "e2e");
 TEST(CorrectionsFollowHeartbeats, ALastKeyframeWithoutLoopsIsCoveredAndSentAgainWhileTheRobotIsHeard) {
   const testing::OdometrySegment& seg = testing::loopSegment(testing::kLoopFrames, 0, 30);
   ASSERT_GE(seg.keyframes.size(), 3u);

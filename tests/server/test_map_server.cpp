@@ -6,6 +6,7 @@
 #include <gtest/gtest.h>
 
 #include "server/server_test_util.hpp"
+#include "test_tier.hpp"
 
 namespace rgbdmap {
 namespace {
@@ -21,6 +22,7 @@ using testing::serverTestConfig;
 /// The real server over memq:// with robot0 and robot1.
 using Harness = testing::ServerHarness;
 
+RGBDMAP_TEST_TIER("MapServer.*", "e2e");
 TEST(MapServer, LoopClosureReducesTheOdometryErrorOnTheSyntheticLoop) {
   const OdometrySegment& seg = loopSegment(kLoopFrames, 0, kLoopFrames);
   ASSERT_GT(seg.keyframes.size(), 20u);
@@ -156,6 +158,7 @@ TEST(MapServer, InjectedFalseLoopsDoNotMoveTheOptimisedTrajectory) {
   EXPECT_EQ(injected_disabled, injected);
 }
 
+RGBDMAP_TEST_TIER("MapServer.BadInputIsCountedRefusedOrIgnoredAndNothingStoredIsLost", "e2e sanitize");
 TEST(MapServer, BadInputIsCountedRefusedOrIgnoredAndNothingStoredIsLost) {
   const OdometrySegment& seg = loopSegment(kLoopFrames, 0, 60);
   ASSERT_GE(seg.keyframes.size(), 3u);

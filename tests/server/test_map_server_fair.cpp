@@ -12,6 +12,7 @@
 #include <gtest/gtest.h>
 
 #include "server/server_test_util.hpp"
+#include "test_tier.hpp"
 
 namespace rgbdmap {
 namespace {
@@ -165,6 +166,7 @@ void printFloodMeasurements(int flood_sent, const ServerRobotStats& flood, const
       rss_kb / 1024, hwm_kb / 1024, s.ingest_ms_median, s.ingest_ms_p90, s.verify_ms_median);
 }
 
+RGBDMAP_TEST_TIER("MapServerFair.*", "e2e");
 TEST(MapServerFair, AFloodingRobotDoesNotDelayAWellBehavedOne) {
   if (kSanitizedBuild)
     GTEST_SKIP() << "a latency bound; meaningless under AddressSanitizer (runs in Release)";
@@ -322,6 +324,7 @@ TEST(MapServerFair, ResendsOfQueuedKeyframesDoNotFillTheRobotsQueue) {
   EXPECT_EQ(h.server->stats().inbox.keyframes_duplicates_queued, r->duplicates_queued);
 }
 
+RGBDMAP_TEST_TIER("MapServerFair.ImagesThatDoNotMatchTheCameraAreRefusedBeforeDecoding", "e2e sanitize");
 TEST(MapServerFair, ImagesThatDoNotMatchTheCameraAreRefusedBeforeDecoding) {
   const OdometrySegment& seg = loopSegment(kLoopFrames, 0, 60);
   ASSERT_GE(seg.keyframes.size(), 3u);

@@ -11,6 +11,7 @@
 #include "rgbdmap/export/slice_export.hpp"
 #include "rgbdmap/map/occupancy_slice.hpp"
 #include "server/server_test_util.hpp"
+#include "test_tier.hpp"
 
 namespace rgbdmap {
 namespace {
@@ -37,6 +38,7 @@ SE3 truthAt(const OdometrySegment& seg, double timestamp) {
 double angleDeg(const Mat3& R) { return Eigen::AngleAxisd(R).angle() * 180.0 / M_PI; }
 double maxDifference(const SE3& a, const SE3& b) { return (a.matrix() - b.matrix()).cwiseAbs().maxCoeff(); }
 
+RGBDMAP_TEST_TIER("MapServerFrame.*", "e2e");
 TEST(MapServerFrame, MapIsTheBaseFrameOfTheFirstKeyframeAndItsGridsAreAxisAligned) {
   const OdometrySegment& seg = loopSegment(kLoopFrames, 0, kLoopFrames);
   ASSERT_GT(seg.keyframes.size(), 20u);

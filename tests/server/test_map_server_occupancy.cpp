@@ -10,6 +10,7 @@
 #include "rgbdmap/export/slice_export.hpp"
 #include "rgbdmap/link/robot_runner.hpp"
 #include "server/server_test_util.hpp"
+#include "test_tier.hpp"
 
 namespace rgbdmap {
 namespace {
@@ -86,6 +87,7 @@ double occupiedCells(const octomap::OcTree& tree) {
   return n;
 }
 
+RGBDMAP_TEST_TIER("MapServerOccupancy.*", "e2e");
 TEST(MapServerOccupancy, SyntheticLoopBuildsTheRoomSendsSlicesAndStreamsAndWritesFiles) {
   const OdometrySegment& seg = loopSegment(kLoopFrames, 0, kLoopFrames);
   ASSERT_GT(seg.keyframes.size(), 20u);
@@ -191,6 +193,7 @@ TEST(MapServerOccupancy, RestartReinsertsTheStoredKeyframes) {
   EXPECT_GE(nearSurfaceFraction(**bt, loopScene(), worldFromMap(seg, *h.server), nullptr), 0.9);
 }
 
+RGBDMAP_TEST_TIER("MapServerOccupancy.OffMeansNoOctreeNoSlicesAndAClearErrorForFiles", "e2e sanitize");
 TEST(MapServerOccupancy, OffMeansNoOctreeNoSlicesAndAClearErrorForFiles) {
   const OdometrySegment& seg = loopSegment(kLoopFrames, 0, 60);
   MapServerConfig config = testConfig(occDir("off"));
@@ -207,6 +210,7 @@ TEST(MapServerOccupancy, OffMeansNoOctreeNoSlicesAndAClearErrorForFiles) {
   EXPECT_NE(written.error().find("occupancy"), std::string::npos) << written.error();
 }
 
+RGBDMAP_TEST_TIER("MapServerOccupancy.InvalidOccupancyConfigurationIsRefusedAtStart", "e2e sanitize");
 TEST(MapServerOccupancy, InvalidOccupancyConfigurationIsRefusedAtStart) {
   MapServerConfig config = testConfig(occDir("badconfig"));
   config.occupancy.resolution_m = -1.0;

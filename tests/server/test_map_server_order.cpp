@@ -12,6 +12,7 @@
 #include <gtest/gtest.h>
 
 #include "server/server_test_util.hpp"
+#include "test_tier.hpp"
 
 namespace rgbdmap {
 namespace {
@@ -57,6 +58,7 @@ std::vector<size_t> indices(size_t n) {
   return v;
 }
 
+RGBDMAP_TEST_TIER("MapServerOrder.*", "e2e");
 TEST(MapServerOrder, ShuffledKeyframesAreAcknowledgedAtOnceAndGiveTheInOrderMap) {
   const OdometrySegment& seg = loopSegment(kLoopFrames, 0, kLoopFrames);
   ASSERT_GT(seg.keyframes.size(), 20u);
@@ -182,6 +184,7 @@ TEST(MapServerOrder, TheReorderBoundGivesUpOnAGapAndALatePredecessorJoinsTheChai
   EXPECT_EQ(h.server->stats().robots[0].duplicates, 2u);
 }
 
+RGBDMAP_TEST_TIER("MapServerOrder.KeyframesStillWaitingAtStopAreInTheFinalKeyframes", "e2e sanitize");
 TEST(MapServerOrder, KeyframesStillWaitingAtStopAreInTheFinalKeyframes) {
   const OdometrySegment& seg = loopSegment(kLoopFrames, 0, kLoopFrames);
   ASSERT_GE(seg.keyframes.size(), 6u);

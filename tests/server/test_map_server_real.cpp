@@ -5,6 +5,7 @@
 #include "rgbdmap/dataset/tum_dataset.hpp"
 #include "server/server_test_util.hpp"
 #include "test_data.hpp"
+#include "test_tier.hpp"
 
 namespace rgbdmap {
 namespace {
@@ -80,6 +81,8 @@ void runFr1Rpy(bool send_features) {
   EXPECT_GE(stats.loops_accepted, 10);
 }
 
+RGBDMAP_TEST_TIER("MapServerReal.*", "e2e");
+RGBDMAP_TEST_TIER("MapServerReal.Fr1RpyFullSystemIsNoWorseThanOdometry", "accuracy");
 TEST(MapServerReal, Fr1RpyFullSystemIsNoWorseThanOdometry) {
   RGBDMAP_REQUIRE_SHARED_DATA("tum_fr1_rpy_first250");
   runFr1Rpy(true);

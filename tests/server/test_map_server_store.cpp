@@ -11,6 +11,7 @@
 
 #include "common/file_size_limit.hpp"
 #include "server/server_test_util.hpp"
+#include "test_tier.hpp"
 
 namespace rgbdmap {
 namespace {
@@ -22,6 +23,8 @@ using testing::loopSegment;
 using testing::OdometrySegment;
 using testing::ScriptedRobot;
 
+RGBDMAP_TEST_TIER("MapServerStore.*", "e2e");
+RGBDMAP_TEST_TIER("MapServerStore.AFullDiskStopsAcksUntilTheRetryRecoversTheStore", "e2e sanitize");
 TEST(MapServerStore, AFullDiskStopsAcksUntilTheRetryRecoversTheStore) {
   const OdometrySegment& seg = loopSegment(kLoopFrames, 0, kLoopFrames);
   ASSERT_GE(seg.keyframes.size(), 12u);

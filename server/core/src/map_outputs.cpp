@@ -3,12 +3,12 @@
 #include <chrono>
 #include <filesystem>
 
-#include "map_worker.hpp"
 #include "rgbdmap/export/map_picture.hpp"
 #include "rgbdmap/export/point_cloud_export.hpp"
 #include "rgbdmap/export/slice_export.hpp"
 #include "rgbdmap/map/map_io.hpp"
 #include "rgbdmap/map/occupancy_slice.hpp"
+#include "rgbdmap/workers/map_worker.hpp"
 
 namespace rgbdmap {
 namespace {

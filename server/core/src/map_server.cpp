@@ -9,19 +9,19 @@
 #include <chrono>
 #include <map>
 
-#include "ingest_pipeline.hpp"
-#include "ingest_queue.hpp"
+#include "rgbdmap/ingest/ingest_pipeline.hpp"
+#include "rgbdmap/ingest/ingest_queue.hpp"
 #include "rgbdmap/workers/map_optimizer.hpp"
-#include "map_worker.hpp"
-#include "memory_trim.hpp"
+#include "rgbdmap/workers/map_worker.hpp"
+#include "rgbdmap/workers/memory_trim.hpp"
 #include "rgbdmap/common/logging.hpp"
 #include "rgbdmap/intake/inbox.hpp"
 #include "rgbdmap/intake/robot_registry.hpp"
 #include "rgbdmap/intake/transport_gate.hpp"
 #include "rgbdmap/proto/channels.hpp"
-#include "robot_publisher.hpp"
-#include "status_publisher.hpp"
-#include "store_retry.hpp"
+#include "rgbdmap/workers/robot_publisher.hpp"
+#include "rgbdmap/workers/status_publisher.hpp"
+#include "rgbdmap/workers/store_retry.hpp"
 
 namespace rgbdmap {
 
@@ -224,7 +224,12 @@ bool MapServer::flushMapStreams(double timeout_s) {
 
 MapServerStats MapServer::stats() const {
   const Impl& m = *impl_;
-  MapServerStats s = m.pipeline.stats();
+  IngestReport ingest = m.pipeline.stats();
+  MapServerStats s;
+  static_cast<IngestStats&>(s) = ingest.ingest;
+  s.ba = ingest.ba;
+  s.hello_hold = ingest.hello_hold;
+  s.robots = std::move(ingest.robots);
   s.inbox = m.inbox.stats();
   for (ServerRobotStats& r : s.robots) {
     r.keyframes_queued = static_cast<int>(m.queue.queued(r.robot_id));

@@ -35,98 +35,31 @@
 #include "rgbdmap/common/se3.hpp"
 #include "rgbdmap/graph/pose_graph.hpp"
 #include "rgbdmap/graph/pose_graph_optimizer.hpp"
+#include "rgbdmap/ingest/ingest_stats.hpp"
 #include "rgbdmap/intake/intake_stats.hpp"
 #include "rgbdmap/loop/loop_detector.hpp"
 #include "rgbdmap/map/occupancy_map.hpp"
 #include "rgbdmap/map/occupancy_slice.hpp"
 #include "rgbdmap/proto/envelope.hpp"
 #include "rgbdmap/proto/messages.hpp"
-#include "rgbdmap/server/map_server_config.hpp"
+#include "rgbdmap/model/map_server_config.hpp"
+#include "rgbdmap/model/server_keyframe.hpp"
+#include "rgbdmap/workers/map_worker.hpp"
 #include "rgbdmap/store/map_store.hpp"
 #include "rgbdmap/transport/transport.hpp"
 
 namespace rgbdmap {
 
-struct MapServerStats {
-  int keyframes = 0;
-  int loops_accepted = 0;  ///< verified by the detector and added to the graph
-  int loops_disabled = 0;  ///< currently disabled by the graph's consistency check
-  int loop_candidates = 0;
-  /// Of them, matched all against all (LoopStats): without a prior pose / after too few matches by
-  /// projection.
-  int loop_brute_force_no_prior = 0, loop_brute_force_fallback = 0;
-  int loop_brute_force_fallback_verified = 0;  ///< of the fallbacks, verified (before the consistency check)
-  int loop_fallbacks_skipped = 0;  ///< candidates rejected without it (loop.max_fallbacks_per_keyframe)
-  /// Candidates skipped because their features could not be read back from the store (FeatureCache).
-  int loop_features_unavailable = 0;
-  /// Keyframe features (server.features_in_memory): in RAM, read back from the store, reads that failed.
-  size_t features_resident = 0;
-  uint64_t features_loads = 0, features_load_failures = 0;
-  /// Heap of the loop detector's retrieval index (binary-word posting lists), counted by capacity.
-  size_t retrieval_index_bytes = 0;
+/// The whole server's counters, each part's filled by that part: the ingest side's (IngestStats), the map
+/// worker's (MapWorkerStats), the receive side's (inbox, hello_hold, robots), the optimiser's (ba), the
+/// memory trim's and the store's.
+struct MapServerStats : IngestStats, MapWorkerStats {
   /// Freed heap given back to the kernel (server.memory_trim_period_s): trims, RSS they released in all,
   /// their CPU time.
   uint64_t memory_trims = 0;
   int64_t memory_trim_released_bytes = 0;
   double memory_trim_cpu_ms = 0.0;
-  std::array<int, kLoopRejectionCount> loops_rejected_by_reason{};
-  int optimizations = 0;  ///< optimiser results applied (pose-graph solves and bundle adjustments)
-  int graph_solves = 0;   ///< of which with a pose-graph solve
-  int graph_solves_skipped =
-      0;  ///< loops kept without a solve: the estimate satisfied them (solve_above_chi2)
-  int graph_merges_aligned =
-      0;  ///< maps joined by a rigid move onto the map they met (solved only if needed)
-  /// Neighbourhood solves kept (graph.local_max_nodes): after new loops (counted in graph_solves too) and
-  /// placing the weak keyframes after a global BA.
-  int graph_solves_local = 0;
-  int graph_solves_local_refused =
-      0;                          ///< local solves whose answer did not fit (a whole-graph solve followed)
-  double last_optimize_ms = 0.0;  ///< of the last pose-graph solve
   BundleAdjustmentStats ba;
-  /// Corrections that follow the robots' heartbeats: sent again (the first may have been lost), and
-  /// optimisations asked for a robot's last keyframe that no corrections covered yet.
-  uint64_t corrections_resent = 0;
-  uint64_t optimizations_for_heartbeats = 0;
-  int64_t graph_revision = 0;
-  int maps = 0;                    ///< connected components of the graph
-  uint64_t keyframes_decoded = 0;  ///< keyframes whose images were decoded (passed the headers)
-  uint64_t keyframes_decoded_ahead =
-      0;  ///< decoded on the decode thread (not the ingest worker); a resend is not
-  uint64_t keyframes_features_extracted = 0;  ///< of those, sent without features: extracted here
-  uint64_t keyframes_refused = 0;
-  int keyframes_waiting = 0;  ///< in the reorder buffer: stored and acknowledged, not in the graph yet
-  /// Stored and acknowledged, their loop detection and graph insertion not run yet (the ingest worker
-  /// stores and acknowledges new keyframes first): now, and the most at once (how far the map lagged).
-  int keyframes_deferred = 0;
-  int keyframes_deferred_max = 0;
-  /// Per keyframe, from dequeue to the graph update (decode + validate images, features, durable store,
-  /// acknowledgement, loop candidates and verification, graph insertion).
-  double ingest_ms_median = 0.0, ingest_ms_p90 = 0.0, ingest_ms_max = 0.0;
-  double ingest_cpu_ms_median = 0.0, ingest_cpu_ms_p90 = 0.0;  ///< the same in worker-thread CPU time
-  double decode_ms_median = 0.0;                               ///< image decoding (validation) and features
-  double decode_cpu_ms_median = 0.0;  ///< the same in the decode thread's CPU time (not in ingest_cpu_*)
-  double store_ms_median = 0.0;       ///< durable append (fdatasync when store_sync)
-  double loops_ms_median = 0.0;       ///< loop detection, graph insertion, loop edges stored
-  double verify_ms_median = 0.0;      ///< of which geometric verification of the candidates
-  int restored_keyframes = 0, restored_loops = 0;  ///< from the map directory at start
-  /// Occupancy map (zero when occupancy_enabled is false).
-  size_t map_keyframes = 0;          ///< keyframes inserted into the octree (restored ones included)
-  uint64_t map_images_deferred = 0;  ///< queued for the octree without images (read back: memory bound)
-  uint64_t map_pose_updates_coalesced = 0;  ///< pose updates replaced by a newer one before they were applied
-  size_t map_tree_memory_bytes = 0;         ///< OcTree::memoryUsage() over all maps
-  size_t map_journal_bytes = 0;             ///< the map streams' journals of changed leaves
-  size_t map_clouds_memory_bytes = 0;       ///< kept keyframe clouds in RAM (for rebuilds and map.ply)
-  size_t map_clouds_spilled = 0;            ///< kept clouds in the spill file (map.clouds_in_memory)
-  uint64_t map_spill_file_bytes = 0;        ///< its size
-  uint64_t map_spill_failures = 0;          ///< spill writes or reads that failed
-  size_t map_leaves = 0, map_occupied_leaves = 0;
-  uint64_t map_rebuilds = 0;
-  double map_last_rebuild_ms = 0.0;
-  double map_insert_ms_median = 0.0;  ///< cloud + octree insertion per live keyframe (map worker CPU time)
-  double slice_ms_median = 0.0;       ///< slice extraction (map worker CPU time)
-  uint64_t slices_sent = 0;
-  uint64_t map_updates_sent = 0, map_bytes_sent = 0;  ///< MapUpdate messages and their compressed bytes
-  MapStoreRecovery recovery;
   /// The receive side's counters, each filled by its part (rgbdmap/intake/intake_stats.hpp).
   InboxStats inbox;
   HelloHoldStats hello_hold;
@@ -136,30 +69,6 @@ struct MapServerStats {
   bool store_failed = false;
   std::string store_error;  ///< why it failed ("" when ok)
   uint64_t store_failures = 0, store_recover_attempts = 0, store_recoveries = 0;
-  uint64_t keyframes_unacked_store_failed = 0;  ///< keyframe messages (resent ones too) left unacked then
-};
-
-/// One optimised keyframe as the server holds it.
-struct ServerKeyframe {
-  int64_t node_id = 0;
-  std::string robot_id;
-  int64_t session = 0;
-  int segment = 0;
-  int keyframe_id = 0;
-  double timestamp = 0.0;
-  int map_id = 0;
-  SE3 T_map_kf = SE3::Identity();
-  SE3 T_odom_kf = SE3::Identity();
-};
-
-/// One loop edge (within a robot or between robots) as the server's pose graph holds it now.
-struct ServerLoop {
-  int64_t from_node = 0, to_node = 0;  ///< ServerKeyframe::node_id
-  SE3 T_from_to = SE3::Identity();
-  bool inter_robot = false;
-  /// False while the consistency check of the last finished whole-graph solve holds it out (a false match,
-  /// or a true one the estimate did not fit then).
-  bool enabled = true;
 };
 
 class MapServer {

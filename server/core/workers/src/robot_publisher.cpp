@@ -1,0 +1,47 @@
+#include "rgbdmap/workers/robot_publisher.hpp"
+
+#include <chrono>
+
+#include "rgbdmap/proto/messages.hpp"
+
+namespace rgbdmap {
+
+RobotPublisher::RobotPublisher(transport::Transport& transport, const msg::KeyStore& keys,
+                               int64_t server_session, RobotRegistry& registry)
+    : transport_(transport), keys_(keys), server_session_(server_session), registry_(registry) {}
+
+void RobotPublisher::acknowledge(const std::string& robot_id, int keyframe_id, bool accepted,
+                                 const std::string& reason) {
+  msg::KeyframeAck ack;
+  ack.robot_id = robot_id;
+  ack.keyframe_id = keyframe_id;
+  ack.accepted = accepted;
+  ack.reason = reason.substr(0, msg::kMaxTextLength);
+  publish(robot_id, ack);
+}
+
+int64_t RobotPublisher::nowUtime() {
+  return std::chrono::duration_cast<std::chrono::microseconds>(
+             std::chrono::system_clock::now().time_since_epoch())
+      .count();
+}
+
+msg::Signer& RobotPublisher::signerFor(const std::string& robot_id) {
+  auto& signer = signers_[robot_id];
+  if (!signer) {
+    const msg::Bytes* key = keys_.find(robot_id);
+    signer = std::make_unique<msg::Signer>(msg::kServerId, key ? *key : msg::Bytes{}, server_session_);
+  }
+  return *signer;
+}
+
+void RobotPublisher::sendLocked(const std::string& robot_id, const std::string& channel,
+                                const msg::Bytes& bytes) {
+  if (const Status s = transport_.publish(channel, bytes); !s) {
+    log::warn("server: publish on ", channel, " failed: ", s.error());
+    return;
+  }
+  registry_.addBytesSent(robot_id, bytes.size());
+}
+
+}  // namespace rgbdmap
