@@ -184,7 +184,7 @@ cat "$out"/map/keyframes_robot*.txt 2>/dev/null | grep -v '^#' | sort -n >"$out/
 "$bin/rgbdmap" eval --gt "$gt" --est "$out/keyframes_merged.txt" >"$out/eval_merged.txt" 2>&1 || true
 merged_ate=$(val "$out/eval_merged.txt" ate_rmse_m); merged_ate=${merged_ate:-nan}
 sj="$out/map/server_summary.json"
-skf=$(num "$sj" keyframes); loops=$(num "$sj" loops); maps=$(num "$sj" maps); ingest=$(num "$sj" ingest_ms_median)
+skf=$(num "$sj" keyframes); loops=$(num "$sj" loops_accepted); maps=$(num "$sj" maps); ingest=$(num "$sj" ingest_ms_median)
 ingest_cpu=$(num "$sj" ingest_cpu_ms_median)
 groups=$(jq -c .merged_maps "$sj")
 one_map=0; [ "$(jq '.merged_maps | length' "$sj")" -eq 1 ] && one_map=1  # [[...]] = one group

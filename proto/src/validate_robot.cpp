@@ -36,7 +36,7 @@ Status validateInformation(const Mat6& info) {
   return Status::success();
 }
 
-/// The blob header of common/image_codec (magic at 0, width/height LE at 6 and 8) must match the keyframe.
+/// The blob header of rgbdmap/codec/image_codec.hpp (magic at 0, width/height LE at 6 and 8) must match the keyframe.
 bool blobMatches(const Bytes& blob, const char* magic, int width, int height) {
   if (blob.size() < kImageBlobHeaderSize || std::memcmp(blob.data(), magic, 4) != 0) return false;
   return (blob[6] | blob[7] << 8) == width && (blob[8] | blob[9] << 8) == height;

@@ -55,7 +55,8 @@ class StatusListener {
   std::optional<msg::ServerStatus> latest_;
 };
 
-RGBDMAP_TEST_TIER("MapServer.ARobotWithAWrongKeyIsCountedAsBadSignaturesOfThatRobotInStatsAndStatus", "e2e sanitize");
+RGBDMAP_TEST_TIER("MapServer.ARobotWithAWrongKeyIsCountedAsBadSignaturesOfThatRobotInStatsAndStatus",
+                  "e2e sanitize");
 TEST(MapServer, ARobotWithAWrongKeyIsCountedAsBadSignaturesOfThatRobotInStatsAndStatus) {
   const testing::OdometrySegment& seg = testing::loopSegment(testing::kLoopFrames, 0, 30);
   ASSERT_GE(seg.keyframes.size(), 2u);
@@ -98,7 +99,8 @@ TEST(MapServer, ARobotWithAWrongKeyIsCountedAsBadSignaturesOfThatRobotInStatsAnd
   EXPECT_TRUE(status->robots.empty()) << "robot1 is not a registered robot";
 }
 
-RGBDMAP_TEST_TIER("MapServer.HundredThousandForgedMessagesAreCountedInBoundedBucketsAndNeverAccepted", "e2e sanitize");
+RGBDMAP_TEST_TIER("MapServer.HundredThousandForgedMessagesAreCountedInBoundedBucketsAndNeverAccepted",
+                  "e2e sanitize");
 TEST(MapServer, HundredThousandForgedMessagesAreCountedInBoundedBucketsAndNeverAccepted) {
   MapServerConfig config = testing::serverTestConfig(testing::freshDir("forged"));
   testing::ServerHarness h(config);

@@ -8,8 +8,8 @@
 #include <chrono>
 #include <cstdlib>
 
-#include "transport_test_util.hpp"
 #include "test_tier.hpp"
+#include "transport_test_util.hpp"
 
 extern char** environ;
 

@@ -7,8 +7,8 @@
 #include <random>
 
 #include "rgbdmap/transport/reliable.hpp"
-#include "transport_test_util.hpp"
 #include "test_tier.hpp"
+#include "transport_test_util.hpp"
 
 namespace rgbdmap::transport {
 namespace {

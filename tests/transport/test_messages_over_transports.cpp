@@ -8,8 +8,8 @@
 #include "proto/proto_test_util.hpp"
 #include "rgbdmap/proto/channels.hpp"
 #include "rgbdmap/transport/republisher.hpp"
-#include "transport/transport_test_util.hpp"
 #include "test_tier.hpp"
+#include "transport/transport_test_util.hpp"
 
 namespace rgbdmap::transport {
 namespace {
@@ -74,7 +74,8 @@ TEST(MessagesOverTransports, EveryMessageOverMemq) {
   sendAll(*t, *t);
 }
 
-RGBDMAP_TEST_TIER("NetMessagesOverTransports.*", "elsewhere");  // run in the network namespace (transport.netns)
+RGBDMAP_TEST_TIER("NetMessagesOverTransports.*",
+                  "elsewhere");  // run in the network namespace (transport.netns)
 TEST(NetMessagesOverTransports, EveryMessageOverUdpm) {
   RGBDMAP_REQUIRE_NETNS();
   auto tx = testing::makeTestTransport(testing::kUdpmUrl), rx = testing::makeTestTransport(testing::kUdpmUrl);

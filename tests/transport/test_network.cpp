@@ -4,8 +4,8 @@
 
 #include <chrono>
 
-#include "transport_test_util.hpp"
 #include "test_tier.hpp"
+#include "transport_test_util.hpp"
 
 namespace rgbdmap::transport {
 namespace {

@@ -11,11 +11,11 @@
 
 #include <octomap/OcTree.h>
 
+#include "rgbdmap/map/map_io.hpp"
+#include "rgbdmap/proto/map_payload.hpp"
 #include "rgbdmap/viewer/client_session.hpp"
 #include "rgbdmap/viewer/foxglove_json.hpp"
 #include "rgbdmap/viewer/map_view.hpp"
-#include "rgbdmap/map/map_io.hpp"
-#include "rgbdmap/proto/map_payload.hpp"
 
 namespace rgbdmap::viewer {
 namespace {

@@ -6,6 +6,7 @@
 #include <memory>
 #include <mutex>
 
+#include "backend/backend_test_util.hpp"
 #include "rgbdmap/workers/map_optimizer.hpp"
 
 namespace rgbdmap::testing {
@@ -28,19 +29,5 @@ struct Collector {
     return latest;
   }
 };
-
-inline PoseGraphEdge edge(int64_t id, int64_t from, int64_t to, const SE3& T_from_to, EdgeKind kind,
-                          double sigma_t, double sigma_r) {
-  PoseGraphEdge e;
-  e.id = id;
-  e.from = from;
-  e.to = to;
-  e.T_from_to = T_from_to;
-  e.kind = kind;
-  e.information.setZero();
-  e.information.diagonal() << Vec3::Constant(1.0 / (sigma_t * sigma_t)),
-      Vec3::Constant(1.0 / (sigma_r * sigma_r));
-  return e;
-}
 
 }  // namespace rgbdmap::testing

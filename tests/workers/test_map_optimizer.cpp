@@ -10,16 +10,16 @@
 #include <random>
 
 #include "rgbdmap/ba/ba_synth.hpp"
-#include "workers/map_optimizer_test_util.hpp"
 #include "test_tier.hpp"
+#include "workers/map_optimizer_test_util.hpp"
 
 namespace rgbdmap {
 namespace {
 
 constexpr int kKeyframes = 30;
 
+using testing::backendEdge;
 using testing::Collector;
-using testing::edge;
 
 SE3 noisy(const SE3& T, std::mt19937& rng, double sigma_t, double sigma_r) {
   std::normal_distribution<double> n(0.0, 1.0);
@@ -52,19 +52,20 @@ Outcome runScene(const BaSynthScene& s, bool ba, bool false_loop,
     if (k > 0) {
       const SE3 T_prev_cur = noisy(s.T_map_kf[k - 1].inverse() * s.T_map_kf[k], rng, 0.004, 0.003);
       T_odom = T_odom * T_prev_cur;
-      b.edges.push_back(edge(edge_id++, k, k - 1, T_prev_cur.inverse(), EdgeKind::kOdometry, 0.01, 0.005));
+      b.edges.push_back(
+          backendEdge(edge_id++, k, k - 1, T_prev_cur.inverse(), EdgeKind::kOdometry, 0.01, 0.005));
     }
     b.nodes.push_back({k, 0, T_odom, k == 0});
     b.keyframes.push_back(synthKeyframe(s, k, T_odom));
     for (int j = std::max(0, k - 3); j < k - 1; ++j) {
       const SE3 measured = noisy(s.T_map_kf[k].inverse() * s.T_map_kf[j], rng, 0.003, 0.002);
-      b.edges.push_back(edge(edge_id, k, j, measured, EdgeKind::kLoop, 0.01, 0.005));
+      b.edges.push_back(backendEdge(edge_id, k, j, measured, EdgeKind::kLoop, 0.01, 0.005));
       b.matches[edge_id++] = synthTrueMatches(s, k, j);
       b.solve = true;
     }
     if (false_loop && k == kKeyframes - 1) {
       // "Keyframe 29 is where keyframe 2 was": the wrong relative pose with wrong (random) matches.
-      b.edges.push_back(edge(edge_id, k, 2, SE3::Identity(), EdgeKind::kLoop, 0.01, 0.005));
+      b.edges.push_back(backendEdge(edge_id, k, 2, SE3::Identity(), EdgeKind::kLoop, 0.01, 0.005));
       EdgeMatches wrong{k, 2, {}};
       std::uniform_int_distribution<int> fk(0, static_cast<int>(s.features[k]->size()) - 1);
       std::uniform_int_distribution<int> f2(0, static_cast<int>(s.features[2]->size()) - 1);
@@ -205,7 +206,7 @@ TEST(MapOptimizer, AFalseLoopNeverEntersTheTracks) {
   ASSERT_TRUE(clean.result && dirty.result);
   const auto& disabled = dirty.result->graph.disabled_edges;
   std::printf(
-      "[ measured ] false loop: rms %.5f m (clean %.5f m), %zu edge(s) disabled, %lld edges in tracks "
+      "[ measured ] false loop: rms %.5f m (clean %.5f m), %zu backendEdge(s) disabled, %lld edges in tracks "
       "(clean %lld)\n",
       dirty.rms_m, clean.rms_m, disabled.size(), static_cast<long long>(dirty.result->ba.edges_in_tracks),
       static_cast<long long>(clean.result->ba.edges_in_tracks));

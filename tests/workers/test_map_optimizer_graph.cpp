@@ -8,14 +8,14 @@
 #include <vector>
 
 #include "rgbdmap/graph/pose_graph_synth.hpp"
-#include "workers/map_optimizer_test_util.hpp"
 #include "test_tier.hpp"
+#include "workers/map_optimizer_test_util.hpp"
 
 namespace rgbdmap {
 namespace {
 
+using testing::backendEdge;
 using testing::Collector;
-using testing::edge;
 
 struct GraphRun {
   double rms_m = 0.0;
@@ -192,7 +192,7 @@ MergeRun mergeChain(int wrong) {
     if (k > 0) {
       const SE3& T_prev = synth.T_map_kf_true[9 + k];
       b.edges.push_back(
-          edge(edge_id++, id, id - 1, T_true.inverse() * T_prev, EdgeKind::kOdometry, 0.01, 0.01));
+          backendEdge(edge_id++, id, id - 1, T_true.inverse() * T_prev, EdgeKind::kOdometry, 0.01, 0.01));
     }
   }
   for (int j = 0; j < 3; ++j) {  // the chain's first keyframe sees keyframes 110, 210 and 310 (laps 2-4)
@@ -202,7 +202,7 @@ MergeRun mergeChain(int wrong) {
       T_from_to = T_from_to * se3::exp((Vec6() << 1.0, 0.0, 0.0, 0.0, 0.0, 0.0).finished());
       run.wrong_edges.push_back(edge_id);
     }
-    b.edges.push_back(edge(edge_id++, 10000, to, T_from_to, EdgeKind::kInterRobot, 0.01, 0.01));
+    b.edges.push_back(backendEdge(edge_id++, 10000, to, T_from_to, EdgeKind::kInterRobot, 0.01, 0.01));
   }
   b.solve = true;
   b.merge = true;
@@ -224,7 +224,7 @@ TEST(MapOptimizer, AChainMeetingALargeMapIsMovedRigidlyAndSolvedOnlyIfItsEdgesDi
   ASSERT_TRUE(clean.result && wrong.result);
   std::printf(
       "[ measured ] new chain onto a 400-keyframe map: %d solve(s), %d merge(s) aligned, max error %.2e m; "
-      "with one wrong edge of three: %d solve(s), %zu edge(s) disabled, max error %.2e m\n",
+      "with one wrong edge of three: %d solve(s), %zu backendEdge(s) disabled, max error %.2e m\n",
       clean.solves, clean.result->merges_aligned, clean.max_error_m, wrong.solves,
       wrong.result->graph.disabled_edges.size(), wrong.max_error_m);
   EXPECT_EQ(clean.solves, 0) << "the merge alone explained the edges";

@@ -9,9 +9,9 @@
 #include <mutex>
 #include <string>
 
-#include "rgbdmap/viewer/map_view.hpp"
 #include "rgbdmap/proto/envelope.hpp"
 #include "rgbdmap/transport/transport.hpp"
+#include "rgbdmap/viewer/map_view.hpp"
 
 namespace rgbdmap::viewer {
 

@@ -3,9 +3,9 @@
 
 #include <filesystem>
 
-#include "rgbdmap/viewer/foxglove_json.hpp"
 #include "rgbdmap/common/atomic_file.hpp"
 #include "rgbdmap/common/data_files.hpp"
+#include "rgbdmap/viewer/foxglove_json.hpp"
 #include "viewer_impl.hpp"
 
 namespace rgbdmap::viewer {

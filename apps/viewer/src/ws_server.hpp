@@ -16,8 +16,8 @@
 
 #include <nlohmann/json_fwd.hpp>
 
-#include "rgbdmap/viewer/client_session.hpp"
 #include "rgbdmap/common/result.hpp"
+#include "rgbdmap/viewer/client_session.hpp"
 
 struct mg_context;
 struct mg_connection;

@@ -74,7 +74,7 @@ const ConfigTable<RobotLinkOptions>& robotLinkConfigTable() {
                "the colour image (its features: section must match the odometry's orb: section)")
           .section("reliable", "keyframe delivery (resent until acknowledged)")
           .nest("reliable.", &C::reliable, reliableSenderConfigTable())
-          .section("codec", "keyframe images (common/image_codec.hpp)")
+          .section("codec", "keyframe images (rgbdmap/codec/image_codec.hpp)")
           .nest("codec.", &C::codec, imageCodecConfigTable());
   return table;
 }

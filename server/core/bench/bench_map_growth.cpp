@@ -39,10 +39,10 @@
 #include <vector>
 
 #include "bench_common.hpp"
-#include "rgbdmap/codec/image_codec.hpp"
 #include "growth_report.hpp"
 #include "growth_world.hpp"
 #include "process_stats.hpp"
+#include "rgbdmap/codec/image_codec.hpp"
 #include "rgbdmap/common/config_reader.hpp"
 #include "rgbdmap/common/logging.hpp"
 #include "rgbdmap/dataset/evaluation.hpp"

@@ -9,16 +9,16 @@
 #include <chrono>
 #include <map>
 
+#include "rgbdmap/common/logging.hpp"
 #include "rgbdmap/ingest/ingest_pipeline.hpp"
 #include "rgbdmap/ingest/ingest_queue.hpp"
-#include "rgbdmap/workers/map_optimizer.hpp"
-#include "rgbdmap/workers/map_worker.hpp"
-#include "rgbdmap/workers/memory_trim.hpp"
-#include "rgbdmap/common/logging.hpp"
 #include "rgbdmap/intake/inbox.hpp"
 #include "rgbdmap/intake/robot_registry.hpp"
 #include "rgbdmap/intake/transport_gate.hpp"
 #include "rgbdmap/proto/channels.hpp"
+#include "rgbdmap/workers/map_optimizer.hpp"
+#include "rgbdmap/workers/map_worker.hpp"
+#include "rgbdmap/workers/memory_trim.hpp"
 #include "rgbdmap/workers/robot_publisher.hpp"
 #include "rgbdmap/workers/status_publisher.hpp"
 #include "rgbdmap/workers/store_retry.hpp"

@@ -14,8 +14,8 @@ namespace rgbdmap::msg {
 int chunkCount(size_t total_bytes, int chunk_bytes);
 
 /// Chunk `index` of `envelope` (header left for the Signer). Fails when the arguments are out of bounds.
-Result<KeyframeChunk> makeChunk(const Bytes& envelope, int chunk_bytes, int index, const std::string& robot_id,
-                                int keyframe_id, int64_t transfer_id);
+Result<KeyframeChunk> makeChunk(const Bytes& envelope, int chunk_bytes, int index,
+                                const std::string& robot_id, int keyframe_id, int64_t transfer_id);
 
 /// True if bit `index` is set in a ChunkAck bitmap (false beyond its end).
 inline bool chunkReceived(const Bytes& bitmap, int index) {

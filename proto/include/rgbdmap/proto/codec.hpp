@@ -19,7 +19,7 @@ Result<T> decodePayload(const Bytes& bytes) {
   return decodePayload<T>(bytes.data(), bytes.size());
 }
 
-/// Decodes (and fully validates) a keyframe's images with common/image_codec.
+/// Decodes (and fully validates) a keyframe's images with rgbdmap/codec/image_codec.hpp.
 Result<DecodedImages> decodeKeyframeImages(const Keyframe& keyframe);
 
 }  // namespace rgbdmap::msg

@@ -1,7 +1,7 @@
 #pragma once
 // Internal message structs (namespace rgbdmap::msg): what client and server code reads and writes. The
 // wire form is generated from proto/lcm/*.lcm; the one conversion between the two is in proto/src/convert_*.
-// Poses are SE3 named by their frames; images stay compressed (common/image_codec blobs).
+// Poses are SE3 named by their frames; images stay compressed (rgbdmap/codec/image_codec.hpp blobs).
 #include <array>
 #include <cstdint>
 #include <string>

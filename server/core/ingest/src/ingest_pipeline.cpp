@@ -5,10 +5,10 @@
 #include <algorithm>
 #include <utility>
 
-#include "rgbdmap/intake/image_admission.hpp"
-#include "rgbdmap/ingest/pose_corrections.hpp"
 #include "rgbdmap/common/logging.hpp"
 #include "rgbdmap/ingest/map_restore.hpp"
+#include "rgbdmap/ingest/pose_corrections.hpp"
+#include "rgbdmap/intake/image_admission.hpp"
 #include "rgbdmap/vision/keyframe_message.hpp"
 
 namespace rgbdmap {

@@ -200,7 +200,8 @@ void MapGraph::noteSplit(const IndexedNode& node, const msg::Keyframe& kf) {
   log::info("server: keyframe ", kf.keyframe_id, " of ", kf.robot_id, " starts a new chain: its predecessor ",
             kf.previous_keyframe_id, refused ? " was refused" : " did not come");
   if (!refused)
-    split_heads_[missing] = {node.kf.node_id, kf.T_prev_cur, odometryInformation(kf.information, config_.edgeInformation())};
+    split_heads_[missing] = {node.kf.node_id, kf.T_prev_cur,
+                             odometryInformation(kf.information, config_.edgeInformation())};
 }
 
 void MapGraph::joinSplitSuccessor(const IndexedNode& node) {

@@ -152,10 +152,10 @@ const ConfigTable<MapServerConfig>& mapServerConfigTable() {
           .section("graph", "Ceres pose graph on SE(3)")
           .nest("graph.", &C::graph, poseGraphConfigTable())
           .section("ba",
-                   "bundle adjustment (issue #14): landmark tracks, local BA after each keyframe, global BA "
+                   "bundle adjustment: landmark tracks, local BA after each keyframe, global BA "
                    "after large loops, merges and when the map is quiet")
           .nest("ba.", &C::ba, bundleAdjustmentConfigTable())
-          .section("map", "occupancy octree (issue #5), built on the server's map worker thread")
+          .section("map", "occupancy octree, built on the server's map worker thread")
           .nest("map.", &C::occupancy, occupancyMapConfigTable())
           .section("slice", "OccupancySlice to each robot after its keyframes (ROS OccupancyGrid values)")
           .nest("slice.", &C::slice, sliceConfigTable());

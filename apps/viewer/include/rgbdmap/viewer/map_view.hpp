@@ -13,9 +13,9 @@
 #include <string>
 #include <vector>
 
-#include "rgbdmap/viewer/foxglove_json.hpp"
 #include "rgbdmap/map/occupancy_slice.hpp"
 #include "rgbdmap/proto/messages.hpp"
+#include "rgbdmap/viewer/foxglove_json.hpp"
 
 namespace octomap {
 class OcTree;

@@ -44,7 +44,7 @@ struct RobotLinkOptions {
   /// The camera's optical frame in the robot's base frame (REP-103), sent in Hello: the server anchors the
   /// robot's first keyframe at T_map_cam = T_base_camera * T_odom_cam, so the map frame is z-up.
   SE3 T_base_camera = defaultT_base_camera();
-  ImageCodecOptions codec;  ///< keyframe images (common/image_codec.hpp)
+  ImageCodecOptions codec;  ///< keyframe images (rgbdmap/codec/image_codec.hpp)
   /// Keyframes carry the odometry's keypoints and descriptors (51 KB per keyframe on TUM fr1). Off (the
   /// default), the server extracts them from the decoded colour with its own `features:` configuration,
   /// which must match the odometry's `orb:` section; codec.color must not be none. On fr1_rpy both give

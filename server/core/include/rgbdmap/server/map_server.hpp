@@ -40,13 +40,13 @@
 #include "rgbdmap/loop/loop_detector.hpp"
 #include "rgbdmap/map/occupancy_map.hpp"
 #include "rgbdmap/map/occupancy_slice.hpp"
-#include "rgbdmap/proto/envelope.hpp"
-#include "rgbdmap/proto/messages.hpp"
 #include "rgbdmap/model/map_server_config.hpp"
 #include "rgbdmap/model/server_keyframe.hpp"
-#include "rgbdmap/workers/map_worker.hpp"
+#include "rgbdmap/proto/envelope.hpp"
+#include "rgbdmap/proto/messages.hpp"
 #include "rgbdmap/store/map_store.hpp"
 #include "rgbdmap/transport/transport.hpp"
+#include "rgbdmap/workers/map_worker.hpp"
 
 namespace rgbdmap {
 

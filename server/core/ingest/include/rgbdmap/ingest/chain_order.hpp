@@ -12,8 +12,8 @@
 
 #include "rgbdmap/ingest/keyframe_index.hpp"
 #include "rgbdmap/ingest/reorder_buffer.hpp"
-#include "rgbdmap/proto/codec.hpp"
 #include "rgbdmap/intake/robot_registry.hpp"
+#include "rgbdmap/proto/codec.hpp"
 
 namespace rgbdmap {
 

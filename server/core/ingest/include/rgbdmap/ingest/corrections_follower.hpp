@@ -17,10 +17,10 @@
 #include <utility>
 #include <vector>
 
-#include "rgbdmap/ingest/keyframe_index.hpp"
 #include "rgbdmap/ingest/ingest_stats.hpp"
-#include "rgbdmap/proto/messages.hpp"
+#include "rgbdmap/ingest/keyframe_index.hpp"
 #include "rgbdmap/intake/robot_registry.hpp"
+#include "rgbdmap/proto/messages.hpp"
 
 namespace rgbdmap {
 

@@ -18,7 +18,6 @@
 #include <string>
 #include <vector>
 
-#include "rgbdmap/intake/hello_hold.hpp"
 #include "rgbdmap/backend/optimizer_batch.hpp"
 #include "rgbdmap/ingest/chain_order.hpp"
 #include "rgbdmap/ingest/corrections_follower.hpp"
@@ -28,15 +27,15 @@
 #include "rgbdmap/ingest/keyframe_decoder.hpp"
 #include "rgbdmap/ingest/keyframe_intake.hpp"
 #include "rgbdmap/ingest/map_graph.hpp"
-#include "rgbdmap/proto/codec.hpp"
-#include "rgbdmap/ingest/ingest_stats.hpp"
+#include "rgbdmap/intake/hello_hold.hpp"
+#include "rgbdmap/intake/robot_registry.hpp"
 #include "rgbdmap/model/map_server_config.hpp"
 #include "rgbdmap/model/server_keyframe.hpp"
+#include "rgbdmap/proto/codec.hpp"
 #include "rgbdmap/store/map_store.hpp"
 #include "rgbdmap/vision/feature_cache.hpp"
 #include "rgbdmap/workers/map_worker.hpp"
 #include "rgbdmap/workers/robot_publisher.hpp"
-#include "rgbdmap/intake/robot_registry.hpp"
 
 namespace rgbdmap {
 

@@ -6,9 +6,9 @@
 #include <cstddef>
 #include <cstdint>
 
-#include "rgbdmap/loop/loop_verifier.hpp"
 #include "rgbdmap/backend/bundle_adjustment_stats.hpp"
 #include "rgbdmap/intake/intake_stats.hpp"
+#include "rgbdmap/loop/loop_verifier.hpp"
 #include "rgbdmap/store/map_store.hpp"
 
 namespace rgbdmap {

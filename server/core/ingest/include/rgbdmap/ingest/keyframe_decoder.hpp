@@ -9,12 +9,12 @@
 #include <optional>
 #include <set>
 
-#include "rgbdmap/ingest/keyframe_index.hpp"
 #include "rgbdmap/common/result.hpp"
-#include "rgbdmap/proto/codec.hpp"
-#include "rgbdmap/model/map_server_config.hpp"
-#include "rgbdmap/vision/features.hpp"
+#include "rgbdmap/ingest/keyframe_index.hpp"
 #include "rgbdmap/intake/robot_registry.hpp"
+#include "rgbdmap/model/map_server_config.hpp"
+#include "rgbdmap/proto/codec.hpp"
+#include "rgbdmap/vision/features.hpp"
 
 namespace rgbdmap {
 

@@ -11,13 +11,13 @@
 #include <utility>
 #include <vector>
 
-#include "rgbdmap/ingest/keyframe_index.hpp"
 #include "rgbdmap/ingest/ingest_stats.hpp"
 #include "rgbdmap/ingest/ingest_timings.hpp"
+#include "rgbdmap/ingest/keyframe_index.hpp"
 #include "rgbdmap/ingest/reorder_buffer.hpp"
+#include "rgbdmap/intake/robot_registry.hpp"
 #include "rgbdmap/proto/codec.hpp"
 #include "rgbdmap/store/map_store.hpp"
-#include "rgbdmap/intake/robot_registry.hpp"
 
 namespace rgbdmap {
 

@@ -11,18 +11,17 @@
 #include <string>
 #include <vector>
 
-#include "rgbdmap/ingest/keyframe_index.hpp"
 #include "rgbdmap/backend/optimizer_batch.hpp"
 #include "rgbdmap/graph/pose_graph.hpp"
 #include "rgbdmap/ingest/ingest_stats.hpp"
+#include "rgbdmap/ingest/keyframe_index.hpp"
+#include "rgbdmap/intake/robot_registry.hpp"
 #include "rgbdmap/loop/loop_detector.hpp"
-#include "rgbdmap/ingest/ingest_stats.hpp"
 #include "rgbdmap/model/map_server_config.hpp"
 #include "rgbdmap/model/server_keyframe.hpp"
 #include "rgbdmap/store/map_store.hpp"
 #include "rgbdmap/vision/feature_cache.hpp"
 #include "rgbdmap/workers/map_worker.hpp"
-#include "rgbdmap/intake/robot_registry.hpp"
 
 namespace rgbdmap {
 

@@ -9,8 +9,8 @@
 #include "rgbdmap/ingest/keyframe_decoder.hpp"
 #include "rgbdmap/ingest/keyframe_intake.hpp"
 #include "rgbdmap/ingest/map_graph.hpp"
-#include "rgbdmap/store/map_store.hpp"
 #include "rgbdmap/intake/robot_registry.hpp"
+#include "rgbdmap/store/map_store.hpp"
 
 namespace rgbdmap {
 

@@ -5,8 +5,8 @@
 #include <string>
 #include <vector>
 
-#include "rgbdmap/ingest/keyframe_index.hpp"
 #include "rgbdmap/graph/pose_graph.hpp"
+#include "rgbdmap/ingest/keyframe_index.hpp"
 #include "rgbdmap/proto/messages.hpp"
 
 namespace rgbdmap {

@@ -1,5 +1,5 @@
 #pragma once
-// Refusing a keyframe's images before decoding them: the compressed blobs of common/image_codec
+// Refusing a keyframe's images before decoding them: the compressed blobs of rgbdmap/codec/image_codec.hpp
 // declare their size in a 20-byte header (image_codec.hpp). Reading it costs nothing, decoding a forged
 // 4096x4096 image costs ~84 MB and a second or more of the ingest worker. So before any pixel is decoded,
 // the images must be of the camera the robot announced in its Hello, that camera must be at most

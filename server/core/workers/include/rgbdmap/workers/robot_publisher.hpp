@@ -9,10 +9,10 @@
 #include <string>
 
 #include "rgbdmap/common/logging.hpp"
+#include "rgbdmap/intake/robot_registry.hpp"
 #include "rgbdmap/proto/channels.hpp"
 #include "rgbdmap/proto/envelope.hpp"
 #include "rgbdmap/transport/transport.hpp"
-#include "rgbdmap/intake/robot_registry.hpp"
 
 namespace rgbdmap {
 
