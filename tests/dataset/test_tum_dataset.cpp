@@ -14,7 +14,7 @@ namespace rgbdmap {
 namespace {
 namespace fs = std::filesystem;
 
-bool contains(const std::string& s, const std::string& part) { return s.find(part) != std::string::npos; }
+bool mentions(const std::string& s, const std::string& part) { return s.find(part) != std::string::npos; }
 
 /// A tiny TUM-layout dataset in a fresh temporary folder, removed at the end of the test.
 class TinyDataset : public testing::TempDir {
@@ -105,7 +105,7 @@ TEST(ImageList, MalformedLinesNameFileAndLine) {
   for (const auto& c : cases) {
     const auto r = parseImageList(c.text, "rgb.txt");
     ASSERT_FALSE(r) << c.text;
-    EXPECT_TRUE(contains(r.error(), c.expect)) << r.error();
+    EXPECT_TRUE(mentions(r.error(), c.expect)) << r.error();
   }
 }
 
@@ -162,21 +162,21 @@ TEST(TumDataset, DropsAndCountsColourWithoutDepth) {
 }
 
 TEST(TumDataset, OpenErrorsNameTheFile) {
-  EXPECT_TRUE(contains(TumDataset::open("/nonexistent/ds").error(), "/nonexistent/ds: dataset folder"));
+  EXPECT_TRUE(mentions(TumDataset::open("/nonexistent/ds").error(), "/nonexistent/ds: dataset folder"));
   TinyDataset d;
-  EXPECT_TRUE(contains(TumDataset::open(d.dir()).error(), "rgb.txt: cannot open"));
+  EXPECT_TRUE(mentions(TumDataset::open(d.dir()).error(), "rgb.txt: cannot open"));
   d.write("rgb.txt", "1.0 rgb/a.png\n");
-  EXPECT_TRUE(contains(TumDataset::open(d.dir()).error(), "depth.txt: cannot open"));
+  EXPECT_TRUE(mentions(TumDataset::open(d.dir()).error(), "depth.txt: cannot open"));
   d.write("depth.txt", "# d\n1.0 depth/a.png 7\n");
-  EXPECT_TRUE(contains(TumDataset::open(d.dir()).error(), "depth.txt:2: expected 2 fields"));
+  EXPECT_TRUE(mentions(TumDataset::open(d.dir()).error(), "depth.txt:2: expected 2 fields"));
   d.write("depth.txt", "5.0 depth/a.png\n");
-  EXPECT_TRUE(contains(TumDataset::open(d.dir()).error(), "no colour frame has a depth image within"));
+  EXPECT_TRUE(mentions(TumDataset::open(d.dir()).error(), "no colour frame has a depth image within"));
   d.write("depth.txt", "1.0 depth/a.png\n");
   d.write("groundtruth.txt", "1.0 0 0 0 0 0 0 1\n2.0 0 0 0 0 0 1\n");
-  EXPECT_TRUE(contains(TumDataset::open(d.dir()).error(), "groundtruth.txt:2: expected 8 fields"));
+  EXPECT_TRUE(mentions(TumDataset::open(d.dir()).error(), "groundtruth.txt:2: expected 8 fields"));
   DatasetOptions bad;
   bad.max_time_diff = -1;
-  EXPECT_TRUE(contains(TumDataset::open(d.dir(), bad).error(), "max_time_diff"));
+  EXPECT_TRUE(mentions(TumDataset::open(d.dir(), bad).error(), "max_time_diff"));
 }
 
 TEST(TumDataset, LoadErrorsNameTheImage) {
@@ -198,15 +198,15 @@ TEST(TumDataset, LoadErrorsNameTheImage) {
   const auto strict = TumDataset::open(d.dir(), tinyOptions());
   const auto loose = TumDataset::open(d.dir(), any_size);
   ASSERT_TRUE(strict && loose);
-  EXPECT_TRUE(contains(strict->load(0).error(), "depth/a.png: depth image not found"))
+  EXPECT_TRUE(mentions(strict->load(0).error(), "depth/a.png: depth image not found"))
       << strict->load(0).error();
-  EXPECT_TRUE(contains(strict->load(1).error(), "rgb/b.png: image is 8x5, expected 8x6"))
+  EXPECT_TRUE(mentions(strict->load(1).error(), "rgb/b.png: image is 8x5, expected 8x6"))
       << strict->load(1).error();
-  EXPECT_TRUE(contains(strict->load(2).error(), "depth/c.png: depth image has type CV_8UC1"));
-  EXPECT_TRUE(contains(strict->load(3).error(), "depth/d.png: image is 4x4"));
-  EXPECT_TRUE(contains(loose->load(3).error(), "colour rgb/d.png is 8x6 but depth depth/d.png is 4x4"))
+  EXPECT_TRUE(mentions(strict->load(2).error(), "depth/c.png: depth image has type CV_8UC1"));
+  EXPECT_TRUE(mentions(strict->load(3).error(), "depth/d.png: image is 4x4"));
+  EXPECT_TRUE(mentions(loose->load(3).error(), "colour rgb/d.png is 8x6 but depth depth/d.png is 4x4"))
       << loose->load(3).error();
-  EXPECT_TRUE(contains(strict->load(4).error(), "rgb/e.png: cannot read colour image"));
+  EXPECT_TRUE(mentions(strict->load(4).error(), "rgb/e.png: cannot read colour image"));
 }
 
 RGBDMAP_TEST_TIER("TumDatasetReal.*", "e2e sanitize");
