@@ -123,10 +123,22 @@ def functions(code):
             head_start = i + 1
 
 
+def listed_files(root):
+    """The files git knows (tracked, or untracked and not ignored); without git or outside a checkout, every
+    file below root except build trees (build*/) and hidden or node_modules folders."""
+    try:
+        return subprocess.run(["git", "-C", root, "ls-files", "--cached", "--others", "--exclude-standard"],
+                              capture_output=True, text=True, check=True).stdout.split()
+    except (OSError, subprocess.CalledProcessError):
+        files = []
+        for folder, dirs, names in os.walk(root):
+            dirs[:] = [d for d in dirs if not (d.startswith((".", "build")) or d == "node_modules")]
+            files += [os.path.relpath(os.path.join(folder, n), root) for n in names]
+        return files
+
+
 def sources(root):
-    files = subprocess.run(["git", "-C", root, "ls-files", "--cached", "--others", "--exclude-standard"],
-                           capture_output=True, text=True, check=True).stdout.split()
-    for f in sorted(files):
+    for f in sorted(listed_files(root)):
         if f.endswith(EXTENSIONS) and not f.startswith(EXEMPT) and os.path.isfile(os.path.join(root, f)):
             yield f
 
