@@ -19,8 +19,9 @@ packages=(
   # commands the scripts under deploy/ and tests/ call beyond coreutils, grep, sed and bash:
   # ip (iproute2), unshare (util-linux), pgrep (procps), /usr/bin/time (time), awk (mawk), jq (JSON)
   iproute2 util-linux procps time mawk jq
-  # python3: deploy/check_sizes.py (the size rules the lint.source_sizes test checks) and
-  # deploy/check_json_schema.py (report.json and server_summary.json against deploy/schemas/)
+  # python3: deploy/check_sizes.py (the size rules the lint.source_sizes test checks),
+  # deploy/check_json_schema.py (report.json and server_summary.json against deploy/schemas/) and
+  # tests/viewer/page_probe.py (drives headless Chromium over the DevTools pipe)
   python3
   # packaging: dpkg-shlibdeps derives the .deb's Depends (deploy/package.sh)
   dpkg-dev
