@@ -62,6 +62,7 @@ TEST(SchurSolver, ReachesTheMinimumCeresReaches) {
   config.first_iterations = 20;  // both run to their convergence tests
   config.second_iterations = 30;
   config.max_time_s = 60.0;
+  config.inverse_depth_sigma = 0.01;  // the scene's depth has random noise only: a tight depth term fits it
   config.solver = BaSolver::kCeres;
   const Result<BaSolution> ceres = solveBundle(problem, config);
   config.solver = BaSolver::kSchur;
@@ -235,6 +236,31 @@ TEST(SchurSolver, ASolveOutOfTimeRejectsNoObservation) {
     ASSERT_TRUE(cut) << cut.error();
     EXPECT_TRUE(cut->report.out_of_time);
     EXPECT_TRUE(cut->outliers.empty()) << "an unconverged solve rejected observations";
+  }
+}
+
+// Without a time limit (the default) a solve ends at convergence or at its iteration cap, and says which:
+// the global-BA schedule backs off after capped adjustments that gain nothing.
+TEST(SchurSolver, TheDefaultHasNoTimeLimitAndReportsTheIterationCap) {
+  BaSynthConfig o;
+  o.keyframes = 8;
+  const BaSynthScene s = makeBaSynthScene(o);
+  const BaProblem problem = syntheticProblem(s, 0.05, 5);
+  for (BaSolver solver : {BaSolver::kSchur, BaSolver::kCeres}) {
+    BaSolveConfig config;
+    config.solver = solver;
+    EXPECT_EQ(config.max_time_s, 0.0) << "a wall-clock limit makes the map depend on the machine's load";
+    config.first_iterations = 20;
+    config.second_iterations = 50;
+    const Result<BaSolution> converged = solveBundle(problem, config);
+    ASSERT_TRUE(converged) << converged.error();
+    EXPECT_FALSE(converged->report.out_of_time);
+    EXPECT_FALSE(converged->report.at_iteration_cap) << converged->report.iterations << " iterations";
+    config.second_iterations = 1;
+    const Result<BaSolution> capped = solveBundle(problem, config);
+    ASSERT_TRUE(capped) << capped.error();
+    EXPECT_TRUE(capped->report.at_iteration_cap);
+    EXPECT_FALSE(capped->report.out_of_time);
   }
 }
 

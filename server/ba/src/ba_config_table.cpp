@@ -16,8 +16,8 @@ const ConfigTable<BaSolveConfig>& baSolveConfigTable() {
                "ORB pyramid scale: the keypoint sigma grows by this per octave")
           .add(
               "inverse_depth_sigma", &C::inverse_depth_sigma, R::closed(1e-5, 10.0),
-              "sigma of 1/depth (1/m): 0.01 is 1 cm at 1 m, 4 cm at 2 m (a Kinect-class sensor's noise grows "
-              "with depth squared)")
+              "sigma of 1/depth (1/m): 0.04 is 4 cm at 1 m, 16 cm at 2 m; above a Kinect-class sensor's random "
+              "noise (it grows with depth squared), for its systematic errors (scale, distortion, depth edges)")
           .add("use_depth", &C::use_depth, "the inverse-depth residual where a keypoint has depth")
           .add("rolling_shutter", &C::rolling_shutter,
                "estimate each keyframe's rotation during the image readout (rolling-shutter cameras; a "
@@ -32,7 +32,8 @@ const ConfigTable<BaSolveConfig>& baSolveConfigTable() {
                "Levenberg-Marquardt iterations before the outlier test")
           .add("second_iterations", &C::second_iterations, R::closed(0, 1000),
                "iterations after the outliers left (0: no second solve)")
-          .add("max_time_s", &C::max_time_s, R::closed(0.001, 3600.0), "wall-clock limit of each solve")
+          .add("max_time_s", &C::max_time_s, R::closed(0.0, 3600.0),
+               "wall-clock limit of each solve, 0 = none (a limit makes the map depend on the machine's load)")
           .add("iterative_min_frames", &C::iterative_min_frames, R::closed(1, 100000000),
                "the own solver takes conjugate gradients on the implicit reduced camera system (no matrix, "
                "no factor) from this many free keyframes, a sparse Cholesky below")
@@ -68,8 +69,8 @@ const ConfigTable<LandmarkMapConfig>& landmarkMapConfigTable() {
                "a keypoint with depth must agree with the projected depth within this whitened chi2")
           .add("global_max_iterations", &C::global_max_iterations, R::closed(0, 1000),
                "iterations of a global BA after its outlier test")
-          .add("global_max_time_s", &C::global_max_time_s, R::closed(0.001, 3600.0),
-               "wall-clock limit of each of a global BA's two solves")
+          .add("global_max_time_s", &C::global_max_time_s, R::closed(0.0, 3600.0),
+               "wall-clock limit of each of a global BA's two solves, 0 = none (the iterations bound it)")
           .add("global_min_observations", &C::global_min_observations, R::closed(2, 1000),
                "landmarks with fewer observations stay out of a global BA")
           .add("global_rolling_shutter", &C::global_rolling_shutter,

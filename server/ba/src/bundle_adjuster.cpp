@@ -158,7 +158,7 @@ class CeresBundle {
     for (double* block : frame_blocks_) ordering->AddElementToGroup(block, 1);
     so.linear_solver_ordering = ordering;
     so.max_num_iterations = iterations;
-    so.max_solver_time_in_seconds = c_.max_time_s;
+    if (c_.max_time_s > 0.0) so.max_solver_time_in_seconds = c_.max_time_s;
     so.num_threads = c_.num_threads;
     so.logging_type = ceres::SILENT;
     so.minimizer_progress_to_stdout = false;
@@ -168,7 +168,8 @@ class CeresBundle {
     ceres::Solve(so, &problem_, &summary);
     return {
         summary.initial_cost, summary.final_cost, static_cast<int>(summary.iterations.size()),
-        summary.termination_type == ceres::NO_CONVERGENCE && summary.total_time_in_seconds >= c_.max_time_s};
+        c_.max_time_s > 0.0 && summary.termination_type == ceres::NO_CONVERGENCE &&
+            summary.total_time_in_seconds >= c_.max_time_s};
   }
 
   /// The free frames' rolling-shutter rotations take part from now on.
@@ -239,6 +240,7 @@ void runSolves(const BaProblem& problem, const BaSolveConfig& config, const std:
   report->iterations = first.iterations;
   report->linear_steps = first.linear_steps;
   report->out_of_time = first.out_of_time;
+  report->at_iteration_cap = first.iterations >= config.first_iterations;
   if (first.out_of_time) {
     // Unconverged, residuals are still large where the solve did not get to: the outlier test would take
     // good observations out. The estimate so far (lower cost than the start) stands; no observation leaves.
@@ -256,6 +258,7 @@ void runSolves(const BaProblem& problem, const BaSolveConfig& config, const std:
     report->iterations += second.iterations;
     report->linear_steps += second.linear_steps;
     report->out_of_time = second.out_of_time;
+    report->at_iteration_cap = second.iterations >= config.second_iterations;
     report->final_rms_px = classify(problem, config, s);
   }
 }

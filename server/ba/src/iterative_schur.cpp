@@ -36,7 +36,8 @@ bool IterativeSchur<D>::conjugateGradients(const Linearisation<D>& lin, const Po
   const double stop = c_.iterative_tolerance * rhs_.norm();
   for (int k = 0; k < c_.iterative_max_steps && r_.norm() > stop; ++k) {
     if ((cancel_ && cancel_->load()) ||
-        std::chrono::duration<double>(std::chrono::steady_clock::now() - t0_).count() > c_.max_time_s)
+        (c_.max_time_s > 0.0 &&
+         std::chrono::duration<double>(std::chrono::steady_clock::now() - t0_).count() > c_.max_time_s))
       break;
     S_.apply(lin, points, p_, &q_);
     ++*linear_steps_;

@@ -119,7 +119,7 @@ void LevenbergMarquardt<D>::run(int iterations, const BaSolveConfig& c, std::chr
   std::vector<Vec3> points_before;
   for (int it = 0; it < iterations && std::isfinite(cost); ++it) {
     if (cancel && cancel->load()) break;
-    if (secondsSince(t0) > c.max_time_s) {
+    if (c.max_time_s > 0.0 && secondsSince(t0) > c.max_time_s) {
       summary->out_of_time = true;
       break;
     }

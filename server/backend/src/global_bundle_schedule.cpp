@@ -40,7 +40,7 @@ void GlobalBundleSchedule::started(int map) {
 
 GlobalBundleSchedule::Verdict GlobalBundleSchedule::finished(int map, const GlobalRunOutcome& outcome) {
   int& factor = backoff_[map];
-  const bool fruitless = outcome.out_of_time && !(outcome.final_rms_px < 0.99 * outcome.initial_rms_px);
+  const bool fruitless = outcome.unfinished && !(outcome.final_rms_px < 0.99 * outcome.initial_rms_px);
   factor = fruitless ? std::min(64, std::max(1, factor) * 2) : 1;
   return {fruitless, factor};
 }

@@ -263,7 +263,8 @@ void MapBackend::adjustGlobally(const std::set<int>& maps) {
     if (!BundleOutcome::count(r, "global", &counters_)) continue;
     causes_.insert(r.report.out_of_time ? "global BA (out of time)" : "global BA");
     const GlobalBundleSchedule::Verdict verdict =
-        schedule_.finished(map, {r.report.out_of_time, r.report.initial_rms_px, r.report.final_rms_px});
+        schedule_.finished(map, {r.report.out_of_time || r.report.at_iteration_cap,
+                                 r.report.initial_rms_px, r.report.final_rms_px});
     counters_.global_fruitless += verdict.fruitless ? 1 : 0;
     const int backoff = verdict.backoff;
     log::info("optimiser: global BA of map ", map, ": ", r.report.frames, " keyframes, ", r.report.points,

@@ -96,7 +96,7 @@ ceres::Solver::Options solverOptions(const PoseGraphConfig& config) {
   // graphs go to conjugate gradients instead (solveOnce).
   options.sparse_linear_algebra_library_type = ceres::EIGEN_SPARSE;
   options.max_num_iterations = config.max_iterations;
-  options.max_solver_time_in_seconds = config.max_solver_time_s;
+  if (config.max_solver_time_s > 0.0) options.max_solver_time_in_seconds = config.max_solver_time_s;
   options.function_tolerance = config.function_tolerance;
   options.num_threads = std::max(1, config.num_threads);
   options.logging_type = ceres::SILENT;
@@ -275,7 +275,8 @@ Result<SolveOutcome> solveOnce(const std::vector<PoseGraphEdge>& edges, const st
     useTreePreconditioner(&options, edges, ends, block_ids, poses->size(), &cancel_callback);
     options.max_num_iterations = std::max(1, config.max_iterations - steps);
     const double spent = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-    options.max_solver_time_in_seconds = std::max(1e-3, config.max_solver_time_s - spent);
+    if (config.max_solver_time_s > 0.0)
+      options.max_solver_time_in_seconds = std::max(1e-3, config.max_solver_time_s - spent);
     ceres::Solve(options, &problem, &summary);
     outcome.iterations += static_cast<int>(summary.iterations.size());
     steps += summary.num_successful_steps + summary.num_unsuccessful_steps;

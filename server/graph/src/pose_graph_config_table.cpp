@@ -12,8 +12,8 @@ const ConfigTable<PoseGraphConfig>& poseGraphConfigTable() {
           .add("use_cauchy", &C::use_cauchy, "Cauchy (true) or Huber (false)")
           .add("max_iterations", &C::max_iterations, R::closed(1, 10000),
                "Levenberg-Marquardt iterations per solve")
-          .add("max_solver_time_s", &C::max_solver_time_s, R::closed(0.001, 3600.0),
-               "wall-clock limit per solve")
+          .add("max_solver_time_s", &C::max_solver_time_s, R::closed(0.0, 3600.0),
+               "wall-clock limit per solve, 0 = none (max_iterations bounds it)")
           .add("outlier_chi2", &C::outlier_chi2, R::closed(0.1, 1e6),
                "loop edges above this whitened chi2 (6 dof, 99.9%) are disabled after a solve")
           .add("max_outlier_rounds", &C::max_outlier_rounds, R::closed(0, 100),

@@ -27,7 +27,10 @@ struct BaSolveConfig {
   BaSolver solver = BaSolver::kSchur;
   double pixel_sigma = 1.0;           ///< keypoint sigma at octave 0, px
   double scale_factor = 1.2;          ///< ORB pyramid scale: sigma grows by this per octave
-  double inverse_depth_sigma = 0.01;  ///< sigma of 1/depth, 1/m (0.01: 1 cm at 1 m, 4 cm at 2 m)
+  /// Sigma of 1/depth, 1/m (0.04: 4 cm at 1 m, 16 cm at 2 m). Well above a Kinect's random noise (~0.002):
+  /// its depth also errs systematically (scale, distortion, edges), and a tight depth term pulls the
+  /// keyframes to it (fr1_xyz keyframes 0.015 m at 0.01, 0.010 m at 0.04; docs/results.md).
+  double inverse_depth_sigma = 0.04;
   bool use_depth = true;              ///< the inverse-depth residual where a keypoint has depth
   /// Estimate each keyframe's rolling-shutter rotation w (ba_cost.hpp); false: w stays as given (0).
   bool rolling_shutter = true;
@@ -39,7 +42,9 @@ struct BaSolveConfig {
   double chi2_3dof = 7.815;    ///< same, 3 rows
   int first_iterations = 5;    ///< Levenberg-Marquardt iterations before the outlier test
   int second_iterations = 10;  ///< after it; 0 skips the second solve
-  double max_time_s = 1.0;     ///< wall-clock limit of each solve
+  /// Wall-clock limit of each solve; 0 = none. The iterations bound the work: a limit in seconds would
+  /// make the map depend on the machine's load.
+  double max_time_s = 0.0;
   /// The own solver's reduced camera system with at least this many frame unknowns (a global BA of a large
   /// map) is solved by conjugate gradients on the implicit Schur complement, preconditioned by its block
   /// diagonal, instead of a sparse Cholesky: no matrix and no factor to store (a factor fills in when a
@@ -104,6 +109,8 @@ struct BaReport {
   /// A solve hit its wall-clock limit. When the first did, no observation was rejected and the second
   /// solve did not run (an unconverged state would reject good observations).
   bool out_of_time = false;
+  /// The last solve used all of its iterations: stopped by the budget, not converged.
+  bool at_iteration_cap = false;
 };
 
 struct BaSolution {

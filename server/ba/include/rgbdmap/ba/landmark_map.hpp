@@ -46,7 +46,7 @@ struct LandmarkMapConfig {
   double projection_ratio = 0.8;       ///< best vs second best within the radius
   double projection_depth_chi2 = 9.0;  ///< a keypoint with depth must agree with the projected depth
   int global_max_iterations = 10;      ///< iterations of a global BA (second solve)
-  double global_max_time_s = 2.0;      ///< wall-clock limit of each of its two solves
+  double global_max_time_s = 0.0;      ///< wall-clock limit of each of its two solves; 0 = none
   int global_min_observations = 2;     ///< landmarks with fewer observations stay out of a global BA
   /// A global BA estimates the rolling-shutter rotations too (else it keeps the local BAs' estimates:
   /// fewer parameters per keyframe, a cheaper solve).

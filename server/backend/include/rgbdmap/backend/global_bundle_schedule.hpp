@@ -9,8 +9,8 @@
 //     `min_growth_fraction` of its keyframes (a large map is not adjusted as often as a small one);
 //   - a large cycle closed or two chains joined: due once it grew by that fraction;
 //   - asked for (the final refinement, a quiet map): every map changed since its last global BA;
-//   - a global BA that ran out of time without lowering the error doubles the growth the next one waits for
-//     (up to x64); one that helps resets it;
+//   - a global BA that stopped at its iteration cap (or a time limit) without lowering the error by 1 %
+//     doubles the growth the next one waits for (up to x64); one that helps resets it;
 //   - a map of more than `max_keyframes` keyframes (> 0) gets none: it counts as done (local BAs and the pose
 //     graph carry it).
 #include <cstddef>
@@ -28,7 +28,7 @@ struct GlobalScheduleConfig {
 
 /// The outcome of a global BA, as the schedule needs it.
 struct GlobalRunOutcome {
-  bool out_of_time = false;
+  bool unfinished = false;  ///< stopped by its iteration cap (or a time limit) before it converged
   double initial_rms_px = 0.0;
   double final_rms_px = 0.0;
 };
@@ -56,7 +56,7 @@ class GlobalBundleSchedule {
   /// A global BA of `map` starts (or is skipped as over the limit): its growth counts from here.
   void started(int map);
   struct Verdict {
-    bool fruitless = false;  ///< out of time without lowering the error
+    bool fruitless = false;  ///< unfinished without lowering the error by 1 %
     int backoff = 1;         ///< the growth factor the map's next global BA waits for
   };
   /// The applied outcome of `map`'s global BA.

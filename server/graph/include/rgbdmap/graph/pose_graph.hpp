@@ -20,8 +20,9 @@ struct PoseGraphConfig {
   bool use_cauchy = true;
   /// Levenberg-Marquardt iterations per solve (one solve per outlier round).
   int max_iterations = 50;
-  /// Wall-clock limit per solve.
-  double max_solver_time_s = 2.0;
+  /// Wall-clock limit per solve; 0 = none (max_iterations bounds the work, and the answer does not depend
+  /// on the machine's load).
+  double max_solver_time_s = 0.0;
   /// Relative cost change at which a solve stops.
   double function_tolerance = 1e-6;
   /// Whitened chi2 (6 dof) above which a loop edge is disabled after a solve; 22.46 = 99.9% quantile.
