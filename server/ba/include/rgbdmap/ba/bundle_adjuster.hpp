@@ -27,10 +27,9 @@ struct BaSolveConfig {
   BaSolver solver = BaSolver::kSchur;
   double pixel_sigma = 1.0;           ///< keypoint sigma at octave 0, px
   double scale_factor = 1.2;          ///< ORB pyramid scale: sigma grows by this per octave
-  /// Sigma of 1/depth, 1/m (0.04: 4 cm at 1 m, 16 cm at 2 m). Well above a Kinect's random noise (~0.002):
-  /// its depth also errs systematically (scale, distortion, edges), and a tight depth term pulls the
-  /// keyframes to it (fr1_xyz keyframes 0.015 m at 0.01, 0.010 m at 0.04; docs/results.md).
-  double inverse_depth_sigma = 0.04;
+  /// Sigma of 1/depth, 1/m (0.01: 1 cm at 1 m, 4 cm at 2 m). Real depth errs systematically too: a looser
+  /// term helps fr1_xyz and fr1_rpy but loosens the map where depth alone holds it (docs/results.md).
+  double inverse_depth_sigma = 0.01;
   bool use_depth = true;              ///< the inverse-depth residual where a keypoint has depth
   /// Estimate each keyframe's rolling-shutter rotation w (ba_cost.hpp); false: w stays as given (0).
   bool rolling_shutter = true;
