@@ -60,6 +60,11 @@ run() {
   fi
 }
 
+# gt_of DIR: the ground truth of the current sequence's run in DIR (a dataset's, or the synthesised one's)
+gt_of() {
+  if [ "${args[0]}" = --dataset ]; then echo "${args[1]}/groundtruth.txt"; else echo "$1/synthetic_$seq/groundtruth.txt"; fi
+}
+
 rows=()
 for seq in $only; do
   case $seq in
@@ -73,9 +78,6 @@ for seq in $only; do
     echo "bench_accuracy: ${args[1]} absent: $seq skipped" >&2
     continue
   fi
-  gt_of() {  # the ground truth of a run in DIR
-    if [ "${args[0]}" = --dataset ]; then echo "${args[1]}/groundtruth.txt"; else echo "$1/synthetic_$seq/groundtruth.txt"; fi
-  }
   full=() odo="" kf="" client="" ingest="" decode=""
   for i in $(seq 1 "$runs"); do
     dir=$out/$seq/run$i

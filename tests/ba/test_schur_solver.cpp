@@ -62,7 +62,6 @@ TEST(SchurSolver, ReachesTheMinimumCeresReaches) {
   config.first_iterations = 20;  // both run to their convergence tests
   config.second_iterations = 30;
   config.max_time_s = 60.0;
-  config.inverse_depth_sigma = 0.01;  // the scene's depth has random noise only: a tight depth term fits it
   config.solver = BaSolver::kCeres;
   const Result<BaSolution> ceres = solveBundle(problem, config);
   config.solver = BaSolver::kSchur;
@@ -219,11 +218,15 @@ TEST(SchurSolver, HeldFramesStayAndACancelledSolveReturnsItsBestEstimate) {
   EXPECT_TRUE(c->T_kf_map[5].isApprox(problem.frames[5].T_kf_map, 1e-12)) << "a cancelled solve moved";
 }
 
-TEST(SchurSolver, ASolveOutOfTimeRejectsNoObservation) {
+/// Eight keyframes, 5 % wrong observations: the time-limit and iteration-cap tests' problem.
+BaProblem eightKeyframeProblem() {
   BaSynthConfig o;
   o.keyframes = 8;
-  const BaSynthScene s = makeBaSynthScene(o);
-  const BaProblem problem = syntheticProblem(s, 0.05, 5);
+  return syntheticProblem(makeBaSynthScene(o), 0.05, 5);
+}
+
+TEST(SchurSolver, ASolveOutOfTimeRejectsNoObservation) {
+  const BaProblem problem = eightKeyframeProblem();
   for (BaSolver solver : {BaSolver::kSchur, BaSolver::kCeres}) {
     BaSolveConfig config;
     config.solver = solver;
@@ -242,10 +245,7 @@ TEST(SchurSolver, ASolveOutOfTimeRejectsNoObservation) {
 // Without a time limit (the default) a solve ends at convergence or at its iteration cap, and says which:
 // the global-BA schedule backs off after capped adjustments that gain nothing.
 TEST(SchurSolver, TheDefaultHasNoTimeLimitAndReportsTheIterationCap) {
-  BaSynthConfig o;
-  o.keyframes = 8;
-  const BaSynthScene s = makeBaSynthScene(o);
-  const BaProblem problem = syntheticProblem(s, 0.05, 5);
+  const BaProblem problem = eightKeyframeProblem();
   for (BaSolver solver : {BaSolver::kSchur, BaSolver::kCeres}) {
     BaSolveConfig config;
     config.solver = solver;

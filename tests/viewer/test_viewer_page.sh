@@ -29,8 +29,8 @@ fail=0
 # The page is loaded once and watched in real time (tests/viewer/page_probe.py, the DevTools protocol over a
 # pipe) until its title reports both robots' maps drawn, for up to 150 s: on a machine busy with other tests
 # the map arrives later, but it must arrive. Then its DOM and a screenshot are taken.
-expected="<title>rgbdmap viewer: $((2 * voxels)) voxels</title>"
 expected_text="rgbdmap viewer: $((2 * voxels)) voxels"
+expected="<title>$expected_text</title>"
 python3 "$(dirname "$0")/page_probe.py" "http://127.0.0.1:$port/" --title "$expected_text" --timeout 150 \
   --dom "$tmp/dom.html" --screenshot "$tmp/shot.png" --size 1280,800 --chromium-log "$tmp/chromium.log" \
   >"$tmp/probe.out"

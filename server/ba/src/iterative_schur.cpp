@@ -35,10 +35,7 @@ bool IterativeSchur<D>::conjugateGradients(const Linearisation<D>& lin, const Po
   double rz = r_.dot(z_);
   const double stop = c_.iterative_tolerance * rhs_.norm();
   for (int k = 0; k < c_.iterative_max_steps && r_.norm() > stop; ++k) {
-    if ((cancel_ && cancel_->load()) ||
-        (c_.max_time_s > 0.0 &&
-         std::chrono::duration<double>(std::chrono::steady_clock::now() - t0_).count() > c_.max_time_s))
-      break;
+    if ((cancel_ && cancel_->load()) || pastTimeLimit(c_, t0_)) break;
     S_.apply(lin, points, p_, &q_);
     ++*linear_steps_;
     const double pq = p_.dot(q_);

@@ -10,6 +10,12 @@
 
 namespace rgbdmap::ba_detail {
 
+/// Whether a solve started at t0 is past the configuration's wall-clock limit; never when it has none (0).
+inline bool pastTimeLimit(const BaSolveConfig& c, std::chrono::steady_clock::time_point t0) {
+  return c.max_time_s > 0.0 &&
+         std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count() > c.max_time_s;
+}
+
 template <int D>
 class IterativeSchur final : public SchurStep<D> {
  public:

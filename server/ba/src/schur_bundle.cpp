@@ -23,10 +23,6 @@ constexpr double kMinRelativeDecrease = 1e-3, kFunctionTolerance = 1e-6, kParame
 /// with a sparse Cholesky.
 constexpr int kDenseMaxUnknowns = 600;
 
-double secondsSince(std::chrono::steady_clock::time_point t0) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-}
-
 /// Levenberg-Marquardt with Ceres' trust-region rule over the frames and points of a SchurStructure; the
 /// damped step's frame part comes from a SchurStep, its point part from the back-substitution.
 template <int D>
@@ -119,7 +115,7 @@ void LevenbergMarquardt<D>::run(int iterations, const BaSolveConfig& c, std::chr
   std::vector<Vec3> points_before;
   for (int it = 0; it < iterations && std::isfinite(cost); ++it) {
     if (cancel && cancel->load()) break;
-    if (c.max_time_s > 0.0 && secondsSince(t0) > c.max_time_s) {
+    if (pastTimeLimit(c, t0)) {
       summary->out_of_time = true;
       break;
     }
