@@ -19,6 +19,7 @@ namespace rgbdmap {
 namespace {
 
 BaSolver g_solver = BaSolver::kSchur;
+int g_iterative_min_frames = BaSolveConfig().iterative_min_frames;
 
 struct Built {
   BaSynthScene scene;
@@ -88,6 +89,7 @@ void localBa(int window) {
 void globalBa(int keyframes, bool rolling_shutter) {
   LandmarkMapConfig config;
   config.solve.solver = g_solver;
+  config.solve.iterative_min_frames = g_iterative_min_frames;
   config.solve.rolling_shutter = rolling_shutter;
   Built b = build(keyframes, config, 3);
   const double before = rmsError(b);
@@ -113,16 +115,19 @@ int main(int argc, char** argv) {
       quick = true;
     } else if (a == "--ceres") {
       rgbdmap::g_solver = rgbdmap::BaSolver::kCeres;
+    } else if (a == "--iterative-min-frames" && i + 1 < argc) {
+      rgbdmap::g_iterative_min_frames = std::atoi(argv[++i]);
     } else {
-      std::fprintf(stderr, "usage: bench_bundle_adjustment [--quick] [--ceres]\n");
+      std::fprintf(stderr, "usage: bench_bundle_adjustment [--quick] [--ceres] [--iterative-min-frames N]\n");
       return 2;
     }
   }
   std::printf("bundle adjustment, one thread (synthetic, ~1000 features per keyframe), %s solver\n",
               rgbdmap::g_solver == rgbdmap::BaSolver::kCeres ? "Ceres" : "own Schur");
   const rgbdmap::LandmarkMapConfig defaults;
-  std::printf("global BA caps: %d observations, %d per landmark, %.1f s per solve\n",
-              defaults.global_max_observations, defaults.global_max_track, defaults.global_max_time_s);
+  std::printf("global BA caps: %d observations, %d per landmark, %.1f s per solve; conjugate gradients from %d frames\n",
+              defaults.global_max_observations, defaults.global_max_track, defaults.global_max_time_s,
+              rgbdmap::g_iterative_min_frames);
   for (int w : {5, 10, 15, 20}) rgbdmap::localBa(w);
   for (int n : quick ? std::vector<int>{100} : std::vector<int>{100, 250, 500})
     for (bool rs : {true, false}) rgbdmap::globalBa(n, rs);
