@@ -116,7 +116,14 @@ int main(int argc, char** argv) {
     } else if (a == "--ceres") {
       rgbdmap::g_solver = rgbdmap::BaSolver::kCeres;
     } else if (a == "--iterative-min-frames" && i + 1 < argc) {
-      rgbdmap::g_iterative_min_frames = std::atoi(argv[++i]);
+      char* end = nullptr;
+      const long n = std::strtol(argv[++i], &end, 10);
+      if (*end != '\0' || n < 1 || n > 100000000) {
+        std::fprintf(stderr, "--iterative-min-frames takes a whole number in [1, 100000000], not '%s'\n",
+                     argv[i]);
+        return 2;
+      }
+      rgbdmap::g_iterative_min_frames = static_cast<int>(n);
     } else {
       std::fprintf(stderr, "usage: bench_bundle_adjustment [--quick] [--ceres] [--iterative-min-frames N]\n");
       return 2;
@@ -125,9 +132,11 @@ int main(int argc, char** argv) {
   std::printf("bundle adjustment, one thread (synthetic, ~1000 features per keyframe), %s solver\n",
               rgbdmap::g_solver == rgbdmap::BaSolver::kCeres ? "Ceres" : "own Schur");
   const rgbdmap::LandmarkMapConfig defaults;
-  std::printf("global BA caps: %d observations, %d per landmark, %.1f s per solve; conjugate gradients from %d frames\n",
-              defaults.global_max_observations, defaults.global_max_track, defaults.global_max_time_s,
-              rgbdmap::g_iterative_min_frames);
+  std::printf(
+      "global BA caps: %d observations, %d per landmark, %.1f s per solve; conjugate gradients from %d "
+      "frames\n",
+      defaults.global_max_observations, defaults.global_max_track, defaults.global_max_time_s,
+      rgbdmap::g_iterative_min_frames);
   for (int w : {5, 10, 15, 20}) rgbdmap::localBa(w);
   for (int n : quick ? std::vector<int>{100} : std::vector<int>{100, 250, 500})
     for (bool rs : {true, false}) rgbdmap::globalBa(n, rs);

@@ -47,9 +47,8 @@ struct BaSolveConfig {
   /// The own solver's reduced camera system with at least this many frame unknowns (a global BA) is solved
   /// by conjugate gradients on the implicit Schur complement, preconditioned by its block diagonal, instead
   /// of a sparse Cholesky: no matrix and no factor to store, work and memory linear in the observations
-  /// (which global_max_observations caps). A Cholesky factor fills in where keyframes revisit one scene: in
-  /// the 16-robot fleet bench a global BA took 3.0 s CPU at 235 keyframes and 44.6 s at 2,120 with it, and
-  /// 1.3-4.1 s from 128 to 3,947 keyframes with conjugate gradients.
+  /// (which global_max_observations caps). A Cholesky factor fills in where keyframes revisit one scene, and
+  /// its cost grows far faster than the keyframes (server/ba/README.md has the measurements).
   int iterative_min_frames = 100;
   int iterative_max_steps = 100;      ///< conjugate-gradient steps per Levenberg-Marquardt iteration
   double iterative_tolerance = 0.01;  ///< ... until the residual is this fraction of the right-hand side
