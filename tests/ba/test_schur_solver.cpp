@@ -152,6 +152,7 @@ TEST(SchurSolver, PosePriorsReachTheMinimumCeresReaches) {
 TEST(SchurSolver, ConjugateGradientsOnTheImplicitSchurComplementReachTheCholeskyMinimum) {
   BaSynthConfig o;
   o.keyframes = 70;
+  o.points = 700;
   o.rolling_shutter_rad = 0.01;
   const BaSynthScene s = makeBaSynthScene(o);
   BaProblem problem = syntheticProblem(s, 0.05, 8);

@@ -50,6 +50,28 @@ function(rgbdmap_read_test_tiers prefix)
   endforeach()
 endfunction()
 
+# The sanitizer tree (RGBDMAP_SANITIZE) runs the sanitize tier per executable, not per case: a process under
+# ASan takes ~0.5 s to start (shadow memory, the libraries' static constructors): one process per case (~500)
+# would double the sanitizer pass. Its unit cases run in two shards (GoogleTest's own sharding, two CTest
+# tests `<executable>.unit.<i>of2`), its "e2e sanitize" cases as `<executable>.e2e`; a failed one names the
+# case in its output. Labels "unit;sanitize" and "e2e;sanitize".
+function(rgbdmap_add_sanitized_runs name unit_filter sanitize_patterns elsewhere)
+  set(shards 2)
+  foreach(i RANGE 1 ${shards})
+    math(EXPR index "${i} - 1")
+    add_test(NAME ${name}.unit.${i}of${shards}
+             COMMAND ${name} --gtest_filter=${unit_filter} --gtest_also_run_disabled_tests)
+    set_tests_properties(${name}.unit.${i}of${shards} PROPERTIES LABELS "unit;sanitize" TIMEOUT 900 COST 100
+                         ENVIRONMENT "GTEST_TOTAL_SHARDS=${shards};GTEST_SHARD_INDEX=${index}")
+  endforeach()
+  if(sanitize_patterns)
+    list(JOIN sanitize_patterns ":" sanitize)
+    add_test(NAME ${name}.e2e COMMAND ${name} --gtest_filter=${sanitize}-${elsewhere}
+                                           --gtest_also_run_disabled_tests)
+    set_tests_properties(${name}.e2e PROPERTIES LABELS "e2e;sanitize" TIMEOUT 900 COST 100)
+  endif()
+endfunction()
+
 function(rgbdmap_add_test_suite name)
   cmake_parse_arguments(ARG "" "TEST_PREFIX" "SOURCES;LIBS" ${ARGN})
   add_executable(${name} ${ARG_SOURCES})
@@ -69,6 +91,10 @@ function(rgbdmap_add_test_suite name)
   list(JOIN tier_ELSEWHERE ":" elsewhere)
   set(not_unit ${tier_E2E} ${tier_ACCURACY} ${tier_ELSEWHERE})
   list(JOIN not_unit ":" not_unit)
+  if(RGBDMAP_SANITIZE)
+    rgbdmap_add_sanitized_runs(${name} "*-${not_unit}" "${tier_SANITIZE}" "${elsewhere}")
+    return()
+  endif()
   gtest_discover_tests(${name} ${discover} TEST_FILTER "*-${not_unit}" TEST_LIST ${name}_unit_tests
                        PROPERTIES TIMEOUT 600 LABELS unit)
   set(sanitize_lists ${name}_unit_tests)

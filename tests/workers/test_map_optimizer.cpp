@@ -146,7 +146,10 @@ TEST(MapOptimizer, GlobalBundleAdjustmentsAfterLargeCyclesWaitForTheMapToGrow) {
 // A map of more keyframes than ba.global_max_keyframes gets no global BA (past ~4,000 they ran
 // out of time and were refused while their window grew with the map); those it would have had are counted.
 TEST(MapOptimizer, AMapPastTheGlobalLimitGetsNoGlobalBundleAdjustment) {
-  const BaSynthScene s = scene();
+  BaSynthConfig c;  // the schedule only: fewer points than scene(), ~14 global BAs in all
+  c.keyframes = kKeyframes;
+  c.points = 800;
+  const BaSynthScene s = makeBaSynthScene(c);
   const auto grow = [](MapOptimizerConfig* c) {
     c->ba.global_after_loop_span = 1;
     c->ba.global_min_growth_fraction = 0.2;
