@@ -14,9 +14,9 @@
 #include <random>
 #include <string>
 
-#include "lcm_datagram.hpp"
 #include "rgbdmap/cli/cli.hpp"
 #include "rgbdmap/common/text_lines.hpp"
+#include "rgbdmap/transport/lcm_datagram.hpp"
 
 namespace rgbdmap::relay {
 namespace {

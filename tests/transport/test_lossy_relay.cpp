@@ -1,9 +1,9 @@
-// The lossy relay's LCM datagram parsing and drop decisions (apps/lossy_relay/lcm_datagram.hpp).
+// The lossy relay's LCM datagram parsing and drop decisions (rgbdmap/transport/lcm_datagram.hpp).
 #include <gtest/gtest.h>
 
 #include <vector>
 
-#include "../../apps/lossy_relay/lcm_datagram.hpp"
+#include "rgbdmap/transport/lcm_datagram.hpp"
 
 namespace rgbdmap::relay {
 namespace {

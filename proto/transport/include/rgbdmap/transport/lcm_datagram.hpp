@@ -3,7 +3,7 @@
 //   short message  "LC02" u32 magic, u32 sequence number, channel NUL-terminated, payload
 //   fragment       "LC03" u32 magic, u32 sequence number, u32 message size, u32 fragment offset,
 //                  u16 fragment number, u16 fragment count, (fragment 0 only) channel, payload
-// and the relay's drop decisions. Header-only so tests can use it without linking the program.
+// and the drop decisions of rgbdmap-lossy-relay (apps/lossy_relay). Header-only.
 #include <cmath>
 #include <cstddef>
 #include <cstdint>
