@@ -9,17 +9,14 @@
 
 #include <gtest/gtest.h>
 
+#include "common/temp_dir.hpp"
 #include "rgbdmap/intake/robot_registry.hpp"
 
 namespace rgbdmap {
 namespace {
 
-/// A directory of that name under the test temp dir, unique per process, removed if present.
-std::string freshDir(const std::string& name) {
-  const std::string dir = ::testing::TempDir() + "rgbdmap_intake_" + name + "_" + std::to_string(::getpid());
-  std::filesystem::remove_all(dir);
-  return dir;
-}
+/// A directory of that name under the test temp dir, unique per process, removed if present and at exit.
+std::string freshDir(const std::string& name) { return testing::processDir("rgbdmap_intake_", name); }
 
 void writeText(const std::string& path, const std::string& text) { std::ofstream(path) << text; }
 

@@ -16,6 +16,7 @@
 #include <gtest/gtest.h>
 #include <octomap/OcTree.h>
 
+#include "common/temp_dir.hpp"
 #include "proto/proto_test_util.hpp"
 #include "rgbdmap/client/odometry.hpp"
 #include "rgbdmap/dataset/evaluation.hpp"
@@ -250,12 +251,8 @@ class ScriptedRobot {
   std::shared_ptr<State> state_;
 };
 
-/// A directory of that name under the test temp dir, unique per process, removed if present.
-inline std::string freshDir(const std::string& name) {
-  const std::string dir = ::testing::TempDir() + "rgbdmap_server_" + name + "_" + std::to_string(::getpid());
-  std::filesystem::remove_all(dir);
-  return dir;
-}
+/// A directory of that name under the test temp dir, unique per process, removed if present and at exit.
+inline std::string freshDir(const std::string& name) { return processDir("rgbdmap_server_", name); }
 
 /// The end-to-end tests' server configuration: map in `dir`, no fsync (durability is the store's own test),
 /// no status messages.

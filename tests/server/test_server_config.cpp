@@ -3,6 +3,7 @@
 
 #include <gtest/gtest.h>
 
+#include "common/temp_dir.hpp"
 #include "config_file_check.hpp"
 #include "rgbdmap/server/server_config.hpp"
 
@@ -67,7 +68,7 @@ TEST(ServerConfig, BadValuesAndUnknownKeysAreAllReported) {
 }
 
 TEST(ServerConfig, KeysFileIsParsedStrictly) {
-  const std::string path = ::testing::TempDir() + "rgbdmap_keys_test.txt";
+  const std::string path = testing::processDir("rgbdmap_", "keys_test");
   {
     std::ofstream f(path);
     f << "# robots\nrobot0 " << std::string(64, 'a') << "\n\nrobot1 " << std::string(64, 'b')
