@@ -5,67 +5,106 @@
 #include <cmath>
 #include <cstring>
 
+#include "hamming_kernels.hpp"
+
 namespace rgbdmap {
+
 FeatureGrid::FeatureGrid(const FrameFeatures& features, int width, int height, int cell_px)
-    : features_(features),
-      cell_(cell_px),
+    : cell_(cell_px),
       cols_((width + cell_px - 1) / cell_px),
       rows_((height + cell_px - 1) / cell_px),
-      cells_(static_cast<size_t>(cols_) * rows_) {
+      start_(static_cast<size_t>(cols_) * rows_ + 1, 0),
+      descriptors_(vision_detail::packRows(features.descriptors)) {
+  std::vector<int> cell_of(features.size(), -1);
   for (size_t i = 0; i < features.size(); ++i) {
     const int cx = static_cast<int>(features.px[i].x()) / cell_,
               cy = static_cast<int>(features.px[i].y()) / cell_;
-    if (cx >= 0 && cy >= 0 && cx < cols_ && cy < rows_)
-      cells_[cy * cols_ + cx].push_back(static_cast<int>(i));
+    if (cx < 0 || cy < 0 || cx >= cols_ || cy >= rows_) continue;
+    cell_of[i] = cy * cols_ + cx;
+    ++start_[static_cast<size_t>(cell_of[i]) + 1];
   }
+  for (size_t c = 1; c < start_.size(); ++c) start_[c] += start_[c - 1];
+  entries_.resize(start_.back());
+  std::vector<size_t> next(start_.begin(), start_.end() - 1);
+  for (size_t i = 0; i < features.size(); ++i)
+    if (cell_of[i] >= 0)
+      entries_[next[static_cast<size_t>(cell_of[i])]++] = {features.px[i].x(), features.px[i].y(),
+                                                           static_cast<int>(i)};
+}
+
+FeatureGrid::CellRange FeatureGrid::cellsAround(double x, double y, double radius) const {
+  return {std::max(0, static_cast<int>((x - radius) / cell_)),
+          std::min(cols_ - 1, static_cast<int>((x + radius) / cell_)),
+          std::max(0, static_cast<int>((y - radius) / cell_)),
+          std::min(rows_ - 1, static_cast<int>((y + radius) / cell_))};
 }
 
 void FeatureGrid::query(double x, double y, double radius, std::vector<int>* out) const {
   out->clear();
-  const int x0 = std::max(0, static_cast<int>((x - radius) / cell_));
-  const int x1 = std::min(cols_ - 1, static_cast<int>((x + radius) / cell_));
-  const int y0 = std::max(0, static_cast<int>((y - radius) / cell_));
-  const int y1 = std::min(rows_ - 1, static_cast<int>((y + radius) / cell_));
+  const CellRange r = cellsAround(x, y, radius);
   const double r2 = radius * radius;
-  for (int cy = y0; cy <= y1; ++cy)
-    for (int cx = x0; cx <= x1; ++cx)
-      for (int i : cells_[cy * cols_ + cx])
-        if ((features_.px[i] - Eigen::Vector2d(x, y)).squaredNorm() <= r2) out->push_back(i);
+  for (int cy = r.y0; cy <= r.y1; ++cy)
+    for (int cx = r.x0; cx <= r.x1; ++cx)
+      for (const Entry* e = cellBegin(cx, cy); e != cellEnd(cx, cy); ++e)
+        if ((e->x - x) * (e->x - x) + (e->y - y) * (e->y - y) <= r2) out->push_back(e->index);
 }
+
+namespace {
+
+/// The two closest descriptors to `descriptor` among the keypoints within `radius` of (x, y); ties keep the
+/// first in the grid's order.
+#if defined(__x86_64__) && defined(__GNUC__)
+__attribute__((target_clones("popcnt", "default")))
+#endif
+vision_detail::NearestTwo nearestTwoAround(const FeatureGrid& grid, const uint64_t* descriptor, double x, double y,
+                            double radius) {
+  vision_detail::NearestTwo n;
+  const FeatureGrid::CellRange r = grid.cellsAround(x, y, radius);
+  const double r2 = radius * radius;
+  for (int cy = r.y0; cy <= r.y1; ++cy)
+    for (int cx = r.x0; cx <= r.x1; ++cx)
+      for (const FeatureGrid::Entry* e = grid.cellBegin(cx, cy); e != grid.cellEnd(cx, cy); ++e) {
+        if ((e->x - x) * (e->x - x) + (e->y - y) * (e->y - y) > r2) continue;
+        const int d = vision_detail::hamming256(descriptor, grid.descriptor(e->index));
+        if (d < n.best) {
+          n.second = n.best;
+          n.best = d;
+          n.index = e->index;
+        } else if (d < n.second) {
+          n.second = d;
+        }
+      }
+  return n;
+}
+
+}  // namespace
 
 std::vector<FeatureMatch> matchByProjection(const FrameFeatures& cur, const FeatureGrid& grid,
                                             const FrameFeatures& kf, const SE3& T_cur_kf,
                                             const PinholeCamera& camera, const GuidedMatchConfig& config) {
   std::vector<int> best_for_cur(cur.size(), -1);  // index into `candidates`
   std::vector<FeatureMatch> candidates;
-  std::vector<int> nearby;
+  double radius_at_octave[32];
+  for (int o = 0; o < 32; ++o) radius_at_octave[o] = config.radius_px * std::pow(1.2, o);
+  uint64_t descriptor[4];
   for (size_t k = 0; k < kf.size(); ++k) {
     if (!kf.hasDepth(k)) continue;
     const auto px = camera.project(T_cur_kf * kf.p_cam[k]);
     if (!px || !camera.inImage(*px)) continue;
-    const double radius = config.radius_px * std::pow(1.2, kf.keypoints[k].octave);
-    grid.query(px->x(), px->y(), radius, &nearby);
-    int best = INT_MAX, second = INT_MAX, best_i = -1;
-    for (int i : nearby) {
-      const int d =
-          hammingDistance(kf.descriptors.ptr<uint8_t>(static_cast<int>(k)), cur.descriptors.ptr<uint8_t>(i));
-      if (d < best) {
-        second = best;
-        best = d;
-        best_i = i;
-      } else if (d < second) {
-        second = d;
-      }
-    }
-    if (best_i < 0 || best > config.max_distance || (second != INT_MAX && best > config.ratio * second))
+    const int octave = kf.keypoints[k].octave;
+    const double radius = octave >= 0 && octave < 32 ? radius_at_octave[octave]
+                                                     : config.radius_px * std::pow(1.2, octave);
+    std::memcpy(descriptor, kf.descriptors.ptr<uint8_t>(static_cast<int>(k)), 32);
+    const vision_detail::NearestTwo n = nearestTwoAround(grid, descriptor, px->x(), px->y(), radius);
+    if (n.index < 0 || n.best > config.max_distance || (n.second != INT_MAX && n.best > config.ratio * n.second))
       continue;
-    int& slot = best_for_cur[best_i];
-    if (slot >= 0 && candidates[slot].distance <= best) continue;
+    int& slot = best_for_cur[static_cast<size_t>(n.index)];
+    if (slot >= 0 && candidates[static_cast<size_t>(slot)].distance <= n.best) continue;
     if (slot < 0) {
       slot = static_cast<int>(candidates.size());
-      candidates.push_back({best_i, static_cast<int>(k), best});
+      candidates.push_back({n.index, static_cast<int>(k), n.best});
     } else {
-      candidates[slot] = {best_i, static_cast<int>(k), best};
+      candidates[static_cast<size_t>(slot)] = {n.index, static_cast<int>(k), n.best};
     }
   }
   return candidates;

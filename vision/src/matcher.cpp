@@ -5,51 +5,90 @@
 #include <cstdint>
 #include <cstring>
 
+#include "hamming_kernels.hpp"
+
 namespace rgbdmap {
+namespace vision_detail {
 namespace {
 
-struct Nearest {
-  int best = INT_MAX, second = INT_MAX, index = -1;
-};
+// Each train row gets the key (distance << 16) | row: the smallest key is the nearest row, the lowest on
+// ties, and the minimum is a plain reduction the compiler vectorises. Masked rows get kFar.
+constexpr uint32_t kFar = UINT32_MAX;
+constexpr int kMaxKeyedRows = 1 << 16;
 
-inline int hamming256(const uint64_t* a, const uint64_t* b) {
-  return __builtin_popcountll(a[0] ^ b[0]) + __builtin_popcountll(a[1] ^ b[1]) +
-         __builtin_popcountll(a[2] ^ b[2]) + __builtin_popcountll(a[3] ^ b[3]);
+inline NearestTwo nearestBody(const uint64_t* query, const uint64_t* columns, int n, const char* mask,
+                              uint32_t* key) {
+  const uint64_t q0 = query[0], q1 = query[1], q2 = query[2], q3 = query[3];
+  const uint64_t *c0 = columns, *c1 = columns + n, *c2 = columns + 2 * static_cast<size_t>(n),
+                 *c3 = columns + 3 * static_cast<size_t>(n);
+  for (int t = 0; t < n; ++t)
+    key[t] = static_cast<uint32_t>(__builtin_popcountll(q0 ^ c0[t]) + __builtin_popcountll(q1 ^ c1[t]) +
+                                   __builtin_popcountll(q2 ^ c2[t]) + __builtin_popcountll(q3 ^ c3[t]))
+                 << 16 |
+             static_cast<uint32_t>(t);
+  if (mask)
+    for (int t = 0; t < n; ++t) key[t] = mask[t] ? key[t] : kFar;
+  uint32_t best = kFar;
+  for (int t = 0; t < n; ++t) best = std::min(best, key[t]);
+  if (best == kFar) return {};
+  const int index = static_cast<int>(best & 0xFFFFu);
+  key[index] = kFar;  // the second is the minimum of the others, ties included
+  uint32_t second = kFar;
+  for (int t = 0; t < n; ++t) second = std::min(second, key[t]);
+  return {static_cast<int>(best >> 16), second == kFar ? INT_MAX : static_cast<int>(second >> 16), index};
 }
 
-// Exhaustive search over 256-bit descriptors. Cloned for CPUs with POPCNT (no -march flags needed):
-// the loader picks the fastest variant at start-up.
 #if defined(__x86_64__) && defined(__GNUC__)
-__attribute__((target_clones("popcnt", "default")))
+__attribute__((target("avx512f,avx512vl,avx512bw,avx512vpopcntdq,popcnt"))) NearestTwo nearestAvx512(
+    const uint64_t* query, const uint64_t* columns, int n, const char* mask, uint32_t* d) {
+  return nearestBody(query, columns, n, mask, d);
+}
+__attribute__((target("popcnt"))) NearestTwo nearestPopcnt(const uint64_t* query, const uint64_t* columns,
+                                                           int n, const char* mask, uint32_t* d) {
+  return nearestBody(query, columns, n, mask, d);
+}
 #endif
-void nearestTwo(const uint64_t* query, const uint64_t* train, int n_query, int n_train, const char* mask,
-                Nearest* out) {
-  for (int q = 0; q < n_query; ++q) {
-    const uint64_t* a = query + 4 * q;
-    Nearest n;
-    for (int t = 0; t < n_train; ++t) {
-      if (mask && !mask[t]) continue;
-      const int d = hamming256(a, train + 4 * t);
-      if (d < n.best) {
-        n.second = n.best;
-        n.best = d;
-        n.index = t;
-      } else if (d < n.second) {
-        n.second = d;
-      }
-    }
-    out[q] = n;
-  }
+NearestTwo nearestPlain(const uint64_t* query, const uint64_t* columns, int n, const char* mask, uint32_t* d) {
+  return nearestBody(query, columns, n, mask, d);
 }
 
-// Copies descriptor rows into a 64-bit aligned buffer (cv::Mat rows are 32 bytes but may be unaligned).
-std::vector<uint64_t> packDescriptors(const cv::Mat& d) {
-  std::vector<uint64_t> out(static_cast<size_t>(d.rows) * 4);
-  for (int r = 0; r < d.rows; ++r) std::memcpy(&out[4 * r], d.ptr<uint8_t>(r), 32);
-  return out;
+using NearestFn = NearestTwo (*)(const uint64_t*, const uint64_t*, int, const char*, uint32_t*);
+
+NearestFn pickNearest() {
+#if defined(__x86_64__) && defined(__GNUC__)
+  __builtin_cpu_init();
+  if (__builtin_cpu_supports("avx512vpopcntdq") && __builtin_cpu_supports("avx512vl") &&
+      __builtin_cpu_supports("avx512bw"))
+    return nearestAvx512;
+  if (__builtin_cpu_supports("popcnt")) return nearestPopcnt;
+#endif
+  return nearestPlain;
 }
 
 }  // namespace
+
+NearestTwo nearestTwoOf(const uint64_t* query, const uint64_t* columns, int n, const char* mask,
+                        uint32_t* scratch) {
+  static const NearestFn fn = pickNearest();
+  if (n < kMaxKeyedRows) return fn(query, columns, n, mask, scratch);
+  NearestTwo out;  // more rows than a key can number: one row at a time
+  for (int t = 0; t < n; ++t) {
+    if (mask && !mask[t]) continue;
+    const uint64_t row[4] = {columns[t], columns[n + t], columns[2 * static_cast<size_t>(n) + t],
+                             columns[3 * static_cast<size_t>(n) + t]};
+    const int d = hamming256(query, row);
+    if (d < out.best) {
+      out.second = out.best;
+      out.best = d;
+      out.index = t;
+    } else if (d < out.second) {
+      out.second = d;
+    }
+  }
+  return out;
+}
+
+}  // namespace vision_detail
 
 #if defined(__x86_64__) && defined(__GNUC__)
 __attribute__((target_clones("popcnt", "default")))
@@ -58,7 +97,7 @@ int hammingDistance(const uint8_t* a, const uint8_t* b) {
   uint64_t x[4], y[4];
   std::memcpy(x, a, 32);
   std::memcpy(y, b, 32);
-  return hamming256(x, y);
+  return vision_detail::hamming256(x, y);
 }
 
 std::vector<FeatureMatch> matchDescriptors(const cv::Mat& query, const cv::Mat& train,
@@ -66,10 +105,14 @@ std::vector<FeatureMatch> matchDescriptors(const cv::Mat& query, const cv::Mat& 
   std::vector<FeatureMatch> matches;
   if (query.empty() || train.empty()) return matches;
   CV_Assert(query.type() == CV_8U && train.type() == CV_8U && query.cols == 32 && train.cols == 32);
-  const std::vector<uint64_t> q = packDescriptors(query), t = packDescriptors(train);
-  std::vector<Nearest> nearest(query.rows);
-  nearestTwo(q.data(), t.data(), query.rows, train.rows, train_mask ? train_mask->data() : nullptr,
-             nearest.data());
+  const std::vector<uint64_t> q = vision_detail::packRows(query), t = vision_detail::packColumns(train);
+  // Exhaustive search, one query row at a time.
+  std::vector<vision_detail::NearestTwo> nearest(static_cast<size_t>(query.rows));
+  std::vector<uint32_t> scratch(static_cast<size_t>(train.rows));
+  for (int r = 0; r < query.rows; ++r)
+    nearest[static_cast<size_t>(r)] = vision_detail::nearestTwoOf(
+        &q[4 * static_cast<size_t>(r)], t.data(), train.rows, train_mask ? train_mask->data() : nullptr,
+        scratch.data());
 
   int min_distance = INT_MAX;
   for (const auto& n : nearest)
@@ -80,7 +123,7 @@ std::vector<FeatureMatch> matchDescriptors(const cv::Mat& query, const cv::Mat& 
   // One-to-one: the best query per train index wins.
   std::vector<int> owner(train.rows, -1);
   for (int i = 0; i < query.rows; ++i) {
-    const Nearest& n = nearest[i];
+    const vision_detail::NearestTwo& n = nearest[i];
     if (n.index < 0 || n.best > limit) continue;
     if (n.second != INT_MAX && n.best > config.ratio * n.second) continue;
     int& o = owner[n.index];
