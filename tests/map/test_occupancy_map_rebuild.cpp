@@ -226,6 +226,7 @@ TEST(OccupancyMap, MergingTwoMapIdsRebuildsOneTree) {
   std::map<int64_t, std::pair<int, SE3>> merge;
   for (size_t i = 6; i < 12; ++i) merge[int64_t(i)] = {0, kf.T_world_cam[i]};
   EXPECT_TRUE(map.updatePoses(merge));
+  EXPECT_EQ(map.mapIds(), (std::vector<int>{0})) << "the merged-away map's tree is dropped at once";
   ASSERT_TRUE(map.waitIdle(30.0));
   EXPECT_EQ(map.mapIds(), (std::vector<int>{0}));
   EXPECT_EQ(map.revision(1), 0u);

@@ -177,7 +177,21 @@ bool OccupancyMap::isDirtyLocked(int map_id) const {
 }
 
 void OccupancyMap::markDirtyLocked(int map_id) {
-  if (dirty_.insert(map_id).second) rebuild_worker_.post([this] { rebuildNext(); });
+  if (std::find(dirty_.begin(), dirty_.end(), map_id) != dirty_.end()) return;
+  dirty_.push_back(map_id);
+  rebuild_worker_.post([this] { rebuildNext(); });
+}
+
+void OccupancyMap::dropEmptyMapsLocked(const std::set<int>& touched) {
+  std::set<int> empty;
+  for (int map_id : touched)
+    if (slots_.count(map_id)) empty.insert(map_id);
+  for (const auto& [id, e] : entries_) {
+    if (empty.empty()) return;
+    empty.erase(e.map_id);
+  }
+  // A rebuild of one of them still running finds its slot gone and drops its work.
+  for (int map_id : empty) slots_.erase(map_id);
 }
 
 bool OccupancyMap::updatePoses(const std::map<int64_t, std::pair<int, SE3>>& map_id_and_T_map_cam) {
@@ -191,6 +205,7 @@ bool OccupancyMap::updatePoses(const std::map<int64_t, std::pair<int, SE3>>& map
     it->second.map_id = update.first;
     it->second.T_map_cam = update.second;
   }
+  dropEmptyMapsLocked(touched);
   bool scheduled = false;
   for (int map_id : touched)
     if (isDirtyLocked(map_id)) {

@@ -158,7 +158,7 @@ void OccupancyMap::finishRebuildLocked(int map_id, size_t keyframes_cast,
   if (isDirtyLocked(map_id))
     markDirtyLocked(map_id);  // moved again meanwhile: one more rebuild (coalesced)
   else
-    dirty_.erase(map_id);
+    dirty_.erase(std::remove(dirty_.begin(), dirty_.end(), map_id), dirty_.end());
 }
 
 void OccupancyMap::rebuildNext() {
@@ -166,8 +166,8 @@ void OccupancyMap::rebuildNext() {
   {
     std::lock_guard<std::mutex> lock(mutex_);
     if (dirty_.empty()) return;  // its map id was rebuilt (and found clean) by an earlier task
-    map_id = *dirty_.begin();
-    dirty_.erase(dirty_.begin());
+    map_id = dirty_.front();
+    dirty_.pop_front();
     busy_ = true;
   }
   rebuild(map_id);

@@ -203,7 +203,11 @@ class OccupancyMap {
   /// Moves the oldest clouds in RAM beyond clouds_in_memory to the spill file (the caller's thread).
   void spillOldClouds();
   bool isDirtyLocked(int map_id) const;
+  /// Queues a rebuild of map_id behind the maps already dirty (first dirty, first rebuilt: a map corrected
+  /// all the time does not starve the others).
   void markDirtyLocked(int map_id);
+  /// Drops the trees of the touched maps that no keyframe is in any more (merged away).
+  void dropEmptyMapsLocked(const std::set<int>& touched);
   void rebuildNext();  ///< a task on rebuild_worker_: one per map id that became dirty
   void rebuild(int map_id);
   /// Updates map_id's tree only where keyframes moved (see partial_rebuild_max_fraction); false when that
@@ -221,7 +225,7 @@ class OccupancyMap {
   mutable std::mutex mutex_;       ///< entries_, slots_, slots' integrated poses, dirty_, counters
   std::map<int64_t, Entry> entries_;
   std::map<int, std::shared_ptr<Slot>> slots_;
-  std::set<int> dirty_;            ///< every map id in it has a rebuildNext() task queued
+  std::deque<int> dirty_;  ///< map ids to rebuild, in the order they became dirty; each has a task queued
   bool busy_ = false;              ///< a rebuild runs
   std::atomic<bool> stop_{false};  ///< abandons a running rebuild
   uint64_t next_order_ = 0;
