@@ -56,7 +56,7 @@ TEST(MapWorkerBound, JobsBeyondTheBoundReadTheirImagesBackAndAllAreInserted) {
   ASSERT_GT(n, MapWorker::kMaxQueuedImages);
   WorkerSetup setup("map_worker_bound");
   ASSERT_TRUE(setup.store);
-  MapWorker worker(setup.config, *setup.store, {});
+  MapWorker worker(mapWorkerConfig(setup.config), *setup.store, {});
   for (size_t i = 0; i < n; ++i) {
     StoredKeyframe stored;
     stored.node_id = static_cast<int64_t>(i);
@@ -83,7 +83,7 @@ TEST(MapWorkerBound, PoseUpdatesQueuedBehindAKeyframeCoalesceAndReachTheKeyframe
   ASSERT_GE(seg.keyframes.size(), 4u);
   WorkerSetup setup("map_worker_poses");
   ASSERT_TRUE(setup.store);
-  MapWorker worker(setup.config, *setup.store, {});
+  MapWorker worker(mapWorkerConfig(setup.config), *setup.store, {});
   const auto original = [&](int i) { return seg.keyframes[static_cast<size_t>(i)].T_odom_cam; };
   const auto moved = [&](int i, int epoch) {  // what optimisation `epoch` made of keyframe i
     return SE3(Eigen::Translation3d(0.01 * epoch, -0.005 * epoch, 0.0)) * original(i);

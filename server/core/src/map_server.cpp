@@ -127,7 +127,7 @@ void MapServer::Impl::startWorkers() {
     publishers.map = [this](const std::string& robot, const msg::MapUpdate& update) {
       publisher.publish(robot, update);
     };
-    map_worker = std::make_unique<MapWorker>(config, *store, std::move(publishers));
+    map_worker = std::make_unique<MapWorker>(mapWorkerConfig(config), *store, std::move(publishers));
     pipeline.startFeeding(map_worker.get());
     map_worker->start();
   }

@@ -7,6 +7,7 @@
 #include "rgbdmap/common/logging.hpp"
 #include "rgbdmap/map/map_io.hpp"
 #include "rgbdmap/map/occupancy_slice.hpp"
+#include "rgbdmap/model/map_server_config.hpp"
 #include "rgbdmap/proto/codec.hpp"
 
 #include "rgbdmap/workers/thread_time.hpp"
@@ -18,16 +19,8 @@ using Clock = std::chrono::steady_clock;
 
 double nowS() { return std::chrono::duration<double>(Clock::now().time_since_epoch()).count(); }
 
-/// The map section as the server runs it: the rebuild thread's nice, old clouds spilled to the map directory.
-OccupancyMapConfig occupancyConfig(const MapServerConfig& server) {
-  OccupancyMapConfig config = server.occupancy;
-  config.rebuild_nice = server.background_nice;
-  config.spill_dir = server.map_dir;
-  return config;
-}
-
 /// The stream is checked every map_stream_delay_s (or every map_stream_period_s without a delay); 0: off.
-SerialWorkerOptions workerOptions(const MapServerConfig& config, std::function<void()> stream) {
+SerialWorkerOptions workerOptions(const MapWorkerConfig& config, std::function<void()> stream) {
   SerialWorkerOptions options;
   options.name = "rgbdmap-map";
   options.period_s = config.map_stream_period_s;  // 0: no map stream
@@ -39,11 +32,23 @@ SerialWorkerOptions workerOptions(const MapServerConfig& config, std::function<v
 
 }  // namespace
 
-MapWorker::MapWorker(const MapServerConfig& config, const MapStore& store, MapWorkerPublishers publishers)
+MapWorkerConfig mapWorkerConfig(const MapServerConfig& server) {
+  MapWorkerConfig m;
+  m.occupancy = server.occupancy;
+  m.occupancy.rebuild_nice = server.background_nice;
+  m.occupancy.spill_dir = server.map_dir;
+  m.slice = server.slice;
+  m.slice_period_s = server.slice_period_s;
+  m.map_stream_period_s = server.map_stream_period_s;
+  m.map_stream_delay_s = server.map_stream_delay_s;
+  return m;
+}
+
+MapWorker::MapWorker(const MapWorkerConfig& config, const MapStore& store, MapWorkerPublishers publishers)
     : config_(config),
       store_(store),
       publishers_(std::move(publishers)),
-      occupancy_(occupancyConfig(config)),
+      occupancy_(config.occupancy),
       worker_(workerOptions(config, [this] { onStreamTick(); })) {
   if (!occupancy_.spillError().empty())
     log::warn("map: every kept keyframe cloud stays in RAM: ", occupancy_.spillError());

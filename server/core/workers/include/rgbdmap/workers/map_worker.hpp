@@ -26,11 +26,26 @@
 #include "rgbdmap/common/sample_reservoir.hpp"
 #include "rgbdmap/common/serial_worker.hpp"
 #include "rgbdmap/map/occupancy_map.hpp"
-#include "rgbdmap/model/map_server_config.hpp"
+#include "rgbdmap/map/occupancy_slice.hpp"
 #include "rgbdmap/model/server_keyframe.hpp"
 #include "rgbdmap/store/map_store.hpp"
 
 namespace rgbdmap {
+
+/// What the map worker is configured by (the server's map.*, slice.* and background_nice, see
+/// MapServerConfig).
+struct MapWorkerConfig {
+  OccupancyMapConfig occupancy;  ///< with the rebuild thread's nice and the spill directory set
+  SliceConfig slice;
+  double slice_period_s = 0.5;       ///< at most one slice per robot per this period (after keyframes)
+  double map_stream_period_s = 2.0;  ///< a MapUpdate to every robot at least this often; 0: no stream
+  double map_stream_delay_s = 0.25;  ///< ... and this soon after a keyframe's insertion; 0: only periodically
+};
+
+struct MapServerConfig;
+/// The map worker's part of a server configuration: the rebuild thread runs background_nice, old clouds are
+/// spilled to the map directory.
+MapWorkerConfig mapWorkerConfig(const MapServerConfig& server);
 
 /// One keyframe handed to the map worker. Empty depth: read its images from the store (restart).
 struct MapKeyframeJob {
@@ -86,8 +101,9 @@ class MapWorker {
   /// store when its turn comes, as a restored one does: memory stays bounded, no keyframe is left out.
   static constexpr size_t kMaxQueuedImages = 32;
 
-  /// config must validate(); store must outlive the worker (readKeyframe is thread-safe).
-  MapWorker(const MapServerConfig& config, const MapStore& store, MapWorkerPublishers publishers);
+  /// config comes from a MapServerConfig that validates; store must outlive the worker (readKeyframe is
+  /// thread-safe).
+  MapWorker(const MapWorkerConfig& config, const MapStore& store, MapWorkerPublishers publishers);
   ~MapWorker();  ///< stop()
   MapWorker(const MapWorker&) = delete;
   MapWorker& operator=(const MapWorker&) = delete;
@@ -130,7 +146,7 @@ class MapWorker {
   void onStreamTick();  ///< the worker's period: publishStreams() when a keyframe came in or it is time
   const KeyframeCloudMaker& makerFor(const std::string& robot_id, const CameraIntrinsics& camera);
 
-  const MapServerConfig config_;
+  const MapWorkerConfig config_;
   const MapStore& store_;
   const MapWorkerPublishers publishers_;
   OccupancyMap occupancy_;
