@@ -52,7 +52,7 @@ void FeatureGrid::query(double x, double y, double radius, std::vector<int>* out
 namespace {
 
 /// The two closest descriptors to `descriptor` among the keypoints within `radius` of (x, y); ties keep the
-/// first in the grid's order.
+/// first in the grid's order (not necessarily the lowest index).
 #if defined(__x86_64__) && defined(__GNUC__)
 __attribute__((target_clones("popcnt", "default")))
 #endif
@@ -65,14 +65,7 @@ vision_detail::NearestTwo nearestTwoAround(const FeatureGrid& grid, const uint64
     for (int cx = r.x0; cx <= r.x1; ++cx)
       for (const FeatureGrid::Entry* e = grid.cellBegin(cx, cy); e != grid.cellEnd(cx, cy); ++e) {
         if ((e->x - x) * (e->x - x) + (e->y - y) * (e->y - y) > r2) continue;
-        const int d = vision_detail::hamming256(descriptor, grid.descriptor(e->index));
-        if (d < n.best) {
-          n.second = n.best;
-          n.best = d;
-          n.index = e->index;
-        } else if (d < n.second) {
-          n.second = d;
-        }
+        n.offer(vision_detail::hamming256(descriptor, grid.descriptor(e->index)), e->index);
       }
   return n;
 }

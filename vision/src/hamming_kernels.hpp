@@ -39,6 +39,16 @@ inline std::vector<uint64_t> packColumns(const cv::Mat& d) {
 /// The closest and second-closest distance, and the index of the closest (the lowest index on ties).
 struct NearestTwo {
   int best = INT_MAX, second = INT_MAX, index = -1;
+  /// Takes row `row` at distance `d` into account; rows offered in ascending order keep the lowest on ties.
+  void offer(int d, int row) {
+    if (d < best) {
+      second = best;
+      best = d;
+      index = row;
+    } else if (d < second) {
+      second = d;
+    }
+  }
 };
 
 /// The nearest two train rows of `columns` (packColumns of n rows) to `query` (4 words), among the rows

@@ -76,14 +76,7 @@ NearestTwo nearestTwoOf(const uint64_t* query, const uint64_t* columns, int n, c
     if (mask && !mask[t]) continue;
     const uint64_t row[4] = {columns[t], columns[n + t], columns[2 * static_cast<size_t>(n) + t],
                              columns[3 * static_cast<size_t>(n) + t]};
-    const int d = hamming256(query, row);
-    if (d < out.best) {
-      out.second = out.best;
-      out.best = d;
-      out.index = t;
-    } else if (d < out.second) {
-      out.second = d;
-    }
+    out.offer(hamming256(query, row), t);
   }
   return out;
 }
