@@ -79,8 +79,9 @@ struct RunKeyframeRecord {
 struct RobotRunResult {
   /// Every frame, T_map_cam as known at that moment: mapFromOdom(segment) * T_odom_cam.
   Trajectory live;
-  /// Every frame re-anchored on the final corrected pose of its reference keyframe:
-  /// T_map_kf(final) * T_odom_kf^-1 * T_odom_cam (mapFromOdom(segment) when uncorrected).
+  /// Every frame re-anchored on the final corrected keyframes of its segment: T_map_odom at the frame's time
+  /// is interpolated by time between the corrections T_map_kf(final) * T_odom_kf^-1 of the keyframes before
+  /// and after it (a keyframe's frame gets its optimised pose; mapFromOdom(segment) when none is corrected).
   Trajectory final_map;
   Trajectory odometry;         ///< every frame, odometry frame
   Trajectory keyframes_final;  ///< keyframe poses, final corrected (map frame)
