@@ -32,21 +32,9 @@ FeatureGrid::FeatureGrid(const FrameFeatures& features, int width, int height, i
                                                            static_cast<int>(i)};
 }
 
-FeatureGrid::CellRange FeatureGrid::cellsAround(double x, double y, double radius) const {
-  return {std::max(0, static_cast<int>((x - radius) / cell_)),
-          std::min(cols_ - 1, static_cast<int>((x + radius) / cell_)),
-          std::max(0, static_cast<int>((y - radius) / cell_)),
-          std::min(rows_ - 1, static_cast<int>((y + radius) / cell_))};
-}
-
 void FeatureGrid::query(double x, double y, double radius, std::vector<int>* out) const {
   out->clear();
-  const CellRange r = cellsAround(x, y, radius);
-  const double r2 = radius * radius;
-  for (int cy = r.y0; cy <= r.y1; ++cy)
-    for (int cx = r.x0; cx <= r.x1; ++cx)
-      for (const Entry* e = cellBegin(cx, cy); e != cellEnd(cx, cy); ++e)
-        if ((e->x - x) * (e->x - x) + (e->y - y) * (e->y - y) <= r2) out->push_back(e->index);
+  forEachNear(x, y, radius, [out](int i) { out->push_back(i); });
 }
 
 namespace {
@@ -59,14 +47,9 @@ __attribute__((target_clones("popcnt", "default")))
 vision_detail::NearestTwo nearestTwoAround(const FeatureGrid& grid, const uint64_t* descriptor, double x, double y,
                             double radius) {
   vision_detail::NearestTwo n;
-  const FeatureGrid::CellRange r = grid.cellsAround(x, y, radius);
-  const double r2 = radius * radius;
-  for (int cy = r.y0; cy <= r.y1; ++cy)
-    for (int cx = r.x0; cx <= r.x1; ++cx)
-      for (const FeatureGrid::Entry* e = grid.cellBegin(cx, cy); e != grid.cellEnd(cx, cy); ++e) {
-        if ((e->x - x) * (e->x - x) + (e->y - y) * (e->y - y) > r2) continue;
-        n.offer(vision_detail::hamming256(descriptor, grid.descriptor(e->index)), e->index);
-      }
+  grid.forEachNear(x, y, radius, [&](int i) __attribute__((always_inline)) {
+    n.offer(vision_detail::hamming256(descriptor, grid.descriptor(i)), i);
+  });
   return n;
 }
 
