@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 
 #include <opencv2/imgproc.hpp>
 
@@ -51,6 +52,30 @@ void OrbExtractor::detectAndDescribe(const cv::Mat& gray, std::vector<cv::KeyPoi
   orb_->compute(gray, *keypoints, *descriptors);
 }
 
+namespace {
+
+/// True when the valid depth within `radius` pixels of (x, y) spans more than `max_spread` of `z` (missing
+/// pixels, the sensor's shadows, do not count: they carry no depth to disagree with).
+bool onDepthEdge(const RgbdFrame& frame, int x, int y, double z, int radius, double max_spread) {
+  const cv::Mat& d = frame.depth;
+  const int x0 = std::max(0, x - radius), x1 = std::min(d.cols - 1, x + radius);
+  const int y0 = std::max(0, y - radius), y1 = std::min(d.rows - 1, y + radius);
+  const double limit = max_spread * z * frame.depth_scale;  // in depth units
+  uint16_t lo = UINT16_MAX, hi = 0;
+  for (int r = y0; r <= y1; ++r) {
+    const uint16_t* row = d.ptr<uint16_t>(r);
+    for (int c = x0; c <= x1; ++c) {
+      const uint16_t v = row[c];
+      if (v == 0) continue;
+      lo = std::min(lo, v);
+      hi = std::max(hi, v);
+    }
+  }
+  return hi > lo && static_cast<double>(hi - lo) > limit;
+}
+
+}  // namespace
+
 FrameFeatures OrbExtractor::extract(const RgbdFrame& frame, const PinholeCamera& camera) const {
   cv::Mat gray;
   if (frame.color.channels() == 3)
@@ -66,9 +91,11 @@ FrameFeatures OrbExtractor::extract(const RgbdFrame& frame, const PinholeCamera&
   for (size_t i = 0; i < n; ++i) {
     const cv::Point2f& pt = f.keypoints[i].pt;
     f.px[i] = camera.undistort(Eigen::Vector2d(pt.x, pt.y));
-    const double z =
-        frame.depthMetres(static_cast<int>(std::lround(pt.x)), static_cast<int>(std::lround(pt.y)));
-    const bool valid = z >= config_.min_depth_m && z <= config_.max_depth_m;
+    const int x = static_cast<int>(std::lround(pt.x)), y = static_cast<int>(std::lround(pt.y));
+    const double z = frame.depthMetres(x, y);
+    const bool valid = z >= config_.min_depth_m && z <= config_.max_depth_m &&
+                       (config_.depth_edge_radius_px <= 0 ||
+                        !onDepthEdge(frame, x, y, z, config_.depth_edge_radius_px, config_.depth_edge_max_spread));
     f.depth_m[i] = valid ? z : 0.0;
     f.p_cam[i] = valid ? camera.backProject(f.px[i], z) : Vec3::Zero();
   }

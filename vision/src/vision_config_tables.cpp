@@ -17,7 +17,11 @@ const ConfigTable<OrbConfig>& orbConfigTable() {
           .add("grid_rows", &C::grid_rows, R::closed(1, 64), "")
           .add("min_depth_m", &C::min_depth_m, R::closed(0.0, 100.0),
                "depth outside [min, max] counts as missing")
-          .add("max_depth_m", &C::max_depth_m, R::closed(0.01, 100.0), "");
+          .add("max_depth_m", &C::max_depth_m, R::closed(0.01, 100.0), "")
+          .add("depth_edge_radius_px", &C::depth_edge_radius_px, R::closed(0, 16),
+               "a keypoint's depth counts as missing where the depth within this radius spans more than ...")
+          .add("depth_edge_max_spread", &C::depth_edge_max_spread, R::closed(0.001, 10.0),
+               "... this fraction of it (a depth discontinuity); radius 0 turns the test off");
   return table;
 }
 

@@ -16,8 +16,8 @@ const ConfigTable<BaSolveConfig>& baSolveConfigTable() {
                "ORB pyramid scale: the keypoint sigma grows by this per octave")
           .add(
               "inverse_depth_sigma", &C::inverse_depth_sigma, R::closed(1e-5, 10.0),
-              "sigma of 1/depth (1/m): 0.01 is 1 cm at 1 m, 4 cm at 2 m (a Kinect-class sensor's noise grows "
-              "with depth squared)")
+              "sigma of 1/depth (1/m): 0.025 is 2.5 cm at 1 m, 10 cm at 2 m (a Kinect-class sensor's noise "
+              "grows with depth squared; its registration to colour adds more)")
           .add("use_depth", &C::use_depth, "the inverse-depth residual where a keypoint has depth")
           .add("rolling_shutter", &C::rolling_shutter,
                "estimate each keyframe's rotation during the image readout (rolling-shutter cameras; a "

@@ -14,6 +14,12 @@ struct OrbConfig {
   int grid_rows = 6;
   double min_depth_m = 0.3;  ///< depth outside [min, max] counts as missing
   double max_depth_m = 6.0;
+  /// A keypoint's depth also counts as missing where the valid depth within this many pixels of it spans
+  /// more than depth_edge_max_spread of it: on a depth discontinuity the depth and colour images disagree
+  /// (registration, the time between the two exposures), so the pixel's depth may belong to the other
+  /// side of the edge. 0 turns the test off.
+  int depth_edge_radius_px = 3;
+  double depth_edge_max_spread = 0.03;  ///< (max - min) / depth over that window
 };
 
 struct MatcherConfig {

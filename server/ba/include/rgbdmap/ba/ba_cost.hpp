@@ -57,7 +57,7 @@ struct BaMeasurement {
   double sigma_px = 1.0;
   double row_fraction = 0.0;  ///< sensor row from the image middle, fraction of the height
   double depth_m = 0.0;       ///< 0: no depth (2 residuals)
-  double inverse_depth_sigma = 0.01;
+  double inverse_depth_sigma = 0.025;
 };
 
 /// One observation's whitened residual rows by the pose's left perturbation (6), the point (3) and the
