@@ -226,8 +226,9 @@ TrackingResult VisualOdometry::track(const RgbdFrame& frame) {
   r.T_odom_cam = se3::normalized(reference_->T_odom_cam * est.T_cur_kf.inverse());
   ++frames_since_keyframe_;
 
+  // N_k: the keyframe's features that can match, those with depth (keyframe_selector.hpp).
   const KeyframeDecision d =
-      decideKeyframe(est.matches, r.features, static_cast<int>(reference_->features.size()),
+      decideKeyframe(est.matches, r.features, static_cast<int>(reference_->features.countWithDepth()),
                      frames_since_keyframe_, est.T_cur_kf.inverse(), config_.keyframe);
   r.similarity = d.similarity;
   const bool make_keyframe =

@@ -46,7 +46,9 @@ Counts classify(const FrameFeatures& f, const RgbdFrame& frame, int hole_top) {
     const int x = static_cast<int>(std::lround(p.x)), y = static_cast<int>(std::lround(p.y));
     if (frame.depthMetres(x, y) == 0.0) continue;  // inside the hole
     const bool has = f.hasDepth(i);
-    if (has) EXPECT_NEAR(f.depth_m[i], frame.depthMetres(x, y), 1e-9) << "the depth at the keypoint's pixel";
+    if (has) {
+      EXPECT_NEAR(f.depth_m[i], frame.depthMetres(x, y), 1e-9) << "the depth at the keypoint's pixel";
+    }
     if (std::abs(x - kStepColumn) <= 2) {
       ++c.near_step;
       c.near_step_with_depth += has;

@@ -1,7 +1,9 @@
 #pragma once
 // Keyframe rule of Hu et al. 2017 (Sec. 3.1): similarity S = 2N / (N_t + N_k) between the current frame
 // (N_t features) and the last keyframe (N_k features) with N matched; a new keyframe when S < P, or after
-// at most m frames, or (our addition) when the motion from the keyframe is large.
+// at most m frames, or (our addition) when the motion from the keyframe is large. The odometry counts as N_k
+// the keyframe's features with depth: only those can match (a 3-D point is needed), so a keyframe whose
+// depth is sparser is not left sooner for that.
 #include <string>
 
 #include "rgbdmap/client/odometry_config.hpp"
