@@ -48,6 +48,9 @@ const char* kRunUsage =
     "a URL\n"
     "  --out DIR               output folder (default: out); the map directory is DIR/map (replaced)\n"
     "  --realtime              pace every robot at its dataset's frame rate (default: as fast as possible)\n"
+    "  --async                 as fast as possible without waiting for the server's correction after each\n"
+    "                          keyframe: faster, but the map then depends on the machine's load (default:\n"
+    "                          wait, the same map on a busy machine; --realtime never waits)\n"
     "  --server-config FILE    server YAML (deploy/config/server.yaml documents every key)\n"
     "  --scene loop|sweep      synthetic scene when no dataset is given (default loop)\n"
     "  --frames N              synthetic frame count (default 300), or the first N frames of --dataset\n"
@@ -67,7 +70,7 @@ struct RunInputs {
 RunOptions parseRun(cli::Args& args, ServerAppConfig* server_config, std::vector<std::string>* errors) {
   auto allowed = app::datasetOptionNames();
   allowed.insert(allowed.end(), {"dataset", "source", "out", "scene", "frames", "seed", "threads", "robots",
-                                 "overlap", "transport", "realtime", "server-config", "viewer"});
+                                 "overlap", "transport", "realtime", "async", "server-config", "viewer"});
   args.checkAllowed(allowed);
   RunOptions o = parseRunOptions(args, errors);
   if (args.has("source") && args.has("dataset"))
@@ -190,6 +193,9 @@ std::vector<RobotOutcome> runRobots(const RunOptions& o, const RunInputs& in,
   };
   ro.realtime = o.realtime;
   ro.final_wait_s = 60.0;
+  // A recording run as fast as possible waits for the server after each keyframe: the same map whatever
+  // the machine's load (RobotRunOptions::lockstep_s). Paced or --async robots do not wait.
+  ro.lockstep_s = o.realtime || o.async ? 0.0 : 10.0;
   std::vector<RobotOutcome> robots(plans.size());
   std::vector<std::thread> threads;
   for (size_t i = 0; i < plans.size(); ++i) {
@@ -254,7 +260,7 @@ int writeOutputs(const RunOptions& o, const RunInputs& in, const std::vector<Rob
 
 int run(int argc, char** argv) {
   ViewerArgv viewer_argv(argc, argv);
-  cli::Args args(viewer_argv.argc(), viewer_argv.argv(), {"help", "realtime"});
+  cli::Args args(viewer_argv.argc(), viewer_argv.argv(), {"help", "realtime", "async"});
   if (args.has("help")) {
     std::printf("%s%s", kRunUsage, app::datasetOptionsHelp());
     return 0;

@@ -51,6 +51,7 @@ RunOptions parseRunOptions(cli::Args& args, std::vector<std::string>* errors) {
   o.robots = args.getInt("robots").value_or(0);
   o.overlap = args.getDouble("overlap").value_or(o.overlap);
   o.realtime = args.has("realtime");
+  o.async = args.has("async");
   checkRunOptions(args, o, errors);
   if (o.robots == 0) o.robots = std::max<long long>(1, static_cast<long long>(o.datasets.size()));
   return o;

@@ -15,6 +15,7 @@ struct RunOptions {
   long long frames = 0, seed = 1, threads = 1, robots = 0;
   double overlap = 0.25;
   bool realtime = false;
+  bool async = false;  ///< --async: robots do not wait for the server after each keyframe
 };
 
 /// Reads and checks the options of `rgbdmap run`; every problem is appended to *errors.

@@ -48,6 +48,7 @@ struct RunState {
   std::vector<FrameRecord> frames;
   std::map<int, KeyframeRecord> keyframes;  ///< every keyframe the odometry made, by id
   int last_sent_keyframe = -1;
+  bool lockstep_given_up = false;  ///< a correction did not come within lockstep_s: no more waiting
 };
 
 bool stopRequested(const RobotRunOptions& options) { return options.stop && options.stop->requested(); }
@@ -107,12 +108,21 @@ void skipUnreadable(const FrameRead& read, log::RateLimiter* limiter, RobotRunRe
 }
 
 /// Tracks one frame: keyframe out through the link, tracking state, live pose, avoidance, records.
-void trackFrame(const RgbdFrame& frame, VisualOdometry& vo, RobotLink& link, RunState* state,
-                std::optional<AvoidanceController>& controller, int* last_keyframe, RobotRunResult* out) {
+void trackFrame(const RgbdFrame& frame, VisualOdometry& vo, RobotLink& link, const RobotRunOptions& options,
+                RunState* state, std::optional<AvoidanceController>& controller, int* last_keyframe,
+                RobotRunResult* out) {
   const TrackingResult r = vo.track(frame);
   if (r.new_keyframe) {
     *last_keyframe = r.new_keyframe->id;
     sendKeyframe(r, frame, link, state, out);
+    if (options.lockstep_s > 0.0 && !state->lockstep_given_up &&
+        state->last_sent_keyframe == r.new_keyframe->id &&
+        !link.waitForCorrection(r.new_keyframe->id, options.lockstep_s) && !stopRequested(options)) {
+      state->lockstep_given_up = out->lockstep_given_up = true;
+      log::warn("no correction for keyframe ", r.new_keyframe->id, " within ", options.lockstep_s,
+                " s: the robot stops waiting for the server after each keyframe (the map may now depend "
+                "on timing)");
+    }
   }
   link.setTrackingState(*last_keyframe, r.segment, r.state);
   state->frames.push_back({r.timestamp, r.T_odom_cam, r.segment, r.reference_keyframe});
@@ -166,7 +176,7 @@ void trackFrames(FrameSource& source, VisualOdometry& vo, RobotLink& link, const
         return;
       }
     }
-    trackFrame(read.frame, vo, link, state, controller, &last_keyframe, out);
+    trackFrame(read.frame, vo, link, options, state, controller, &last_keyframe, out);
     if (options.progress) options.progress(done, std::max(total, done));
   }
 }

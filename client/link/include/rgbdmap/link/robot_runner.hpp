@@ -39,6 +39,11 @@ struct RobotRunOptions {
   int end_frame = -1;    ///< exclusive; -1 = all
   bool realtime = true;  ///< pace a recording by its timestamps (false: --fast); a live source paces itself
   double final_wait_s = 20.0;  ///< at the end: wait for every ack and a correction covering the last keyframe
+  /// > 0: after each keyframe sent, wait up to this long for the server's correction covering it before the
+  /// next frame. A recording run as fast as possible then meets the server in one order whatever the load
+  /// (the server optimises after each keyframe), so the map does not depend on the machine's speed. A
+  /// correction that does not come in time (a refused keyframe, a server gone) ends the waiting.
+  double lockstep_s = 0.0;
   /// Called after each frame with (frames done, frames in the range); e.g. the CLI's progress line.
   std::function<void(int done, int total)> progress;
   const StopRequest* stop = nullptr;  ///< optional: ends the run early (outputs are still complete)
@@ -90,6 +95,7 @@ struct RobotRunResult {
   int dropped_frames = 0;      ///< a live source's frames the odometry was too slow for (newest wins)
   std::string source_error;    ///< set: the source failed (device lost, truncated bag) and the run ended
   int keyframes_not_sent = 0;  ///< sendKeyframe failed (encoding, window full past the timeout, stopped)
+  bool lockstep_given_up = false;  ///< a correction did not come within lockstep_s; no waiting after it
   bool all_acked = false, final_correction_received = false;
   bool interrupted = false;  ///< options.stop ended the run
   RobotLinkStats link;
