@@ -7,7 +7,7 @@
 namespace rgbdmap {
 
 struct KeyframeConfig {
-  double similarity_threshold = 0.33;  ///< P: new keyframe when S = 2N / (N_t + N_k) < P
+  double similarity_threshold = 0.30;  ///< P: new keyframe when S = 2N / (N_t + N_k) < P
   int max_frame_gap = 30;              ///< m: new keyframe after at most this many frames
   double max_translation_m = 0.25;     ///< ... or on large motion from the keyframe
   double max_rotation_deg = 15.0;
