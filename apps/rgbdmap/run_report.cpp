@@ -61,7 +61,7 @@ Json robotJson(const RunOptions& o, const RobotPlan& plan, const RobotOutcome& r
           {"ate_rmse_m", ateOrNull(robot.ate)},
           {"ate_rmse_odometry_only_m", ateOrNull(robot.ate_odometry)},
           {"client_ms_per_frame_median", jsonNumber(r.medianMs())},
-          {"waited_for_server", !o.realtime && !o.async && !r.lockstep_given_up},
+          {"waited_for_server", r.waited_for_server},
           {"bytes_per_keyframe_mean", jsonNumber(bytes_per_kf)},
           // The parts of a keyframe; bytes_per_keyframe_mean is all the link sent (envelopes, other fields,
           // retransmissions, heartbeats, poses) over the keyframes sent.

@@ -48,7 +48,6 @@ struct RunState {
   std::vector<FrameRecord> frames;
   std::map<int, KeyframeRecord> keyframes;  ///< every keyframe the odometry made, by id
   int last_sent_keyframe = -1;
-  bool lockstep_given_up = false;  ///< a correction did not come within lockstep_s: no more waiting
 };
 
 bool stopRequested(const RobotRunOptions& options) { return options.stop && options.stop->requested(); }
@@ -115,10 +114,9 @@ void trackFrame(const RgbdFrame& frame, VisualOdometry& vo, RobotLink& link, con
   if (r.new_keyframe) {
     *last_keyframe = r.new_keyframe->id;
     sendKeyframe(r, frame, link, state, out);
-    if (options.lockstep_s > 0.0 && !state->lockstep_given_up &&
-        state->last_sent_keyframe == r.new_keyframe->id &&
+    if (out->waited_for_server && state->last_sent_keyframe == r.new_keyframe->id &&
         !link.waitForCorrection(r.new_keyframe->id, options.lockstep_s) && !stopRequested(options)) {
-      state->lockstep_given_up = out->lockstep_given_up = true;
+      out->waited_for_server = false;
       log::warn("no correction for keyframe ", r.new_keyframe->id, " within ", options.lockstep_s,
                 " s: the robot stops waiting for the server after each keyframe (the map may now depend "
                 "on timing)");
@@ -254,6 +252,7 @@ RobotRunResult runRobot(const TumDataset& dataset, const CameraIntrinsics& camer
 RobotRunResult runRobot(FrameSource& source, const CameraIntrinsics& camera, const OdometryConfig& odometry,
                         RobotLink& link, const RobotRunOptions& options) {
   RobotRunResult out;
+  out.waited_for_server = options.lockstep_s > 0.0;
   const Clock::time_point start = Clock::now();
   RunState state;
   try {

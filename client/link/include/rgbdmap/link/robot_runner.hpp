@@ -95,7 +95,7 @@ struct RobotRunResult {
   int dropped_frames = 0;      ///< a live source's frames the odometry was too slow for (newest wins)
   std::string source_error;    ///< set: the source failed (device lost, truncated bag) and the run ended
   int keyframes_not_sent = 0;  ///< sendKeyframe failed (encoding, window full past the timeout, stopped)
-  bool lockstep_given_up = false;  ///< a correction did not come within lockstep_s; no waiting after it
+  bool waited_for_server = false;  ///< lockstep_s > 0 and every correction came within it
   bool all_acked = false, final_correction_received = false;
   bool interrupted = false;  ///< options.stop ended the run
   RobotLinkStats link;
