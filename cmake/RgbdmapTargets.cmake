@@ -4,7 +4,7 @@
 # Layers (a library links only libraries of a lower layer; the robot's and the server's stacks never link
 # each other, what they share lives in a "shared" library below both):
 #   0  common                                       shared
-#   1  codec, dataset                               shared
+#   1  codec, dataset, mcap                         shared
 #   2  synth, proto, transport                      shared
 #   3  vision                                       shared   | source (frame sources)            robot
 #                                                            | server intake (receive side)      server

@@ -4,13 +4,13 @@
 
 #include <rosbag/bag.h>
 
-#include <cmath>
 #include <cstring>
 
 #include <opencv2/imgproc.hpp>
 
 #include "rgbdmap/dataset/tum_dataset.hpp"
 #include "rgbdmap/source/ros_messages.hpp"
+#include "source/ros_test_messages.hpp"
 
 namespace rgbdmap::testing {
 
@@ -73,31 +73,6 @@ const std::string kInfoDefinition =
     "MSG: sensor_msgs/RegionOfInterest\nuint32 x_offset\nuint32 y_offset\nuint32 height\nuint32 width\n"
     "bool do_rectify\n";
 
-ros1::CameraInfo cameraInfo(const CameraIntrinsics& k, double stamp) {
-  ros1::CameraInfo c;
-  c.header = ros1::imageFromMat(cv::Mat(1, 1, CV_8UC1), "mono8", stamp).header;
-  c.width = static_cast<uint32_t>(k.width);
-  c.height = static_cast<uint32_t>(k.height);
-  c.distortion_model = "plumb_bob";
-  c.D.assign(k.distortion.begin(), k.distortion.end());
-  c.K = {k.fx, 0, k.cx, 0, k.fy, k.cy, 0, 0, 1};
-  c.R = {1, 0, 0, 0, 1, 0, 0, 0, 1};
-  c.P = {k.fx, 0, k.cx, 0, 0, k.fy, k.cy, 0, 0, 0, 1, 0};
-  return c;
-}
-
-/// Depth in the bag's encoding from the folder's raw units.
-cv::Mat depthAs(const cv::Mat& raw, double depth_scale, const std::string& encoding) {
-  cv::Mat out;
-  if (encoding == "16UC1") {
-    raw.convertTo(out, CV_16UC1, 1000.0 / depth_scale);  // millimetres, rounded
-  } else {
-    raw.convertTo(out, CV_32FC1, 1.0 / depth_scale);  // metres
-    out.setTo(std::nanf(""), raw == 0);               // no measurement: NaN, as the TUM bags have it
-  }
-  return out;
-}
-
 ros::Time rosTime(double t) {
   const ros1::Header h = ros1::imageFromMat(cv::Mat(1, 1, CV_8UC1), "mono8", t).header;
   return ros::Time(h.stamp_sec, h.stamp_nsec);
@@ -138,9 +113,9 @@ Status writeTumFolderAsBag(const std::string& dir, const std::string& bag_path,
       if (options.write_info)
         bag.write(options.info_topic, rosTime(e.rgb_timestamp),
                   SerializedRosMessage{ros1::kCameraInfoType, ros1::kCameraInfoMd5, kInfoDefinition.c_str(),
-                                       ros1::encodeCameraInfo(cameraInfo(camera, e.rgb_timestamp))});
+                                       ros1::encodeCameraInfo(cameraInfoFor(camera, e.rgb_timestamp))});
       if (!options.write_depth) continue;
-      ros1::Image depth = ros1::imageFromMat(depthAs(frame->depth, camera.depth_scale, depth_type),
+      ros1::Image depth = ros1::imageFromMat(depthAsEncoding(frame->depth, camera.depth_scale, depth_type),
                                              depth_type, e.depth_timestamp);
       depth.encoding = options.depth_encoding;
       bag.write(options.depth_topic, rosTime(e.depth_timestamp),

@@ -121,15 +121,15 @@ Result<std::unique_ptr<BagReader>> BagReader::open(const std::string& path, cons
   return R(std::move(reader));
 }
 
-Result<std::optional<BagMessage>> BagReader::next() {
-  using R = Result<std::optional<BagMessage>>;
+Result<std::optional<ImageMessage>> BagReader::next() {
+  using R = Result<std::optional<ImageMessage>>;
   Impl& b = *impl_;
   try {
     if (b.it == b.view->end()) return R(std::nullopt);
     const rosbag::MessageInstance& m = *b.it;
-    BagMessage out;
+    ImageMessage out;
     out.is_depth = m.getTopic() == b.topics.depth;
-    out.bag_time = m.getTime().toSec();
+    out.record_time = m.getTime().toSec();
     const std::vector<uint8_t> bytes = bytesOf(m);
     auto image = ros1::decodeImage(bytes.data(), bytes.size());
     if (!image) return R::failure("bag " + b.path + ": " + m.getTopic() + ": " + image.error());

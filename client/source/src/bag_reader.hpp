@@ -6,8 +6,8 @@
 #include <optional>
 #include <string>
 
+#include "image_message_reader.hpp"
 #include "rgbdmap/common/result.hpp"
-#include "rgbdmap/source/ros_messages.hpp"
 
 namespace rgbdmap::source_detail {
 
@@ -19,21 +19,14 @@ struct BagTopics {
       false;  ///< named explicitly: missing is an error (default: the camera comes elsewhere)
 };
 
-struct BagMessage {
-  bool is_depth = false;
-  double bag_time = 0.0;
-  ros1::Image image;
-};
-
-class BagReader {
+class BagReader : public ImageMessageReader {
  public:
   static Result<std::unique_ptr<BagReader>> open(const std::string& path, const BagTopics& topics);
-  ~BagReader();
-  /// The next colour or depth message; nullopt at the end; the reason when the bag cannot be read on.
-  Result<std::optional<BagMessage>> next();
-  const std::optional<CameraIntrinsics>& camera() const { return camera_; }
-  std::string describe() const;
-  size_t colorCount() const { return color_count_; }
+  ~BagReader() override;
+  Result<std::optional<ImageMessage>> next() override;
+  const std::optional<CameraIntrinsics>& camera() const override { return camera_; }
+  std::string describe() const override;
+  size_t colorCount() const override { return color_count_; }
 
  private:
   struct Impl;

@@ -12,6 +12,7 @@ const std::map<std::string, std::set<std::string>>& allowedKeys() {
   static const std::map<std::string, std::set<std::string>> keys = {
       {"tum", {"live"}},
       {"bag", {"rgb", "depth", "info", "max_dt"}},
+      {"mcap", {"rgb", "depth", "info", "max_dt"}},
       {"openni2", {}},
   };
   return keys;
@@ -40,11 +41,12 @@ Result<SourceUrl> SourceUrl::parse(const std::string& url) {
   SourceUrl u;
   const size_t colon = url.find(':');
   if (colon == std::string::npos)
-    return R::failure("source '" + url + "': expected tum:DIR, bag:FILE.bag[?...] or openni2:[URI]");
+    return R::failure("source '" + url +
+                      "': expected tum:DIR, bag:FILE.bag[?...], mcap:FILE.mcap[?...] or openni2:[URI]");
   u.scheme = url.substr(0, colon);
   const auto allowed = allowedKeys().find(u.scheme);
   if (allowed == allowedKeys().end())
-    return R::failure("source '" + url + "': unknown kind '" + u.scheme + "' (tum, bag, openni2)");
+    return R::failure("source '" + url + "': unknown kind '" + u.scheme + "' (tum, bag, mcap, openni2)");
   std::string rest = url.substr(colon + 1);
   if (rest.rfind("//", 0) == 0) rest = rest.substr(2);  // tum://DIR and bag://FILE read the same
   const size_t question = rest.find('?');
@@ -67,6 +69,8 @@ Result<std::unique_ptr<FrameSource>> openFrameSource(const SourceUrl& url, const
     opened = source_detail::openTumSource(url, options);
   else if (url.scheme == "bag")
     opened = source_detail::openBagSource(url, options);
+  else if (url.scheme == "mcap")
+    opened = source_detail::openMcapSource(url, options);
   else
     opened = source_detail::openOpenni2Source(url, options);
   if (!opened) return opened;
@@ -88,6 +92,13 @@ const char* sourceUrlHelp() {
          "                                                   /camera/rgb/image_color, /camera/depth/image,\n"
          "                                                   /camera/rgb/camera_info; colour rgb8, bgr8 or\n"
          "                                                   mono8, depth 32FC1 metres or 16UC1 mm)\n"
+         "                          mcap:FILE.mcap[?rgb=TOPIC&depth=TOPIC&info=TOPIC&max_dt=S]  a ROS 2\n"
+         "                                                   bag (rosbag2 MCAP, CDR; chunks zstd, lz4 or\n"
+         "                                                   none; a cut-off file reads up to the cut);\n"
+         "                                                   default topics: realsense2_camera's\n"
+         "                                                   /camera/camera/color/image_raw,\n"
+         "                                                   /camera/camera/aligned_depth_to_color/\n"
+         "                                                   image_raw, /camera/camera/color/camera_info\n"
          "                          openni2:[URI]            a live OpenNI2 camera (Kinect v1, Xtion,\n"
          "                                                   Astra), 640x480 at 30 Hz, depth registered\n"
          "                                                   to colour; no URI: the first device\n";

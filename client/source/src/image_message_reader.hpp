@@ -1,0 +1,30 @@
+#pragma once
+// What a recording's reader gives the paired source (paired_source.hpp): colour and depth image messages
+// in time order and the camera, whatever the container (ROS 1 bag, MCAP).
+#include <optional>
+#include <string>
+
+#include "rgbdmap/common/camera.hpp"
+#include "rgbdmap/common/result.hpp"
+#include "rgbdmap/source/ros_messages.hpp"
+
+namespace rgbdmap::source_detail {
+
+struct ImageMessage {
+  bool is_depth = false;
+  double record_time = 0.0;  ///< when it was recorded (s); the pairing's stamp when the header has none
+  ros1::Image image;
+};
+
+class ImageMessageReader {
+ public:
+  virtual ~ImageMessageReader() = default;
+  /// The next colour or depth message; nullopt at the end; the reason when the file cannot be read on.
+  virtual Result<std::optional<ImageMessage>> next() = 0;
+  virtual const std::optional<CameraIntrinsics>& camera() const = 0;
+  virtual std::string describe() const = 0;
+  /// Colour messages in the file when it says (0: unknown).
+  virtual size_t colorCount() const = 0;
+};
+
+}  // namespace rgbdmap::source_detail
