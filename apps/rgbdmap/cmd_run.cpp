@@ -57,7 +57,9 @@ const char* kRunUsage =
     "  --seed S                synthetic seed (default 1)\n"
     "  --threads N             OpenCV threads per robot (default 1)\n"
     "  --viewer [PORT]         live map viewer at http://127.0.0.1:PORT/ and for Foxglove (default 8765),\n"
-    "                          kept open after the run until Ctrl-C\n";
+    "                          kept open after the run until Ctrl-C\n"
+    "  --record FILE.mcap      with --viewer: also record the viewer's topics (Foxglove schemas, JSON) into\n"
+    "                          an MCAP file that Foxglove opens; written when the viewer closes (Ctrl-C)\n";
 
 /// The datasets the robots read and, per dataset, its camera, odometry and reader settings.
 struct RunInputs {
@@ -69,8 +71,9 @@ struct RunInputs {
 /// Parses the command line and the server configuration; every problem is appended to *errors.
 RunOptions parseRun(cli::Args& args, ServerAppConfig* server_config, std::vector<std::string>* errors) {
   auto allowed = app::datasetOptionNames();
-  allowed.insert(allowed.end(), {"dataset", "source", "out", "scene", "frames", "seed", "threads", "robots",
-                                 "overlap", "transport", "realtime", "async", "server-config", "viewer"});
+  allowed.insert(allowed.end(),
+                 {"dataset", "source", "out", "scene", "frames", "seed", "threads", "robots", "overlap",
+                  "transport", "realtime", "async", "server-config", "viewer", "record"});
   args.checkAllowed(allowed);
   RunOptions o = parseRunOptions(args, errors);
   if (args.has("source") && args.has("dataset"))
@@ -269,6 +272,8 @@ int run(int argc, char** argv) {
   ServerAppConfig server_config;
   RunOptions o = parseRun(args, &server_config, &errors);
   const int viewer_port = viewerPort(args, &errors);
+  const std::string record_path = args.getOr("record", "");
+  if (!record_path.empty() && viewer_port < 0) errors.push_back("--record FILE.mcap needs --viewer");
   if (!errors.empty()) return cli::usageError(errors, kRunUsage);
   cv::setNumThreads(static_cast<int>(o.threads));
   RunInputs in;
@@ -282,7 +287,7 @@ int run(int argc, char** argv) {
   if (!deployment) return log::error(deployment.error()), 1;
   std::unique_ptr<RunViewer> viewer;
   if (viewer_port >= 0) {
-    auto started = startRunViewer(viewer_port, transportUrl(o.transport), plans, **deployment);
+    auto started = startRunViewer(viewer_port, record_path, transportUrl(o.transport), plans, **deployment);
     if (!started) return log::error(started.error()), 1;
     viewer = std::move(*started);
   }

@@ -46,12 +46,14 @@ RunViewer::~RunViewer() {
   if (viewer) viewer->stop();
 }
 
-Result<std::unique_ptr<RunViewer>> startRunViewer(int port, const std::string& transport_url,
+Result<std::unique_ptr<RunViewer>> startRunViewer(int port, const std::string& record_path,
+                                                  const std::string& transport_url,
                                                   const std::vector<RobotPlan>& plans,
                                                   LocalDeployment& deployment) {
   using R = Result<std::unique_ptr<RunViewer>>;
   viewer::ViewerOptions options;
   options.port = port;
+  options.record_path = record_path;
   msg::KeyStore keys;
   for (const RobotPlan& p : plans) {
     options.robots.push_back(p.id);

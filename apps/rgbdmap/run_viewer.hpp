@@ -37,7 +37,9 @@ struct RunViewer {
   ~RunViewer();
 };
 
-Result<std::unique_ptr<RunViewer>> startRunViewer(int port, const std::string& transport_url,
+/// `record_path`: non-empty, the viewer's topics also go into this MCAP file (ViewerOptions::record_path).
+Result<std::unique_ptr<RunViewer>> startRunViewer(int port, const std::string& record_path,
+                                                  const std::string& transport_url,
                                                   const std::vector<RobotPlan>& plans,
                                                   LocalDeployment& deployment);
 

@@ -33,6 +33,8 @@ const char* kUsage =
     "  --cloud-period S      at most one point cloud per robot every S seconds (default 1)\n"
     "  --snapshot-period S   full voxel snapshots every S seconds (default 30)\n"
     "  --web-dir DIR         the page's files (default: the installed ones)\n"
+    "  --record FILE.mcap    also write every published message (all topics but /R/voxel_delta) into an\n"
+    "                        MCAP file that Foxglove opens; it appears when the viewer stops\n"
     "  --timeout S           exit after S seconds (default 0: until SIGINT/SIGTERM)\n"
     "  --log-level L         debug|info|warn|error\n";
 
@@ -73,6 +75,7 @@ ViewerCli parseOptions(cli::Args& args, std::vector<std::string>* errors) {
   if (!(o.viewer.snapshot_period_s >= 0.1 && o.viewer.snapshot_period_s <= 86400.0))
     errors->push_back("--snapshot-period must be 0.1..86400");
   o.viewer.web_dir = args.getOr("web-dir", "");
+  o.viewer.record_path = args.getOr("record", "");
   o.timeout_s = args.getDouble("timeout").value_or(0.0);
   for (const std::string& problem : viewerCliTable().problems(o)) errors->push_back("--" + problem);
   if (const auto level = args.get("log-level")) {
@@ -91,13 +94,14 @@ void printStats(const viewer::ViewerStats& s) {
       stderr,
       "rgbdmap-viewer: connections=%llu messages_sent=%llu bytes_sent=%llu dropped=%llu malformed=%llu "
       "unknown_ops=%llu refused_subscriptions=%llu map_updates=%llu map_errors=%llu rejected=%llu "
-      "voxels=%llu\n",
+      "voxels=%llu recorded=%llu\n",
       static_cast<unsigned long long>(s.connections), static_cast<unsigned long long>(s.messages_sent),
       static_cast<unsigned long long>(s.bytes_sent), static_cast<unsigned long long>(s.dropped_messages),
       static_cast<unsigned long long>(s.malformed), static_cast<unsigned long long>(s.unknown_ops),
       static_cast<unsigned long long>(s.refused_subscriptions),
       static_cast<unsigned long long>(s.map_updates), static_cast<unsigned long long>(s.map_errors),
-      static_cast<unsigned long long>(s.rejected_stream_messages), static_cast<unsigned long long>(s.voxels));
+      static_cast<unsigned long long>(s.rejected_stream_messages), static_cast<unsigned long long>(s.voxels),
+      static_cast<unsigned long long>(s.recorded_messages));
 }
 
 /// Blocks until SIGINT/SIGTERM or the timeout.
@@ -125,7 +129,7 @@ int runViewer(int argc, char** argv) {
   pthread_sigmask(SIG_BLOCK, &signals, nullptr);  // before any thread starts; taken by waitForSignal
   signal(SIGPIPE, SIG_IGN);                       // a client that vanished mid-write is a failed write
   args.checkAllowed({"transport", "robots", "keys-file", "open", "port", "bind", "max-clients",
-                     "cloud-period", "snapshot-period", "web-dir", "timeout", "log-level"});
+                     "cloud-period", "snapshot-period", "web-dir", "record", "timeout", "log-level"});
   std::vector<std::string> errors(args.errors().begin(), args.errors().end());
   ViewerCli options = parseOptions(args, &errors);
   if (!errors.empty()) return cli::usageError(errors, kUsage);
@@ -147,8 +151,9 @@ int runViewer(int argc, char** argv) {
   waitForSignal(signals, options.timeout_s);
   (*transport)->stop();
   (*viewer)->stop();
-  printStats((*viewer)->stats());
-  return 0;
+  const viewer::ViewerStats stats = (*viewer)->stats();
+  printStats(stats);
+  return stats.recording_failed ? 1 : 0;
 }
 
 }  // namespace

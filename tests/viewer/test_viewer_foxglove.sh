@@ -3,15 +3,19 @@
 # rgbdmap-viewer would be) in the private loopback-only namespace; after the run, while the viewer stays
 # open, the Foxglove WebSocket reference client (npm @foxglove/ws-protocol under Node, foxglove_check.js)
 # subscribes to every channel and checks the voxel count against map.bt's occupied voxels and each robot's
-# trajectory against keyframes_<robot>.txt. Skips (77) without Node or the npm packages
+# trajectory against keyframes_<robot>.txt. The viewer records its topics (--record); after Ctrl-C the MCAP
+# reference reader (npm @mcap/core, mcap_check.js) reads the recording and checks its last messages against
+# the same files. Skips (77) without Node or the npm packages
 # (deploy/install_deps.sh installs them into RGBDMAP_NODE_DIR, default /usr/local/lib/rgbdmap-node).
 # Usage: test_viewer_foxglove.sh BIN_DIR   (run inside tests/transport/run_in_netns.sh)
 set -u
 here="$(cd "$(dirname "$0")" && pwd)"
 bin="$1"
 node_dir="${RGBDMAP_NODE_DIR:-/usr/local/lib/rgbdmap-node}"
-if ! command -v node >/dev/null 2>&1 || [ ! -f "$node_dir/node_modules/@foxglove/ws-protocol/package.json" ]; then
-  echo "SKIP: node or @foxglove/ws-protocol in $node_dir missing (bash deploy/install_deps.sh installs them)"
+if ! command -v node >/dev/null 2>&1 || ! command -v zstd >/dev/null 2>&1 ||
+  [ ! -f "$node_dir/node_modules/@foxglove/ws-protocol/package.json" ] ||
+  [ ! -f "$node_dir/node_modules/@mcap/core/package.json" ]; then
+  echo "SKIP: node, zstd, @foxglove/ws-protocol or @mcap/core in $node_dir missing (bash deploy/install_deps.sh installs them)"
   exit 77
 fi
 tmp=$(mktemp -d)
@@ -19,7 +23,8 @@ pid=""
 cleanup() { [ -n "$pid" ] && kill -INT "$pid" 2>/dev/null; wait 2>/dev/null; rm -rf "$tmp"; }
 trap cleanup EXIT
 port=18765
-"$bin/rgbdmap" run --robots 2 --frames 200 --transport lcm --out "$tmp/out" --viewer "$port" >"$tmp/run.log" 2>&1 &
+"$bin/rgbdmap" run --robots 2 --frames 200 --transport lcm --out "$tmp/out" --viewer "$port" \
+  --record "$tmp/map.mcap" >"$tmp/run.log" 2>&1 &
 pid=$!
 for _ in $(seq 1 240); do
   grep -q "the map stays at" "$tmp/run.log" && break
@@ -60,5 +65,7 @@ wait "$pid"
 run_status=$?
 pid=""
 [ "$run_status" -eq 0 ] || { echo "FAIL: rgbdmap run exited $run_status after Ctrl-C"; status=1; }
+grep -q "recorded [0-9]* messages into" "$tmp/run.log" || { echo "FAIL: no recording logged"; tail -5 "$tmp/run.log"; status=1; }
+NODE_PATH="$node_dir/node_modules" timeout 60 node "$here/mcap_check.js" "$tmp/map.mcap" "$tmp/expected.json" || status=1
 [ "$status" -eq 0 ] && echo "viewer.foxglove: all checks passed"
 exit "$status"

@@ -5,6 +5,7 @@
 
 #include "rgbdmap/common/atomic_file.hpp"
 #include "rgbdmap/common/data_files.hpp"
+#include "rgbdmap/common/logging.hpp"
 #include "rgbdmap/viewer/foxglove_json.hpp"
 #include "viewer_impl.hpp"
 
@@ -54,6 +55,38 @@ std::vector<ChannelInfo> Viewer::Impl::makeChannels() {
   return list;
 }
 
+Status Viewer::Impl::openRecording(const std::vector<ChannelInfo>& list) {
+  if (options.record_path.empty()) return Status::success();
+  mcap::WriterOptions o;
+  o.profile = "";  // no ROS: Foxglove JSON messages
+  o.library = "rgbdmap-viewer";
+  auto writer = mcap::Writer::create(options.record_path, o);
+  if (!writer) return Status::failure(writer.error());
+  recording = std::move(*writer);
+  std::map<std::string, uint16_t> schemas;
+  for (const ChannelInfo& c : list) {
+    if (c.incremental) continue;  // deltas need their snapshot: /R/voxels carries the same voxels whole
+    auto [it, fresh] = schemas.try_emplace(c.schema_name, 0);
+    if (fresh)
+      it->second = recording->addSchema(c.schema_name, "jsonschema", {c.schema.begin(), c.schema.end()});
+    recorded_channels[c.id] = recording->addChannel(it->second, c.topic, "json");
+  }
+  return Status::success();
+}
+
+Status Viewer::Impl::closeRecording() {
+  if (!recording) return Status::success();
+  const Status s = recording->close();
+  recording.reset();
+  if (s) {
+    log::info("viewer: recorded ", recorded_messages.load(), " messages into ", options.record_path);
+  } else {
+    recording_failed = true;
+    log::error("viewer: the recording: ", s.error());
+  }
+  return s;
+}
+
 void Viewer::Impl::requestSnapshot(uint32_t channel) {
   for (size_t i = 0; i < channels.size(); ++i)
     if (channels[i].voxel_delta == channel) published[i]->snapshot_wanted = true;
@@ -80,8 +113,9 @@ Result<std::unique_ptr<Viewer>> Viewer::create(ViewerOptions options, const msg:
   ws.max_clients = impl->options.max_clients;
   ws.limits.max_queue_bytes = impl->options.max_queue_bytes;
   Impl* raw = impl.get();
-  impl->server =
-      std::make_unique<WsServer>(ws, impl->makeChannels(), [raw](uint32_t c) { raw->requestSnapshot(c); });
+  const std::vector<ChannelInfo> list = impl->makeChannels();
+  if (const Status s = impl->openRecording(list); !s) return R::failure("viewer: " + s.error());
+  impl->server = std::make_unique<WsServer>(ws, list, [raw](uint32_t c) { raw->requestSnapshot(c); });
   return std::unique_ptr<Viewer>(new Viewer(std::move(impl)));
 }
 
@@ -107,6 +141,7 @@ void Viewer::stop() {
   m.view.notifyAll();
   if (m.thread.joinable()) m.thread.join();
   m.server->stop();
+  m.closeRecording();
 }
 
 int Viewer::port() const { return impl_->server->port(); }
@@ -127,6 +162,8 @@ ViewerStats Viewer::stats() const {
   s.map_errors = impl_->subscriber.mapErrors();
   s.rejected_stream_messages = impl_->subscriber.rejected();
   s.voxels = impl_->voxels_total;
+  s.recorded_messages = impl_->recorded_messages;
+  s.recording_failed = impl_->recording_failed;
   return s;
 }
 

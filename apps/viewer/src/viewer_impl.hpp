@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "map_subscriber.hpp"
+#include "rgbdmap/mcap/mcap_writer.hpp"
 #include "rgbdmap/viewer/map_view.hpp"
 #include "rgbdmap/viewer/viewer.hpp"
 #include "ws_server.hpp"
@@ -52,6 +53,9 @@ struct Viewer::Impl {
   void publishStatus(size_t index, const RobotSnapshot& s);
   void publishTransforms();
   void send(uint32_t channel, const nlohmann::json& message, int64_t utime);
+  /// Opens options.record_path with a channel per non-incremental channel of `list`.
+  Status openRecording(const std::vector<ChannelInfo>& list);
+  Status closeRecording();
 
   ViewerOptions options;
   MapView view;
@@ -60,6 +64,11 @@ struct Viewer::Impl {
   std::vector<RobotChannels> channels;
   std::vector<std::unique_ptr<RobotPublished>> published;
   uint32_t tf_channel = 0;
+  std::unique_ptr<mcap::Writer> recording;         ///< written by the publisher thread, closed after it ended
+  std::map<uint32_t, uint16_t> recorded_channels;  ///< viewer channel -> MCAP channel
+  std::atomic<uint64_t> recorded_messages{0};
+  uint64_t recorded_ns = 0;  ///< log time of the last recorded message
+  std::atomic<bool> recording_failed{false};
   std::thread thread;
   std::atomic<bool> stopping{false};
   std::atomic<uint64_t> voxels_total{0};

@@ -35,7 +35,22 @@ json flat(const std::vector<Voxel>& voxels) {
 }  // namespace
 
 void Viewer::Impl::send(uint32_t channel, const json& message, int64_t utime) {
-  server->publishLatest(channel, std::make_shared<const std::string>(message.dump()), utime);
+  auto payload = std::make_shared<const std::string>(message.dump());
+  if (recording) {
+    // log_time: when recorded (this thread's clock, never backwards); publish_time: the message's own stamp
+    // (a slice or a map carries the server's, older than the poses published meanwhile).
+    const auto it = recorded_channels.find(channel);
+    const uint64_t published_ns = static_cast<uint64_t>(std::max<int64_t>(0, utime)) * 1000u;
+    recorded_ns = std::max(recorded_ns, static_cast<uint64_t>(nowUtime()) * 1000u);
+    if (it != recorded_channels.end() &&
+        recording->write({it->second, static_cast<uint32_t>(recorded_messages), recorded_ns, published_ns,
+                          std::vector<uint8_t>(payload->begin(), payload->end())})) {
+      ++recorded_messages;
+    } else if (it != recorded_channels.end()) {
+      recording_failed = true;  // a full disk: the file is dropped on stop, the error logged then
+    }
+  }
+  server->publishLatest(channel, std::move(payload), utime);
 }
 
 void Viewer::Impl::run() {

@@ -37,13 +37,19 @@ struct ViewerOptions {
   size_t max_queue_bytes = 32u << 20;  ///< per client; beyond it messages to that client are dropped
   double cloud_period_s = 1.0;         ///< at most one PointCloud per robot per period
   double snapshot_period_s = 30.0;     ///< full voxel snapshots to every /R/voxel_delta subscriber
+  /// Non-empty: every message published on a channel that is not incremental (all but /R/voxel_delta) also
+  /// goes into this MCAP file (schema encoding jsonschema, message encoding json: the Foxglove schemas of
+  /// the WebSocket), which appears, synced, when the viewer stops.
+  std::string record_path;
 };
 
 struct ViewerStats {
   uint64_t clients = 0, connections = 0, messages_sent = 0, bytes_sent = 0, dropped_messages = 0;
   uint64_t malformed = 0, unknown_ops = 0, refused_subscriptions = 0, refused_connections = 0;
   uint64_t map_updates = 0, map_errors = 0, rejected_stream_messages = 0;
-  uint64_t voxels = 0;  ///< occupied voxels over all robots' maps, as last published
+  uint64_t voxels = 0;             ///< occupied voxels over all robots' maps, as last published
+  uint64_t recorded_messages = 0;  ///< into ViewerOptions::record_path
+  bool recording_failed = false;   ///< the recording could not be written or finished (logged)
 };
 
 /// The web page's folder (index.html, viewer.js): `web_dir` when given, else share/rgbdmap/viewer found by
