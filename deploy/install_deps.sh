@@ -58,7 +58,7 @@ fi
 node_dir="${RGBDMAP_NODE_DIR:-/usr/local/lib/rgbdmap-node}"
 failed_mark="$node_dir/npm_install_failed"
 node_packages=(@foxglove/ws-protocol@0.8.0 ws@8.23.0 @mcap/core@2.2.2 @foxglove/rosmsg2-serialization@3.1.0
-  @foxglove/rosmsg-msgs-common@3.2.3)
+  @foxglove/rosmsg-msgs-common@3.2.3 @foxglove/rosmsg@5.0.5)
 node_missing=0
 for p in "${node_packages[@]}"; do
   [ -f "$node_dir/node_modules/${p%@*}/package.json" ] || node_missing=1
