@@ -25,6 +25,10 @@ class ImageMessageReader {
   virtual std::string describe() const = 0;
   /// Colour messages in the file when it says (0: unknown).
   virtual size_t colorCount() const = 0;
+  /// true: a live stream (ROS 2 topics), false: a recording.
+  virtual bool live() const { return false; }
+  /// Asks a blocking next() to end soon (from another thread).
+  virtual void close() {}
 };
 
 }  // namespace rgbdmap::source_detail

@@ -36,7 +36,8 @@ class PairedSource : public FrameSource {
       if (Status s = take(std::move(**message)); !s) return FrameRead::failed(s.error());
     }
   }
-  bool live() const override { return false; }
+  bool live() const override { return reader_->live(); }
+  void close() override { reader_->close(); }
   std::optional<CameraIntrinsics> camera() const override { return reader_->camera(); }
   std::string describe() const override { return reader_->describe(); }
   size_t sizeHint() const override { return reader_->colorCount(); }

@@ -1,6 +1,7 @@
 // sensor_msgs/msg/Image and sensor_msgs/msg/CameraInfo in CDR: a 4-byte encapsulation header (0x00 0x01:
-// little-endian, 0x00 0x00: big-endian), then the fields, each aligned to its own size from the end of
-// that header; strings carry their length with the terminating NUL, sequences their element count.
+// little-endian, 0x00 0x00: big-endian; then options, whose last byte may count padding at the end), then
+// the fields, each aligned to its own size from the end of that header; strings carry their length with
+// the terminating NUL, sequences their element count.
 #include "rgbdmap/source/ros2_messages.hpp"
 
 #include <algorithm>
@@ -78,6 +79,14 @@ class CdrWriter {
     out_.insert(out_.end(), s.begin(), s.end());
     out_.push_back(0);
   }
+  /// The message's bytes: padded to a multiple of 4 with the padding counted in the encapsulation
+  /// options, as Cyclone DDS (and so rmw_cyclonedds) writes them.
+  std::vector<uint8_t> finish() {
+    const size_t pad = (4 - (out_.size() - 4) % 4) % 4;
+    out_.insert(out_.end(), pad, 0);
+    out_[3] = static_cast<uint8_t>(pad);
+    return std::move(out_);
+  }
   void header(const ros1::Header& h) {
     pod(static_cast<int32_t>(h.stamp_sec));
     pod(h.stamp_nsec);
@@ -139,7 +148,7 @@ std::vector<uint8_t> encodeImage(const ros1::Image& m) {
   w.pod(m.step);
   w.pod(static_cast<uint32_t>(m.data.size()));
   w.out_.insert(w.out_.end(), m.data.begin(), m.data.end());
-  return std::move(w.out_);
+  return w.finish();
 }
 
 std::vector<uint8_t> encodeCameraInfo(const ros1::CameraInfo& c) {
@@ -155,7 +164,7 @@ std::vector<uint8_t> encodeCameraInfo(const ros1::CameraInfo& c) {
   for (double p : c.P) w.pod(p);
   for (int i = 0; i < 6; ++i) w.pod(uint32_t{0});  // binning_x, binning_y, roi x, y, height, width
   w.pod(uint8_t{0});                               // roi.do_rectify
-  return std::move(w.out_);
+  return w.finish();
 }
 
 }  // namespace rgbdmap::ros2

@@ -13,6 +13,7 @@ const std::map<std::string, std::set<std::string>>& allowedKeys() {
       {"tum", {"live"}},
       {"bag", {"rgb", "depth", "info", "max_dt"}},
       {"mcap", {"rgb", "depth", "info", "max_dt"}},
+      {"ros2", {"rgb", "depth", "info", "max_dt", "domain", "wait"}},
       {"openni2", {}},
   };
   return keys;
@@ -41,12 +42,14 @@ Result<SourceUrl> SourceUrl::parse(const std::string& url) {
   SourceUrl u;
   const size_t colon = url.find(':');
   if (colon == std::string::npos)
-    return R::failure("source '" + url +
-                      "': expected tum:DIR, bag:FILE.bag[?...], mcap:FILE.mcap[?...] or openni2:[URI]");
+    return R::failure(
+        "source '" + url +
+        "': expected tum:DIR, bag:FILE.bag[?...], mcap:FILE.mcap[?...], ros2:[?...] or openni2:[URI]");
   u.scheme = url.substr(0, colon);
   const auto allowed = allowedKeys().find(u.scheme);
   if (allowed == allowedKeys().end())
-    return R::failure("source '" + url + "': unknown kind '" + u.scheme + "' (tum, bag, mcap, openni2)");
+    return R::failure("source '" + url + "': unknown kind '" + u.scheme +
+                      "' (tum, bag, mcap, ros2, openni2)");
   std::string rest = url.substr(colon + 1);
   if (rest.rfind("//", 0) == 0) rest = rest.substr(2);  // tum://DIR and bag://FILE read the same
   const size_t question = rest.find('?');
@@ -58,7 +61,7 @@ Result<SourceUrl> SourceUrl::parse(const std::string& url) {
   for (const auto& [key, value] : u.query)
     if (!allowed->second.count(key))
       return R::failure("source '" + url + "': unknown option '" + key + "' for " + u.scheme);
-  if (u.path.empty() && u.scheme != "openni2")
+  if (u.path.empty() && u.scheme != "openni2" && u.scheme != "ros2")
     return R::failure("source '" + url + "': " + (u.scheme == "tum" ? "folder" : "file") + " missing");
   return u;
 }
@@ -71,6 +74,8 @@ Result<std::unique_ptr<FrameSource>> openFrameSource(const SourceUrl& url, const
     opened = source_detail::openBagSource(url, options);
   else if (url.scheme == "mcap")
     opened = source_detail::openMcapSource(url, options);
+  else if (url.scheme == "ros2")
+    opened = source_detail::openRos2Source(url, options);
   else
     opened = source_detail::openOpenni2Source(url, options);
   if (!opened) return opened;
@@ -99,6 +104,10 @@ const char* sourceUrlHelp() {
          "                                                   /camera/camera/color/image_raw,\n"
          "                                                   /camera/camera/aligned_depth_to_color/\n"
          "                                                   image_raw, /camera/camera/color/camera_info\n"
+         "                          ros2:[?rgb=T&depth=T&info=T&domain=N&wait=S]  live ROS 2 topics over\n"
+         "                                                   Cyclone DDS (CYCLONEDDS_URI), e.g. "
+         "realsense2_camera\n"
+         "                                                   (its topics are the defaults, as for mcap:)\n"
          "                          openni2:[URI]            a live OpenNI2 camera (Kinect v1, Xtion,\n"
          "                                                   Astra), 640x480 at 30 Hz, depth registered\n"
          "                                                   to colour; no URI: the first device\n";
