@@ -19,3 +19,13 @@ contains() {  # contains "description" file pattern
 json() {  # json "description" file JQ_CONDITION: the condition holds on the JSON file (false or null fails)
   if jq -e "$3" "$2" >/dev/null; then echo "ok: $1"; else echo "FAIL: $1: '$3' does not hold in $2"; fail=1; fi
 }
+ate() {  # ate GT EST: ATE RMSE in metres ($bin: the rgbdmap program)
+  "$bin" eval --gt "$1" --est "$2" --json | jq -r '.ate.rmse_m'
+}
+below() {  # below "description" value bound
+  if [[ "$2" =~ ^[0-9.eE+-]+$ ]] && awk -v v="$2" -v b="$3" 'BEGIN { exit !(v + 0 < b + 0) }'; then echo "ok: $1 ($2 < $3)"; else echo "FAIL: $1: $2 not < $3"; fail=1; fi
+}
+one_error_line() {  # one_error_line "description" file: exactly one "error]" log line in the file
+  local n; n=$(grep -c 'error\]' "$2")
+  if [ "$n" -eq 1 ]; then echo "ok: $1"; else echo "FAIL: $1: $n error lines"; sed 's/^/  | /' "$2"; fail=1; fi
+}

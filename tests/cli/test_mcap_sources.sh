@@ -41,16 +41,6 @@ wait_ref() {  # wait_ref "description" NAME
     echo "FAIL: $1: exit $?"; sed 's/^/  | /' "$tmp/$2.ref.log" | tail -5; fail=1
   fi
 }
-ate() {  # ate GT EST: ATE RMSE in metres
-  "$bin" eval --gt "$1" --est "$2" --json | jq -r '.ate.rmse_m'
-}
-below() {  # below "description" value bound
-  if [[ "$2" =~ ^[0-9.eE+-]+$ ]] && awk -v v="$2" -v b="$3" 'BEGIN { exit !(v + 0 < b + 0) }'; then echo "ok: $1 ($2 < $3)"; else echo "FAIL: $1: $2 not < $3"; fail=1; fi
-}
-one_error_line() {  # one_error_line "description" file
-  local n; n=$(grep -c 'error\]' "$2")
-  if [ "$n" -eq 1 ]; then echo "ok: $1"; else echo "FAIL: $1: $n error lines"; sed 's/^/  | /' "$2"; fail=1; fi
-}
 poses() {  # poses FILE: the pose lines of a trajectory
   grep -v '^#' "$1"
 }

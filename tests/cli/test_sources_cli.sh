@@ -10,16 +10,6 @@ bin="$1/rgbdmap"
 client="$1/rgbdmap-client"
 mkbag="$1/make_test_bag"
 source "$(dirname "$0")/cli_test_lib.sh"
-ate() {  # ate GT EST: ATE RMSE in metres
-  "$bin" eval --gt "$1" --est "$2" --json | jq -r '.ate.rmse_m'
-}
-below() {  # below "description" value bound
-  if [[ "$2" =~ ^[0-9.eE+-]+$ ]] && awk -v v="$2" -v b="$3" 'BEGIN { exit !(v + 0 < b + 0) }'; then echo "ok: $1 ($2 < $3)"; else echo "FAIL: $1: $2 not < $3"; fail=1; fi
-}
-one_error_line() {  # one_error_line "description" file
-  local n; n=$(grep -c 'error\]' "$2")
-  if [ "$n" -eq 1 ]; then echo "ok: $1"; else echo "FAIL: $1: $n error lines"; sed 's/^/  | /' "$2"; fail=1; fi
-}
 
 check "synth writes a sequence" 0 "$bin" synth --out "$tmp/seq" --scene sweep --frames 60 --seed 4
 check "a TUM-style bag (rgb8, 32FC1, camera_info, bz2 chunks)" 0 "$mkbag" "$tmp/seq" "$tmp/tum.bag" --compression bz2

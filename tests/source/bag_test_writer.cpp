@@ -82,11 +82,7 @@ ros::Time rosTime(double t) {
 
 Status writeTumFolderAsBag(const std::string& dir, const std::string& bag_path,
                            const CameraIntrinsics& camera, const BagWriteOptions& options) {
-  DatasetOptions d;
-  d.depth_scale = camera.depth_scale;
-  d.expected_width = camera.width;
-  d.expected_height = camera.height;
-  auto dataset = TumDataset::open(dir, d);
+  auto dataset = openTestDataset(dir, camera);
   if (!dataset) return Status::failure(dataset.error());
   const std::string depth_type = options.depth_encoding == "16UC1" || options.depth_encoding == "32FC1"
                                      ? options.depth_encoding

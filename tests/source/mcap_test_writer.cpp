@@ -18,11 +18,7 @@ uint64_t nanoseconds(const ros1::Header& h) { return uint64_t{h.stamp_sec} * 100
 
 Status writeTumFolderAsMcap(const std::string& dir, const std::string& mcap_path,
                             const CameraIntrinsics& camera, const McapWriteOptions& options) {
-  DatasetOptions d;
-  d.depth_scale = camera.depth_scale;
-  d.expected_width = camera.width;
-  d.expected_height = camera.height;
-  auto dataset = TumDataset::open(dir, d);
+  auto dataset = openTestDataset(dir, camera);
   if (!dataset) return Status::failure(dataset.error());
   mcap::WriterOptions wo;
   wo.compression = options.compression;

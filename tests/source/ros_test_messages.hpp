@@ -7,9 +7,19 @@
 #include <opencv2/core.hpp>
 
 #include "rgbdmap/common/camera.hpp"
+#include "rgbdmap/dataset/tum_dataset.hpp"
 #include "rgbdmap/source/ros_messages.hpp"
 
 namespace rgbdmap::testing {
+
+/// A TUM folder read with `camera`'s depth scale and image size, as the recordings are written from.
+inline Result<TumDataset> openTestDataset(const std::string& dir, const CameraIntrinsics& camera) {
+  DatasetOptions d;
+  d.depth_scale = camera.depth_scale;
+  d.expected_width = camera.width;
+  d.expected_height = camera.height;
+  return TumDataset::open(dir, d);
+}
 
 inline ros1::CameraInfo cameraInfoFor(const CameraIntrinsics& k, double stamp) {
   ros1::CameraInfo c;

@@ -62,4 +62,18 @@ inline const std::string& sourceTestFolder() {
   return path;
 }
 
+/// The shared sequence's frames read from its folder (what every recording of it must give back).
+inline std::vector<RgbdFrame> sourceTestFrames() {
+  auto source = openOrFail("tum:" + sourceTestFolder(), sourceOptionsFor(sourceTestConfig().camera));
+  return source ? drainSource(*source) : std::vector<RgbdFrame>{};
+}
+
+/// The reason openFrameSource gives for `url` (empty when it opens).
+inline std::string openSourceError(const std::string& url) {
+  auto parsed = SourceUrl::parse(url);
+  if (!parsed) return parsed.error();
+  auto source = openFrameSource(*parsed, {});
+  return source ? std::string() : source.error();
+}
+
 }  // namespace rgbdmap::testing

@@ -22,17 +22,8 @@ class McapSourceTest : public ::testing::Test {
     EXPECT_TRUE(s) << s.error();
     return path;
   }
-  std::vector<RgbdFrame> folderFrames() {
-    auto source = testing::openOrFail("tum:" + testing::sourceTestFolder(),
-                                      testing::sourceOptionsFor(testing::sourceTestConfig().camera));
-    return source ? testing::drainSource(*source) : std::vector<RgbdFrame>{};
-  }
-  static std::string openError(const std::string& url) {
-    auto parsed = SourceUrl::parse(url);
-    if (!parsed) return parsed.error();
-    auto source = openFrameSource(*parsed, {});
-    return source ? std::string() : source.error();
-  }
+  static std::vector<RgbdFrame> folderFrames() { return testing::sourceTestFrames(); }
+  static std::string openError(const std::string& url) { return testing::openSourceError(url); }
   testing::TempDir dir_;
 };
 

@@ -11,7 +11,7 @@ namespace rgbdmap::source_detail {
 
 struct BagReader::Impl {
   std::string path;
-  BagTopics topics;
+  ImageTopics topics;
   rosbag::Bag bag;
   std::unique_ptr<rosbag::View> view;
   rosbag::View::iterator it;
@@ -71,7 +71,7 @@ std::string BagReader::describe() const {
   return "bag:" + impl_->path + " (colour " + impl_->topics.rgb + ", depth " + impl_->topics.depth + ")";
 }
 
-Result<std::unique_ptr<BagReader>> BagReader::open(const std::string& path, const BagTopics& topics) {
+Result<std::unique_ptr<BagReader>> BagReader::open(const std::string& path, const ImageTopics& topics) {
   using R = Result<std::unique_ptr<BagReader>>;
   auto impl = std::make_unique<Impl>();
   impl->path = path;

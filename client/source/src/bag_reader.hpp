@@ -11,17 +11,14 @@
 
 namespace rgbdmap::source_detail {
 
-struct BagTopics {
-  std::string rgb = "/camera/rgb/image_color";  ///< the TUM benchmark's topics
-  std::string depth = "/camera/depth/image";
-  std::string info = "/camera/rgb/camera_info";
-  bool info_required =
-      false;  ///< named explicitly: missing is an error (default: the camera comes elsewhere)
-};
+/// The TUM benchmark's topics, the bag source's defaults.
+inline ImageTopics tumBagTopics() {
+  return {"/camera/rgb/image_color", "/camera/depth/image", "/camera/rgb/camera_info", false};
+}
 
 class BagReader : public ImageMessageReader {
  public:
-  static Result<std::unique_ptr<BagReader>> open(const std::string& path, const BagTopics& topics);
+  static Result<std::unique_ptr<BagReader>> open(const std::string& path, const ImageTopics& topics);
   ~BagReader() override;
   Result<std::optional<ImageMessage>> next() override;
   const std::optional<CameraIntrinsics>& camera() const override { return camera_; }

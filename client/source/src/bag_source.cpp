@@ -8,11 +8,7 @@ namespace rgbdmap::source_detail {
 
 Result<std::unique_ptr<FrameSource>> openBagSource(const SourceUrl& url, const SourceOptions& options) {
   using R = Result<std::unique_ptr<FrameSource>>;
-  BagTopics topics;
-  topics.rgb = url.get("rgb", topics.rgb);
-  topics.depth = url.get("depth", topics.depth);
-  topics.info = url.get("info", topics.info);
-  topics.info_required = url.query.count("info") > 0;
+  const ImageTopics topics = topicsFrom(url, tumBagTopics());
   Result<double> max_dt = maxTimeDiff(url, options);
   if (!max_dt) return R::failure(max_dt.error());
   auto reader = BagReader::open(url.path, topics);

@@ -10,6 +10,12 @@
 
 namespace rgbdmap::source_detail {
 
+/// The topics of a recording or a live ROS graph that a source reads.
+struct ImageTopics {
+  std::string rgb, depth, info;
+  bool info_required = false;  ///< named explicitly (?info=): missing is an error
+};
+
 struct ImageMessage {
   bool is_depth = false;
   double record_time = 0.0;  ///< when it was recorded (s); the pairing's stamp when the header has none

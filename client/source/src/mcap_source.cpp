@@ -8,6 +8,7 @@
 #include "rgbdmap/common/logging.hpp"
 #include "rgbdmap/mcap/mcap_reader.hpp"
 #include "rgbdmap/source/ros2_messages.hpp"
+#include "rgbdmap/source/ros2_topics.hpp"
 #include "sources.hpp"
 
 namespace rgbdmap::source_detail {
@@ -15,13 +16,11 @@ namespace {
 
 constexpr int kInfoSearchColour = 100;  // camera_info comes with the images; not searched past these
 
-struct McapTopics {
-  // realsense2_camera (ROS 2) with align_depth.enable:=true
-  std::string rgb = "/camera/camera/color/image_raw";
-  std::string depth = "/camera/camera/aligned_depth_to_color/image_raw";
-  std::string info = "/camera/camera/color/camera_info";
-  bool info_required = false;
-};
+/// realsense2_camera (ROS 2) with align_depth.enable:=true.
+ImageTopics realsenseTopics() {
+  const ros2::CameraTopics t;
+  return {t.rgb, t.depth, t.info, false};
+}
 
 std::string listTopics(const mcap::Reader& reader) {
   std::string out;
@@ -34,7 +33,7 @@ std::string listTopics(const mcap::Reader& reader) {
 
 class McapImageReader : public ImageMessageReader {
  public:
-  static Result<std::unique_ptr<McapImageReader>> open(const std::string& path, const McapTopics& topics);
+  static Result<std::unique_ptr<McapImageReader>> open(const std::string& path, const ImageTopics& topics);
 
   Result<std::optional<ImageMessage>> next() override {
     using R = Result<std::optional<ImageMessage>>;
@@ -82,17 +81,17 @@ class McapImageReader : public ImageMessageReader {
 
  private:
   McapImageReader() = default;
-  Status scan(const McapTopics& topics);
+  Status scan(const ImageTopics& topics);
 
   std::string path_;
-  McapTopics topics_;
+  ImageTopics topics_;
   std::unique_ptr<mcap::Reader> reader_;
   std::optional<CameraIntrinsics> camera_;
   bool warned_ = false;
 };
 
 /// The first pass: the first colour, depth and camera_info messages decode and convert.
-Status McapImageReader::scan(const McapTopics& topics) {
+Status McapImageReader::scan(const ImageTopics& topics) {
   auto reader = mcap::Reader::open(path_);
   if (!reader) return Status::failure(reader.error());
   std::optional<ros1::Image> color, depth;
@@ -146,7 +145,7 @@ Status McapImageReader::scan(const McapTopics& topics) {
 }
 
 Result<std::unique_ptr<McapImageReader>> McapImageReader::open(const std::string& path,
-                                                               const McapTopics& topics) {
+                                                               const ImageTopics& topics) {
   using R = Result<std::unique_ptr<McapImageReader>>;
   std::unique_ptr<McapImageReader> r(new McapImageReader());
   r->path_ = path;
@@ -162,11 +161,7 @@ Result<std::unique_ptr<McapImageReader>> McapImageReader::open(const std::string
 
 Result<std::unique_ptr<FrameSource>> openMcapSource(const SourceUrl& url, const SourceOptions& options) {
   using R = Result<std::unique_ptr<FrameSource>>;
-  McapTopics topics;
-  topics.rgb = url.get("rgb", topics.rgb);
-  topics.depth = url.get("depth", topics.depth);
-  topics.info = url.get("info", topics.info);
-  topics.info_required = url.query.count("info") > 0;
+  const ImageTopics topics = topicsFrom(url, realsenseTopics());
   Result<double> max_dt = maxTimeDiff(url, options);
   if (!max_dt) return R::failure(max_dt.error());
   auto reader = McapImageReader::open(url.path, topics);

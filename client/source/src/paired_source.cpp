@@ -126,6 +126,14 @@ class PairedSource : public FrameSource {
 
 }  // namespace
 
+ImageTopics topicsFrom(const SourceUrl& url, ImageTopics defaults) {
+  defaults.rgb = url.get("rgb", defaults.rgb);
+  defaults.depth = url.get("depth", defaults.depth);
+  defaults.info = url.get("info", defaults.info);
+  defaults.info_required = url.query.count("info") > 0;
+  return defaults;
+}
+
 Result<double> maxTimeDiff(const SourceUrl& url, const SourceOptions& options) {
   if (!url.query.count("max_dt")) return options.max_time_diff;
   char* end = nullptr;

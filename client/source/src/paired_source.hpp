@@ -8,6 +8,9 @@
 
 namespace rgbdmap::source_detail {
 
+/// The URL's ?rgb=, ?depth=, ?info= over `defaults` (info_required when ?info= names one).
+ImageTopics topicsFrom(const SourceUrl& url, ImageTopics defaults);
+
 /// The source URL's max_dt (seconds in (0, 10)), else the options' max_time_diff.
 Result<double> maxTimeDiff(const SourceUrl& url, const SourceOptions& options);
 

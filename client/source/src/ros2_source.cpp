@@ -21,8 +21,7 @@ using ros2::detail::ddsError;
 using ros2::detail::ddsTopicName;
 
 struct Ros2Options {
-  ros2::CameraTopics topics;
-  bool info_required = false;
+  ImageTopics topics;
   int domain = 0;
   double wait_s = 10.0;
 };
@@ -164,7 +163,7 @@ Status DdsImageReader::waitForCamera() {
     if (!camera) return Status::failure(describe() + ": " + options_.topics.info + ": " + camera.error());
     camera->depth_scale = *depth_scale;
     camera_ = *camera;
-  } else if (options_.info_required) {
+  } else if (options_.topics.info_required) {
     return Status::failure(describe() + ": no camera_info on " + options_.topics.info);
   }
   return Status::success();
@@ -196,10 +195,8 @@ Result<double> seconds(const SourceUrl& url, const std::string& key, double fall
 Result<std::unique_ptr<FrameSource>> openRos2Source(const SourceUrl& url, const SourceOptions& options) {
   using R = Result<std::unique_ptr<FrameSource>>;
   Ros2Options o;
-  o.topics.rgb = url.get("rgb", o.topics.rgb);
-  o.topics.depth = url.get("depth", o.topics.depth);
-  o.topics.info = url.get("info", o.topics.info);
-  o.info_required = url.query.count("info") > 0;
+  const ros2::CameraTopics defaults;
+  o.topics = topicsFrom(url, {defaults.rgb, defaults.depth, defaults.info, false});
   const std::string domain = url.get("domain", "0");
   char* end = nullptr;
   const long d = std::strtol(domain.c_str(), &end, 10);
