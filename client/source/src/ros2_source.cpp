@@ -7,6 +7,7 @@
 #include <chrono>
 #include <cstdlib>
 #include <optional>
+#include <thread>
 
 #include "paired_source.hpp"
 #include "rgbdmap/common/logging.hpp"
@@ -51,6 +52,7 @@ class DdsImageReader : public ImageMessageReader {
         m.image = std::move(*image);
         return R(std::optional<ImageMessage>(std::move(m)));
       }
+      drainInfo();  // camera_info keeps coming with the images; the camera was fixed at open
       dds_waitset_wait(waitset_, nullptr, 0, DDS_MSECS(200));
     }
     return R(std::optional<ImageMessage>());
@@ -71,6 +73,13 @@ class DdsImageReader : public ImageMessageReader {
   DdsImageReader() = default;
   Status create();
   Status waitForCamera();
+
+  void drainInfo() {
+    void* samples[8] = {nullptr};
+    dds_sample_info_t info[8];
+    const dds_return_t n = dds_take(info_, samples, info, 8, 8);
+    if (n > 0) dds_return_loan(info_, samples, n);
+  }
 
   /// One sample of `reader` (nullopt: none waiting); the reason when it does not decode.
   static Status take(dds_entity_t reader, std::optional<ros1::Image>* out) {
@@ -110,7 +119,9 @@ Status DdsImageReader::create() {
     const dds_entity_t t = dds_create_topic(participant_, desc, ddsTopicName(name).c_str(), nullptr, nullptr);
     *out = t < 0 ? t : dds_create_reader(participant_, t, qos, nullptr);
     if (*out < 0) return false;
-    const dds_entity_t cond = dds_create_readcondition(*out, DDS_ANY_STATE);
+    // Unread samples only: a depth image read (not taken) while opening does not wake the waitset again.
+    const dds_entity_t cond = dds_create_readcondition(
+        *out, DDS_NOT_READ_SAMPLE_STATE | DDS_ANY_VIEW_STATE | DDS_ANY_INSTANCE_STATE);
     return cond >= 0 && dds_waitset_attach(waitset_, cond, 0) == 0;
   };
   const bool ok = waitset_ >= 0 && guard_ >= 0 && dds_waitset_attach(waitset_, guard_, 0) == 0 &&
@@ -152,7 +163,7 @@ Status DdsImageReader::waitForCamera() {
       }
       if (n > 0) dds_return_loan(depth_, samples, n);
     }
-    dds_waitset_wait(waitset_, nullptr, 0, DDS_MSECS(100));
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));  // colour waiting would keep a waitset awake
   }
   if (!depth_scale)
     return Status::failure(describe() + ": no depth image on " + options_.topics.depth + " within " +
