@@ -3,10 +3,12 @@
 // record parses, each schema is a JSON Schema titled with its Foxglove name, each channel is JSON, messages
 // come in time order, and the last message of each topic matches what the run wrote (EXPECTED, the file
 // test_viewer_foxglove.sh makes): per robot the occupied voxels of map.bt, the keyframes of
-// keyframes_<robot>.txt, the pose at the newest keyframe. Exit 0 on success, 1 on failure.
+// keyframes_<robot>.txt, the pose at the newest keyframe. Then the indexed reader (McapIndexedReader: the
+// summary's chunk indexes and the message indexes) reads the same messages by seeking. Exit 0 on success,
+// 1 on failure.
 // Usage: node mcap_check.js FILE.mcap EXPECTED.json
 'use strict';
-const { McapStreamReader } = require('@mcap/core');
+const { McapIndexedReader, McapStreamReader } = require('@mcap/core');
 const { execFileSync } = require('child_process');
 const fs = require('fs');
 
@@ -15,17 +17,16 @@ const expected = JSON.parse(fs.readFileSync(expectedFile, 'utf8'));
 const failures = [];
 const fail = (m) => failures.push(m);
 
-const reader = new McapStreamReader({
-  validateCrcs: true,
-  decompressHandlers: {
-    zstd: (buffer, size) => {
-      const out = execFileSync('zstd', ['-d', '-c', '-q'], { input: buffer, maxBuffer: 1 << 30 });
-      if (BigInt(out.length) !== size) throw new Error(`zstd chunk: ${out.length} bytes, declared ${size}`);
-      return out;
-    },
+const decompressHandlers = {
+  zstd: (buffer, size) => {
+    const out = execFileSync('zstd', ['-d', '-c', '-q'], { input: buffer, maxBuffer: 1 << 30 });
+    if (BigInt(out.length) !== size) throw new Error(`zstd chunk: ${out.length} bytes, declared ${size}`);
+    return out;
   },
-});
-reader.append(fs.readFileSync(file));
+};
+const bytes = fs.readFileSync(file);
+const reader = new McapStreamReader({ validateCrcs: true, decompressHandlers });
+reader.append(bytes);
 const schemas = new Map(), channels = new Map(), latest = new Map(), counts = new Map();
 let header = null, footer = false, lastTime = -1n, records = 0;
 for (let r; (r = reader.nextRecord()) !== undefined; ++records) {
@@ -62,6 +63,26 @@ for (const [r, e] of Object.entries(expected.robots)) {
   console.log(`${r}: ${counts.get(`/${r}/voxels`)} point clouds (last ${points} voxels), ` +
               `${counts.get(`/${r}/trajectory`)} trajectories (last ${traj.poses.length} poses)`);
 }
+async function indexed() {
+  const readable = {
+    size: async () => BigInt(bytes.length),
+    read: async (offset, length) => bytes.subarray(Number(offset), Number(offset + length)),
+  };
+  const r = await McapIndexedReader.Initialize({ readable, decompressHandlers });
+  let n = 0, last = -1n;
+  for await (const m of r.readMessages()) {
+    if (m.logTime < last) fail(`indexed reader: message at ${m.logTime} after ${last}`);
+    last = m.logTime;
+    ++n;
+  }
+  const total = [...counts.values()].reduce((a, b) => a + b, 0);
+  if (n !== total) fail(`indexed reader: ${n} messages, the stream ${total}`);
+  console.log(`indexed reader: ${r.chunkIndexes.length} chunk indexes, ${n} messages`);
+  if (r.chunkIndexes.length === 0) fail('no chunk index');
+}
+
 console.log(`${file}: ${records} records, ${channels.size} channels, ${[...counts.values()].reduce((a, b) => a + b, 0)} messages`);
-for (const f of failures) console.log('FAIL: ' + f);
-process.exit(failures.length ? 1 : 0);
+indexed().catch((e) => fail('indexed reader: ' + e)).finally(() => {
+  for (const f of failures) console.log('FAIL: ' + f);
+  process.exit(failures.length ? 1 : 0);
+});

@@ -109,15 +109,28 @@ Status Writer::write(const Message& m) {
   message_end_ = std::max(message_end_, m.log_time);
   ++message_count_;
   ++per_channel_[m.channel_id];
+  chunk_messages_[m.channel_id].emplace_back(m.log_time, chunk_.size());
   record(Opcode::kMessage, w.out(), &chunk_);
   return chunk_.size() >= options_.chunk_bytes ? flushChunk() : Status::success();
+}
+
+void Writer::writeMessageIndexes(std::vector<uint8_t>* out, std::map<uint16_t, uint64_t>* offsets) const {
+  for (const auto& [channel, entries] : chunk_messages_) {
+    (*offsets)[channel] = offset_ + out->size();
+    ByteWriter mi;
+    mi.pod(channel);
+    ByteWriter list;
+    for (const auto& [time, at] : entries) list.pod(time), list.pod(at);
+    mi.bytes32(list.out());
+    record(Opcode::kMessageIndex, mi.out(), out);
+  }
 }
 
 Status Writer::flushChunk() {
   if (chunk_.empty()) return error_;
   std::vector<uint8_t> out;
   if (options_.compression == Compression::kNone && options_.chunk_bytes == 0) {
-    out = std::move(chunk_);  // unchunked: the records as they are
+    out = std::move(chunk_);  // unchunked: the records as they are, no indexes
   } else {
     const std::vector<uint8_t> packed = detail::compress(options_.compression, chunk_);
     if (packed.empty() && !chunk_.empty())
@@ -131,9 +144,18 @@ Status Writer::flushChunk() {
     c.pod(static_cast<uint64_t>(packed.size()));
     c.raw(packed.data(), packed.size());
     record(Opcode::kChunk, c.out(), &out);
+    ChunkEntry e{chunk_start_, chunk_end_, offset_, out.size(), {}, 0, packed.size(), chunk_.size()};
+    std::vector<uint8_t> indexes;
+    offset_ += out.size();  // writeMessageIndexes counts from the end of the chunk
+    writeMessageIndexes(&indexes, &e.message_index_offsets);
+    offset_ -= out.size();
+    e.message_index_length = indexes.size();
+    out.insert(out.end(), indexes.begin(), indexes.end());
+    chunk_index_.push_back(std::move(e));
     ++chunk_count_;
   }
   chunk_.clear();
+  chunk_messages_.clear();
   chunk_start_ = chunk_end_ = 0;
   return put(out);
 }
@@ -161,6 +183,21 @@ Status Writer::close() {
   for (const auto& [id, n] : per_channel_) counts.pod(id), counts.pod(n);
   st.bytes32(counts.out());
   record(Opcode::kStatistics, st.out(), &tail);
+  for (const ChunkEntry& e : chunk_index_) {
+    ByteWriter ci;
+    ci.pod(e.start_time);
+    ci.pod(e.end_time);
+    ci.pod(e.offset);
+    ci.pod(e.length);
+    ByteWriter offsets;
+    for (const auto& [channel, at] : e.message_index_offsets) offsets.pod(channel), offsets.pod(at);
+    ci.bytes32(offsets.out());
+    ci.pod(e.message_index_length);
+    ci.string(compressionName(options_.compression));
+    ci.pod(e.compressed_size);
+    ci.pod(e.uncompressed_size);
+    record(Opcode::kChunkIndex, ci.out(), &tail);
+  }
   ByteWriter footer;
   footer.pod(summary_start);
   footer.pod(uint64_t{0});  // no summary offsets

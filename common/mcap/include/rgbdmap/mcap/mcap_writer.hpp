@@ -2,8 +2,9 @@
 // Writes an MCAP file: Header, a data section of chunks (zstd, lz4 or uncompressed), DataEnd, a summary
 // section (every Schema and Channel, Statistics) and the Footer. The file grows under a temporary name
 // beside the target and appears at its name, synced, only on close(): a reader never sees a partial file
-// (destroyed without close(), the temporary file is removed). Message and chunk indexes are not written
-// (the spec makes them optional; readers fall back to reading the data section in order).
+// (destroyed without close(), the temporary file is removed). Chunked files are indexed: a MessageIndex per
+// channel after each chunk and a ChunkIndex per chunk in the summary, so that readers (Foxglove,
+// @mcap/core's indexed reader) seek by time instead of reading the whole file.
 #include <cstdint>
 #include <cstdio>
 #include <map>
@@ -45,6 +46,14 @@ class Writer {
   void record(Opcode opcode, const std::vector<uint8_t>& body, std::vector<uint8_t>* out) const;
   Status put(const std::vector<uint8_t>& bytes);
   Status flushChunk();
+  void writeMessageIndexes(std::vector<uint8_t>* out, std::map<uint16_t, uint64_t>* offsets) const;
+
+  /// What the summary's ChunkIndex says of one written chunk.
+  struct ChunkEntry {
+    uint64_t start_time = 0, end_time = 0, offset = 0, length = 0;
+    std::map<uint16_t, uint64_t> message_index_offsets;
+    uint64_t message_index_length = 0, compressed_size = 0, uncompressed_size = 0;
+  };
 
   std::string path_, temp_path_;
   WriterOptions options_;
@@ -56,6 +65,8 @@ class Writer {
   uint64_t message_count_ = 0, message_start_ = 0, message_end_ = 0;
   uint32_t chunk_count_ = 0;
   std::map<uint16_t, uint64_t> per_channel_;
+  std::map<uint16_t, std::vector<std::pair<uint64_t, uint64_t>>> chunk_messages_;  ///< (log time, offset)
+  std::vector<ChunkEntry> chunk_index_;
   Status error_ = Status::success();
 };
 
