@@ -40,15 +40,18 @@ class DdsImageReader : public ImageMessageReader {
       for (int k = 0; k < 2; ++k) {
         const bool depth = (turn_++ % 2) == 1;  // alternate, so that neither topic starves the other
         std::optional<ros1::Image> image;
-        if (Status s = take(depth ? depth_ : rgb_, &image); !s) {
+        double sent = 0.0;
+        if (Status s = take(depth ? depth_ : rgb_, &image, &sent); !s) {
           ++refused_;
-          log::warn(describe(), ": a sample refused: ", s.error(), " (", refused_, " so far)");
+          uint64_t suppressed = 0;
+          if (limiter_.allow(&suppressed))
+            log::warn(describe(), ": a sample refused: ", s.error(), " (", refused_, " so far)");
           continue;
         }
         if (!image) continue;
         ImageMessage m;
         m.is_depth = depth;
-        m.record_time = m.image.header.stamp();
+        m.record_time = sent;  // the pairing's stamp when the header has none
         m.image = std::move(*image);
         return R(std::optional<ImageMessage>(std::move(m)));
       }
@@ -81,14 +84,16 @@ class DdsImageReader : public ImageMessageReader {
     if (n > 0) dds_return_loan(info_, samples, n);
   }
 
-  /// One sample of `reader` (nullopt: none waiting); the reason when it does not decode.
-  static Status take(dds_entity_t reader, std::optional<ros1::Image>* out) {
+  /// One sample of `reader` (nullopt: none waiting) and when it was sent (s); the reason when it does not
+  /// decode.
+  static Status take(dds_entity_t reader, std::optional<ros1::Image>* out, double* sent) {
     void* samples[1] = {nullptr};
     dds_sample_info_t info[1];
     const dds_return_t n = dds_take(reader, samples, info, 1, 1);
     if (n <= 0) return Status::success();
     Status status = Status::success();
     if (info[0].valid_data) {
+      *sent = static_cast<double>(info[0].source_timestamp) * 1e-9;
       auto image = ros2::detail::fromDds(*static_cast<const sensor_msgs_msg_dds__Image_*>(samples[0]));
       if (image)
         *out = std::move(*image);
@@ -105,6 +110,7 @@ class DdsImageReader : public ImageMessageReader {
   std::atomic<bool> closed_{false};
   unsigned turn_ = 0;
   uint64_t refused_ = 0;
+  log::RateLimiter limiter_{1.0};
 };
 
 Status DdsImageReader::create() {
