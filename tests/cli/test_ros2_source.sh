@@ -27,7 +27,7 @@ timeout 60 "$bin/ros2_wire_check" >"$tmp/wire.log" 2>&1 && ok "wire format: $(gr
   { cat "$tmp/synth.log"; exit 1; }
 
 # Odometry on the live topics (frames may drop: a live source hands on the newest pair).
-"$bin/ros2_test_publisher" "$tmp/seq" --rate 15 --frames 60 --wait-readers 30 >"$tmp/pub.log" 2>&1 &
+"$bin/ros2_test_publisher" "$tmp/seq" --rate 30 --frames 60 --wait-readers 30 >"$tmp/pub.log" 2>&1 &
 pids+=($!)
 timeout 120 "$bin/rgbdmap" odometry --source ros2: --frames 40 --out "$tmp/odo.txt" >"$tmp/odo.log" 2>&1
 code=$?
@@ -52,7 +52,7 @@ printf 'robot:\n  id: robot0\n  key_file: %s\ntransport:\n  url: "%s"\nlink:\n  
 "$bin/rgbdmap-server" --config "$tmp/server.yaml" >"$tmp/server.log" 2>&1 &
 server=$!
 pids+=($server)
-"$bin/ros2_test_publisher" "$tmp/seq" --rate 15 --wait-readers 30 >"$tmp/pub2.log" 2>&1 &
+"$bin/ros2_test_publisher" "$tmp/seq" --rate 30 --wait-readers 30 >"$tmp/pub2.log" 2>&1 &
 pub2=$!
 pids+=($pub2)
 timeout 120 "$bin/rgbdmap-client" --config "$tmp/client.yaml" --source ros2: --frames :40 --out "$tmp/client" \
