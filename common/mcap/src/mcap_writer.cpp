@@ -116,7 +116,7 @@ Status Writer::write(const Message& m) {
 
 void Writer::writeMessageIndexes(std::vector<uint8_t>* out, std::map<uint16_t, uint64_t>* offsets) const {
   for (const auto& [channel, entries] : chunk_messages_) {
-    (*offsets)[channel] = offset_ + out->size();
+    (*offsets)[channel] = offset_ + out->size();  // `out` is written at offset_
     ByteWriter mi;
     mi.pod(channel);
     ByteWriter list;
@@ -145,12 +145,8 @@ Status Writer::flushChunk() {
     c.raw(packed.data(), packed.size());
     record(Opcode::kChunk, c.out(), &out);
     ChunkEntry e{chunk_start_, chunk_end_, offset_, out.size(), {}, 0, packed.size(), chunk_.size()};
-    std::vector<uint8_t> indexes;
-    offset_ += out.size();  // writeMessageIndexes counts from the end of the chunk
-    writeMessageIndexes(&indexes, &e.message_index_offsets);
-    offset_ -= out.size();
-    e.message_index_length = indexes.size();
-    out.insert(out.end(), indexes.begin(), indexes.end());
+    writeMessageIndexes(&out, &e.message_index_offsets);  // right after the chunk, in the same write
+    e.message_index_length = out.size() - e.length;
     chunk_index_.push_back(std::move(e));
     ++chunk_count_;
   }
