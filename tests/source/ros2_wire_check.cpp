@@ -14,7 +14,7 @@
 
 #include "rgbdmap/source/ros2_messages.hpp"
 #include "rgbdmap/source/ros2_topics.hpp"
-#include "ros2_sensor_msgs.h"
+#include "ros2_msgs.h"
 
 namespace {
 

@@ -27,14 +27,6 @@ std_msgs_msg_dds__Header_ toDds(const ros1::Header& h) {
 
 }  // namespace
 
-std::string ddsError(const char* what, dds_return_t rc) {
-  return std::string(what) + ": " + dds_strretcode(rc);
-}
-
-std::string ddsTopicName(const std::string& ros_name) {
-  return "rt/" + (ros_name.rfind('/', 0) == 0 ? ros_name.substr(1) : ros_name);
-}
-
 Result<ros1::Image> fromDds(const sensor_msgs_msg_dds__Image_& s) {
   ros1::Image m;
   m.header = headerOf(s.header);
@@ -69,15 +61,6 @@ Result<ros1::CameraInfo> fromDds(const sensor_msgs_msg_dds__CameraInfo_& s) {
 
 }  // namespace detail
 
-Status checkDdsConfiguration() {
-  const char* uri = std::getenv("CYCLONEDDS_URI");
-  if (uri == nullptr || *uri == '\0')
-    return Status::failure(
-        "CYCLONEDDS_URI is not set; point it at deploy/dds/cyclonedds-*.xml (Cyclone's "
-        "built-in default multicasts on every interface)");
-  return Status::success();
-}
-
 struct ImagePublisher::Impl {
   dds_entity_t participant = 0, rgb = 0, depth = 0, info = 0;
 };
@@ -93,21 +76,17 @@ Result<std::unique_ptr<ImagePublisher>> ImagePublisher::create(int domain, const
   if (Status s = checkDdsConfiguration(); !s) return R::failure(s.error());
   auto impl = std::make_unique<Impl>();
   impl->participant = dds_create_participant(static_cast<dds_domainid_t>(domain), nullptr, nullptr);
-  if (impl->participant < 0) return R::failure(detail::ddsError("dds_create_participant", impl->participant));
+  if (impl->participant < 0) return R::failure(ddsError("dds_create_participant", impl->participant));
   std::unique_ptr<ImagePublisher> p(new ImagePublisher(std::move(impl)));
-  dds_qos_t* qos = dds_create_qos();
-  dds_qset_reliability(qos, DDS_RELIABILITY_RELIABLE, DDS_SECS(1));
-  dds_qset_history(qos, DDS_HISTORY_KEEP_LAST, 10);
+  // realsense2_camera's QoS: reliable, volatile, keep last 10.
   auto writer = [&](const std::string& name, const dds_topic_descriptor_t* desc, dds_entity_t* out) {
-    const dds_entity_t t =
-        dds_create_topic(p->impl_->participant, desc, detail::ddsTopicName(name).c_str(), nullptr, nullptr);
-    *out = t < 0 ? t : dds_create_writer(p->impl_->participant, t, qos, nullptr);
-    return *out >= 0;
+    auto w = createWriter(p->impl_->participant, desc, name, defaultQos());
+    if (w) *out = *w;
+    return w.ok();
   };
   const bool ok = writer(topics.rgb, &sensor_msgs_msg_dds__Image__desc, &p->impl_->rgb) &&
                   writer(topics.depth, &sensor_msgs_msg_dds__Image__desc, &p->impl_->depth) &&
                   writer(topics.info, &sensor_msgs_msg_dds__CameraInfo__desc, &p->impl_->info);
-  dds_delete_qos(qos);
   if (!ok) return R::failure("ROS 2 publisher: cannot create its DDS topics and writers");
   return R(std::move(p));
 }
@@ -126,7 +105,7 @@ Status writeImage(dds_entity_t writer, const ros1::Image& m) {
   s.data._buffer = const_cast<uint8_t*>(m.data.data());
   s.data._release = false;
   const dds_return_t rc = dds_write(writer, &s);
-  return rc < 0 ? Status::failure(detail::ddsError("dds_write", rc)) : Status::success();
+  return rc < 0 ? Status::failure(ddsError("dds_write", rc)) : Status::success();
 }
 
 }  // namespace
@@ -147,7 +126,7 @@ Status ImagePublisher::publishInfo(const ros1::CameraInfo& c) {
   std::memcpy(s.r, c.R.data(), sizeof(s.r));
   std::memcpy(s.p, c.P.data(), sizeof(s.p));
   const dds_return_t rc = dds_write(impl_->info, &s);
-  return rc < 0 ? Status::failure(detail::ddsError("dds_write", rc)) : Status::success();
+  return rc < 0 ? Status::failure(ddsError("dds_write", rc)) : Status::success();
 }
 
 int ImagePublisher::matchedReaders() const {

@@ -1,5 +1,5 @@
 // ros2:[?rgb=T&depth=T&info=T&domain=N&max_dt=S&wait=S] - colour, depth and camera_info from ROS 2 topics
-// over Cyclone DDS (rmw_cyclonedds's wire format: ros2_sensor_msgs.idl), paired by header stamp
+// over Cyclone DDS (rmw_cyclonedds's wire format: common/ros2/idl/ros2_msgs.idl), paired by header stamp
 // (paired_source.hpp). Opening waits (at most `wait` seconds) for a depth image, to know its encoding, and
 // for camera_info; then samples are taken as they come, and the LatestFrameSource around a live source
 // keeps only the newest pair. Readers are best-effort (they match reliable and best-effort publishers).
@@ -18,8 +18,8 @@
 namespace rgbdmap::source_detail {
 namespace {
 
-using ros2::detail::ddsError;
-using ros2::detail::ddsTopicName;
+using ros2::ddsError;
+using ros2::ddsTopicName;
 
 struct Ros2Options {
   ImageTopics topics;

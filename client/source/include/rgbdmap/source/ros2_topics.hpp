@@ -18,10 +18,6 @@ struct CameraTopics {
   std::string info = "/camera/camera/color/camera_info";
 };
 
-/// DDS needs an explicit configuration (Cyclone's built-in default multicasts on every interface): the
-/// reason when CYCLONEDDS_URI is not set.
-Status checkDdsConfiguration();
-
 class ImagePublisher {
  public:
   /// Writers on the three topics in DDS domain `domain`, with the QoS realsense2_camera uses (reliable,
