@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "rgbdmap/cli/cli.hpp"
+#include "rgbdmap/cli/signal_thread.hpp"
 #include "rgbdmap/common/config_table.hpp"
 #include "rgbdmap/common/logging.hpp"
 #include "rgbdmap/common/text_lines.hpp"
@@ -104,19 +105,6 @@ void printStats(const viewer::ViewerStats& s) {
       static_cast<unsigned long long>(s.recorded_messages));
 }
 
-/// Blocks until SIGINT/SIGTERM or the timeout.
-void waitForSignal(const sigset_t& signals, double timeout_s) {
-  if (timeout_s <= 0) {
-    int sig = 0;
-    sigwait(&signals, &sig);
-    return;
-  }
-  timespec ts;
-  ts.tv_sec = static_cast<time_t>(timeout_s);
-  ts.tv_nsec = static_cast<long>((timeout_s - static_cast<double>(ts.tv_sec)) * 1e9);
-  sigtimedwait(&signals, nullptr, &ts);
-}
-
 int runViewer(int argc, char** argv) {
   cli::Args args(argc, argv, {"help", "open"});
   if (args.has("help")) {
@@ -148,7 +136,7 @@ int runViewer(int argc, char** argv) {
   if (const Status s = (*transport)->start(); !s) return log::error("transport start: ", s.error()), 1;
   log::info("rgbdmap-viewer: serving http://", options.viewer.bind, ":", (*viewer)->port(),
             "/ (Foxglove: ws://", options.viewer.bind, ":", (*viewer)->port(), ")");
-  waitForSignal(signals, options.timeout_s);
+  cli::waitForSignal(signals, options.timeout_s);
   (*transport)->stop();
   (*viewer)->stop();
   const viewer::ViewerStats stats = (*viewer)->stats();

@@ -6,6 +6,18 @@
 
 namespace rgbdmap::cli {
 
+void waitForSignal(const sigset_t& signals, double timeout_s) {
+  if (timeout_s <= 0) {
+    int sig = 0;
+    sigwait(&signals, &sig);
+    return;
+  }
+  timespec ts;
+  ts.tv_sec = static_cast<time_t>(timeout_s);
+  ts.tv_nsec = static_cast<long>((timeout_s - static_cast<double>(ts.tv_sec)) * 1e9);
+  sigtimedwait(&signals, nullptr, &ts);
+}
+
 SignalThread::SignalThread() {
   sigemptyset(&set_);
   for (int s : {SIGINT, SIGTERM, SIGUSR1}) sigaddset(&set_, s);

@@ -1,4 +1,4 @@
-#include "map_subscriber.hpp"
+#include "rgbdmap/viewer/map_subscriber.hpp"
 
 #include "rgbdmap/common/logging.hpp"
 #include "rgbdmap/proto/channels.hpp"

@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <sstream>
 
 #include "rgbdmap/map/map_io.hpp"
 
@@ -151,6 +152,26 @@ Result<msg::OccupancySlice> MapView::mapGrid(const std::string& robot, double ca
   const auto it = state_.find(robot);
   if (it == state_.end() || !it->second->tree) return Result<msg::OccupancySlice>::failure("no map yet");
   return extractMapGrid(*it->second->tree, camera_height_m, config);
+}
+
+Result<std::string> MapView::octomapBinary(const std::string& robot, double* resolution_m,
+                                          int64_t* revision) const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  const auto it = state_.find(robot);
+  if (it == state_.end() || !it->second->tree) return Result<std::string>::failure("no map yet");
+  std::ostringstream out;
+  if (!it->second->tree->writeBinaryData(out)) return Result<std::string>::failure("octree not writable");
+  *resolution_m = it->second->tree->getResolution();
+  *revision = it->second->s.map_revision;
+  return out.str();
+}
+
+double mapCutHeight(const RobotSnapshot& s) {
+  std::vector<double> z;
+  for (const msg::CorrectedPose& k : s.keyframes) z.push_back(k.T_map_cam.translation().z());
+  if (z.empty()) return s.live_pose ? s.live_pose->T_map_cam.translation().z() : 0.0;
+  std::nth_element(z.begin(), z.begin() + z.size() / 2, z.end());
+  return z[z.size() / 2];
 }
 
 std::optional<SE3> currentPose(const RobotSnapshot& s, int64_t now_utime, bool* live) {

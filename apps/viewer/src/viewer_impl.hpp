@@ -11,7 +11,7 @@
 #include <unordered_set>
 #include <vector>
 
-#include "map_subscriber.hpp"
+#include "rgbdmap/viewer/map_subscriber.hpp"
 #include "rgbdmap/mcap/mcap_writer.hpp"
 #include "rgbdmap/viewer/map_view.hpp"
 #include "rgbdmap/viewer/viewer.hpp"

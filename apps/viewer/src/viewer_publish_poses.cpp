@@ -1,26 +1,9 @@
 // The viewer's publisher, robots' poses and 2-D maps: /R/trajectory, /R/pose (the robot's live RobotPose,
 // else its newest optimised keyframe), /tf, and /R/map_grid (the global 2-D map of R's map, cut from the
 // viewer's copy of the tree like the server's map_<id>.pgm).
-#include <algorithm>
-
 #include "viewer_impl.hpp"
 
 namespace rgbdmap::viewer {
-namespace {
-
-using Clock = std::chrono::steady_clock;
-
-/// The median camera height of the robot's keyframes (its live pose, else 0, before any): the height the
-/// 2-D map is cut at, as the server does.
-double cameraHeight(const RobotSnapshot& s) {
-  std::vector<double> z;
-  for (const msg::CorrectedPose& k : s.keyframes) z.push_back(k.T_map_cam.translation().z());
-  if (z.empty()) return s.live_pose ? s.live_pose->T_map_cam.translation().z() : 0.0;
-  std::nth_element(z.begin(), z.begin() + z.size() / 2, z.end());
-  return z[z.size() / 2];
-}
-
-}  // namespace
 
 void Viewer::Impl::publishPoses(size_t index, const RobotSnapshot& s, bool trajectory) {
   const int64_t utime = nowUtime();
@@ -51,17 +34,17 @@ void Viewer::Impl::publishTransforms() {
 void Viewer::Impl::publishMapGrid(size_t index, const RobotSnapshot& s) {
   RobotPublished& p = *published[index];
   if (!p.grid_pending ||
-      std::chrono::duration<double>(Clock::now() - p.last_grid).count() < options.cloud_period_s)
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - p.last_grid).count() < options.cloud_period_s)
     return;
   p.grid_pending = false;
-  p.last_grid = Clock::now();
+  p.last_grid = std::chrono::steady_clock::now();
   SliceConfig config;  // the band and cell size of the robot's slices, when one came
   if (s.slice) {
     config.resolution_m = s.slice->resolution_m;
     config.z_min_m = s.slice->z_min_m;
     config.z_max_m = s.slice->z_max_m;
   }
-  Result<msg::OccupancySlice> grid = view.mapGrid(view.robots()[index], cameraHeight(s), config);
+  Result<msg::OccupancySlice> grid = view.mapGrid(view.robots()[index], mapCutHeight(s), config);
   if (!grid) return;
   grid->header.utime = nowUtime();
   send(channels[index].map_grid, gridJson(*grid, "map"), grid->header.utime);

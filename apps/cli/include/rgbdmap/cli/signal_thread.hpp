@@ -8,6 +8,10 @@
 
 namespace rgbdmap::cli {
 
+/// Blocks the calling thread until one of `signals` (blocked in every thread beforehand) arrives or
+/// `timeout_s` passes (0: no timeout). For programs that only wait for Ctrl-C.
+void waitForSignal(const sigset_t& signals, double timeout_s);
+
 class SignalThread {
  public:
   SignalThread();

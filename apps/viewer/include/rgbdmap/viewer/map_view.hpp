@@ -52,6 +52,10 @@ constexpr double kLivePoseMaxAgeS = 2.0;
 /// optimised keyframe; nothing before either. *live tells which.
 std::optional<SE3> currentPose(const RobotSnapshot& s, int64_t now_utime, bool* live);
 
+/// The median camera height of the robot's keyframes (its live pose, else 0, before any): the height the
+/// global 2-D map is cut at, as the server does.
+double mapCutHeight(const RobotSnapshot& s);
+
 class MapView {
  public:
   explicit MapView(const std::vector<std::string>& robots);
@@ -77,6 +81,10 @@ class MapView {
   /// `config` around `camera_height_m`); fails without a tree.
   Result<msg::OccupancySlice> mapGrid(const std::string& robot, double camera_height_m,
                                       const SliceConfig& config) const;
+
+  /// The robot's map as octomap_msgs/Octomap carries it (OcTree::writeBinaryData: the nodes without the
+  /// file header), its resolution and map revision; fails without a tree.
+  Result<std::string> octomapBinary(const std::string& robot, double* resolution_m, int64_t* revision) const;
 
   /// Waits until something changed since `seen` (the sum of every change counter) or the timeout; returns it.
   uint64_t waitForChange(uint64_t seen, double timeout_s) const;
