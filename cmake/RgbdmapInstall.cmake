@@ -7,7 +7,7 @@ set(RGBDMAP_INSTALL_FULL_CONFDIR "${CMAKE_INSTALL_FULL_SYSCONFDIR}/rgbdmap")
 set(RGBDMAP_INSTALL_SYSTEMD_DIR "${CMAKE_INSTALL_PREFIX}/lib/systemd/system")
 set(RGBDMAP_INSTALL_SYSUSERS_DIR "${CMAKE_INSTALL_PREFIX}/lib/sysusers.d")
 
-install(TARGETS rgbdmap rgbdmap-client rgbdmap-server rgbdmap-monitor rgbdmap-viewer RUNTIME DESTINATION ${CMAKE_INSTALL_BINDIR})
+install(TARGETS rgbdmap rgbdmap-client rgbdmap-server rgbdmap-monitor rgbdmap-viewer rgbdmap-ros2 RUNTIME DESTINATION ${CMAKE_INSTALL_BINDIR})
 
 # Configuration: the documented defaults, an example DDS configuration for a robot network (to be edited),
 # the services' environment files (client.env: copy to client-<robot>.env per robot).

@@ -59,7 +59,10 @@ const char* kRunUsage =
     "  --viewer [PORT]         live map viewer at http://127.0.0.1:PORT/ and for Foxglove (default 8765),\n"
     "                          kept open after the run until Ctrl-C\n"
     "  --record FILE.mcap      with --viewer: also record the viewer's topics (Foxglove schemas, JSON) into\n"
-    "                          an MCAP file that Foxglove opens; written when the viewer closes (Ctrl-C)\n";
+    "                          an MCAP file that Foxglove opens; written when the viewer closes (Ctrl-C)\n"
+    "  --ros2                  publish the map as ROS 2 topics over Cyclone DDS (as rgbdmap-ros2: /map, /tf,\n"
+    "                          /octomap_binary, /map_cloud, /<robot>/pose|path|local_map) in ROS_DOMAIN_ID,\n"
+    "                          kept after the run until Ctrl-C\n";
 
 /// The datasets the robots read and, per dataset, its camera, odometry and reader settings.
 struct RunInputs {
@@ -73,7 +76,7 @@ RunOptions parseRun(cli::Args& args, ServerAppConfig* server_config, std::vector
   auto allowed = app::datasetOptionNames();
   allowed.insert(allowed.end(),
                  {"dataset", "source", "out", "scene", "frames", "seed", "threads", "robots", "overlap",
-                  "transport", "realtime", "async", "server-config", "viewer", "record"});
+                  "transport", "realtime", "async", "server-config", "viewer", "record", "ros2"});
   args.checkAllowed(allowed);
   RunOptions o = parseRunOptions(args, errors);
   if (args.has("source") && args.has("dataset"))
@@ -263,7 +266,7 @@ int writeOutputs(const RunOptions& o, const RunInputs& in, const std::vector<Rob
 
 int run(int argc, char** argv) {
   ViewerArgv viewer_argv(argc, argv);
-  cli::Args args(viewer_argv.argc(), viewer_argv.argv(), {"help", "realtime", "async"});
+  cli::Args args(viewer_argv.argc(), viewer_argv.argv(), {"help", "realtime", "async", "ros2"});
   if (args.has("help")) {
     std::printf("%s%s", kRunUsage, app::datasetOptionsHelp());
     return 0;
@@ -286,8 +289,9 @@ int run(int argc, char** argv) {
   auto deployment = deploy(o, server_config, in, plans);
   if (!deployment) return log::error(deployment.error()), 1;
   std::unique_ptr<RunViewer> viewer;
-  if (viewer_port >= 0) {
-    auto started = startRunViewer(viewer_port, record_path, transportUrl(o.transport), plans, **deployment);
+  if (viewer_port >= 0 || args.has("ros2")) {
+    const RunViewerOptions outputs{viewer_port, record_path, args.has("ros2")};
+    auto started = startRunViewer(outputs, transportUrl(o.transport), plans, **deployment);
     if (!started) return log::error(started.error()), 1;
     viewer = std::move(*started);
   }

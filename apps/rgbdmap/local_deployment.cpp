@@ -11,17 +11,6 @@
 namespace rgbdmap::cmd {
 namespace {
 
-/// Cyclone DDS must never run with its default configuration here (it multicasts on the real interface):
-/// the shipped loopback configuration (share/rgbdmap/dds, findDataFile) unless CYCLONEDDS_URI is set.
-Status ensureDdsConfig() {
-  if (std::getenv("CYCLONEDDS_URI")) return Status::success();
-  const Result<std::string> xml = findDataFile("dds/cyclonedds-loopback.xml", RGBDMAP_INSTALLED_DATA_DIR);
-  if (!xml) return Status::failure("CYCLONEDDS_URI is not set and the loopback configuration " + xml.error());
-  setenv("CYCLONEDDS_URI", ("file://" + *xml).c_str(), 1);
-  log::info("CYCLONEDDS_URI=file://", *xml, " (loopback only)");
-  return Status::success();
-}
-
 Result<std::unique_ptr<transport::Transport>> makeTransport(const std::string& url) {
   auto t = transport::makeTransport(url);
   if (!t)
@@ -30,6 +19,15 @@ Result<std::unique_ptr<transport::Transport>> makeTransport(const std::string& u
 }
 
 }  // namespace
+
+Status ensureDdsConfig() {
+  if (std::getenv("CYCLONEDDS_URI")) return Status::success();
+  const Result<std::string> xml = findDataFile("dds/cyclonedds-loopback.xml", RGBDMAP_INSTALLED_DATA_DIR);
+  if (!xml) return Status::failure("CYCLONEDDS_URI is not set and the loopback configuration " + xml.error());
+  setenv("CYCLONEDDS_URI", ("file://" + *xml).c_str(), 1);
+  log::info("CYCLONEDDS_URI=file://", *xml, " (loopback only)");
+  return Status::success();
+}
 
 Result<std::unique_ptr<LocalDeployment>> LocalDeployment::start(const std::string& url,
                                                                 MapServerConfig config,

@@ -16,6 +16,11 @@
 
 namespace rgbdmap::cmd {
 
+/// Cyclone DDS must never run with its default configuration here (it multicasts on the real interface):
+/// sets CYCLONEDDS_URI to the shipped loopback configuration (share/rgbdmap/dds, findDataFile) unless it is
+/// set.
+Status ensureDdsConfig();
+
 struct LocalRobotSpec {
   std::string id;
   msg::Bytes key;           ///< the server gets every robot's key: messages are signed as in a deployment
