@@ -305,13 +305,7 @@ MonitorOptions parseOptions(cli::Args& args, std::vector<std::string>* errors) {
   o.period_s = args.getDouble("period").value_or(2.0);
   o.timeout_s = args.getDouble("timeout").value_or(0.0);
   for (const std::string& problem : monitorOptionsTable().problems(o)) errors->push_back("--" + problem);
-  if (const auto level = args.get("log-level")) {
-    log::Level l;
-    if (log::parseLevel(*level, &l))
-      log::setLevel(l);
-    else
-      errors->push_back("--log-level must be debug, info, warn or error");
-  }
+  cli::applyLogLevel(args, errors);
   for (const auto& p : args.positional()) errors->push_back("unexpected argument '" + p + "'");
   return o;
 }

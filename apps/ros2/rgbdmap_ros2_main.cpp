@@ -97,13 +97,7 @@ Ros2Cli parseOptions(cli::Args& args, std::vector<std::string>* errors) {
     errors->push_back("--tf-period must be 0.001..10");
   o.timeout_s = args.getDouble("timeout").value_or(0.0);
   if (!(o.timeout_s >= 0.0 && o.timeout_s <= 1e7)) errors->push_back("--timeout must be 0..1e7");
-  if (const auto level = args.get("log-level")) {
-    log::Level l;
-    if (log::parseLevel(*level, &l))
-      log::setLevel(l);
-    else
-      errors->push_back("--log-level must be debug, info, warn or error");
-  }
+  cli::applyLogLevel(args, errors);
   for (const auto& p : args.positional()) errors->push_back("unexpected argument '" + p + "'");
   return o;
 }

@@ -145,13 +145,7 @@ ServerOptions parseOptions(cli::Args& args, std::vector<std::string>* errors) {
   if (const auto v = args.get("robots")) o.config.server.robots = splitList(*v);
   if (args.has("open")) o.config.open_mode = true;
   o.status_every = args.getDouble("status-every").value_or(5.0);
-  if (const auto level = args.get("log-level")) {
-    log::Level l;
-    if (log::parseLevel(*level, &l))
-      log::setLevel(l);
-    else
-      errors->push_back("--log-level must be debug, info, warn or error");
-  }
+  cli::applyLogLevel(args, errors);
   if (const std::string p = o.config.server.validate(); !p.empty()) errors->push_back(p);
   return o;
 }

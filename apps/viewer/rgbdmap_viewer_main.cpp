@@ -79,13 +79,7 @@ ViewerCli parseOptions(cli::Args& args, std::vector<std::string>* errors) {
   o.viewer.record_path = args.getOr("record", "");
   o.timeout_s = args.getDouble("timeout").value_or(0.0);
   for (const std::string& problem : viewerCliTable().problems(o)) errors->push_back("--" + problem);
-  if (const auto level = args.get("log-level")) {
-    log::Level l;
-    if (log::parseLevel(*level, &l))
-      log::setLevel(l);
-    else
-      errors->push_back("--log-level must be debug, info, warn or error");
-  }
+  cli::applyLogLevel(args, errors);
   for (const auto& p : args.positional()) errors->push_back("unexpected argument '" + p + "'");
   return o;
 }

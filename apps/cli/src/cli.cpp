@@ -6,6 +6,8 @@
 #include <set>
 #include <sstream>
 
+#include "rgbdmap/common/logging.hpp"
+
 namespace rgbdmap::cli {
 
 Args::Args(int argc, char** argv, const std::vector<std::string>& flags) {
@@ -96,6 +98,16 @@ int usageError(const std::vector<std::string>& errors, const char* usage) {
   for (const auto& e : errors) std::fprintf(stderr, "error: %s\n", e.c_str());
   std::fprintf(stderr, "%s", usage);
   return 2;
+}
+
+void applyLogLevel(const Args& args, std::vector<std::string>* errors) {
+  const auto level = args.get("log-level");
+  if (!level) return;
+  log::Level l;
+  if (log::parseLevel(*level, &l))
+    log::setLevel(l);
+  else
+    errors->push_back("--log-level must be debug, info, warn or error");
 }
 
 }  // namespace rgbdmap::cli

@@ -34,6 +34,9 @@ class Args {
   std::vector<std::string> errors_;
 };
 
+/// --log-level debug|info|warn|error, when given, set as the log level; a bad value appended to *errors.
+void applyLogLevel(const Args& args, std::vector<std::string>* errors);
+
 /// Prints all errors (one per line) and the usage text to stderr; returns exit code 2.
 int usageError(const std::vector<std::string>& errors, const char* usage);
 
