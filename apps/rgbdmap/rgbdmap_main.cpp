@@ -16,6 +16,7 @@ const char* kUsage =
     "  convert   write any frame source (ROS bag, camera) as a TUM-layout folder\n"
     "  eval      ATE and RPE of an estimated trajectory against ground truth\n"
     "  view-map  statistics of an octree map file (.bt or .ot)\n"
+    "  keys      keys new ROBOT...: a key per robot and the server's keys file\n"
     "run `rgbdmap <command> --help` for its options.\n";
 }
 
@@ -32,6 +33,7 @@ int main(int argc, char** argv) {
     if (!std::strcmp(name, "eval")) return rgbdmap::cmd::eval(argc - 2, argv + 2);
     if (!std::strcmp(name, "run")) return rgbdmap::cmd::run(argc - 2, argv + 2);
     if (!std::strcmp(name, "view-map")) return rgbdmap::cmd::viewMap(argc - 2, argv + 2);
+    if (!std::strcmp(name, "keys")) return rgbdmap::cmd::keys(argc - 2, argv + 2);
   } catch (const std::exception& e) {
     std::fprintf(stderr, "rgbdmap %s: unexpected error: %s\n", name, e.what());
     return 1;

@@ -2,7 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
-#include <random>
+#include <stdexcept>
 #include <sstream>
 
 namespace rgbdmap::cmd {
@@ -29,12 +29,6 @@ void checkRunOptions(const cli::Args& args, const RunOptions& o, std::vector<std
     errors->push_back("--scene and --seed only apply without --dataset");
 }
 
-msg::Bytes randomKey() {
-  std::random_device rd;
-  msg::Bytes key(32);
-  for (auto& b : key) b = static_cast<uint8_t>(rd());
-  return key;
-}
 
 }  // namespace
 
@@ -70,7 +64,9 @@ std::vector<RobotPlan> planRobots(const RunOptions& o, const std::vector<size_t>
   for (size_t i = 0; i < robots.size(); ++i) {
     RobotPlan& r = robots[i];
     r.id = "robot" + std::to_string(i);
-    r.key = randomKey();
+    auto key = msg::newKey();
+    if (!key) throw std::runtime_error(key.error());  // main reports it; never expected
+    r.key = *key;
     r.dataset = dataset_frames.size() > 1 ? i : 0;
     const int total = static_cast<int>(dataset_frames[r.dataset]);
     const int frames =

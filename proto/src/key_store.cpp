@@ -1,4 +1,6 @@
 // KeyStore, hex keys, session ids, reject reason names.
+#include <openssl/rand.h>
+
 #include <chrono>
 #include <fstream>
 #include <sstream>
@@ -8,6 +10,23 @@
 #include "rgbdmap/proto/validate.hpp"
 
 namespace rgbdmap::msg {
+
+Result<Bytes> newKey() {
+  Bytes key(32);
+  if (RAND_bytes(key.data(), static_cast<int>(key.size())) != 1)
+    return Result<Bytes>::failure("no random key: OpenSSL's generator failed");
+  return key;
+}
+
+std::string toHex(const Bytes& bytes) {
+  static const char* digits = "0123456789abcdef";
+  std::string out;
+  for (const uint8_t b : bytes) {
+    out += digits[b >> 4];
+    out += digits[b & 15];
+  }
+  return out;
+}
 
 KeyStore KeyStore::openMode(bool warn) {
   if (warn)

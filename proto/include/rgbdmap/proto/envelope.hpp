@@ -88,6 +88,11 @@ class KeyStore {
   bool open_ = false;
 };
 
+/// A new random 32-byte key (OpenSSL's RAND_bytes); the reason when the generator fails.
+Result<Bytes> newKey();
+/// Bytes as lower-case hex digits (a key as the keys files hold it).
+std::string toHex(const Bytes& bytes);
+
 /// Hex string (64 hex digits for 32 bytes, any even length >= 2 * kMinKeyBytes) -> key bytes.
 Result<Bytes> parseHexKey(const std::string& hex);
 
