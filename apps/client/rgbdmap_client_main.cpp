@@ -36,6 +36,8 @@ const char* kUsage =
     "                          dataset and odometry sections of deploy/config/odometry.yaml\n"
     "  --dataset DIR           TUM layout: rgb.txt, depth.txt, rgb/, depth/ [, camera.yaml]\n"
     "  --robot-id R            overrides robot.id\n"
+    "  --key-file FILE         overrides robot.key_file (a path from the current folder, e.g. keys/R.key\n"
+    "                          from `rgbdmap keys new R`)\n"
     "  --transport URL         overrides transport.url: memq:// | udpm://239.255.76.67:7667?ttl=0 |\n"
     "                          dds://?domain=0 (Cyclone DDS needs CYCLONEDDS_URI, e.g.\n"
     "                          CYCLONEDDS_URI=file://$PWD/deploy/dds/cyclonedds-loopback.xml)\n"
@@ -109,8 +111,11 @@ Result<OpenedSource> loadClientConfig(cli::Args& args, const ClientArgs& a, Robo
   if (!opened && errors->empty()) return opened;  // the source cannot be opened (exit 1)
   c.robot_id = args.getOr("robot-id", c.robot_id);
   c.transport_url = args.getOr("transport", c.transport_url);
+  // robot.key_file is relative to the configuration file's folder, --key-file to the current folder.
+  const std::string config_dir =
+      args.has("key-file") ? "" : std::filesystem::path(args.getOr("config", "")).parent_path().string();
+  c.key_file = args.getOr("key-file", c.key_file);
   if (!c.key_file.empty()) {
-    const std::string config_dir = std::filesystem::path(args.getOr("config", "")).parent_path().string();
     if (auto key = readKeyFile(c.key_file, config_dir))
       c.link.key = *key;
     else
@@ -175,11 +180,11 @@ int run(int argc, char** argv) {
   }
   cli::SignalThread signals;
   auto allowed = datasetOptionNames();
-  allowed.insert(allowed.end(), {"dataset", "source", "record", "record-keyframes", "robot-id", "transport",
+  allowed.insert(allowed.end(), {"dataset", "source", "record", "record-keyframes", "robot-id", "key-file", "transport",
                                  "fast", "frames", "out", "threads"});
   args.checkAllowed(allowed);
   std::vector<std::string> errors;
-  applyLogLevel(args, &errors);
+  cli::applyLogLevel(args, &errors);
   const ClientArgs a = parseArgs(args, &errors);
   errors.insert(errors.begin(), args.errors().begin(), args.errors().end());
   RobotClientConfig config;
@@ -201,7 +206,8 @@ int run(int argc, char** argv) {
   log::info("robot ", config.robot_id, " on ", config.transport_url, ", frames from ", source->describe(),
             source->live() ? " (live)" : "", ", camera from ", setup.camera_source);
   logConfiguration("configuration in effect",
-                   concatConfigValues(robotClientConfigValues(config), setup.effective));
+                   concatConfigValues(robotClientConfigValues(config), setup.effective),
+                   concatConfigValues(robotClientConfigValues({}), defaultOdometryFileValues()));
 
   std::unique_ptr<KeyframeStreamWriter> keyframe_recording;
   if (!a.record_keyframes.empty()) {

@@ -327,7 +327,8 @@ int runMonitor(int argc, char** argv) {
   std::vector<std::string> errors(args.errors().begin(), args.errors().end());
   const MonitorOptions options = parseOptions(args, &errors);
   if (!errors.empty()) return cli::usageError(errors, kUsage);
-  logConfiguration("configuration in effect", monitorOptionsTable().values(options));
+  logConfiguration("configuration in effect", monitorOptionsTable().values(options),
+                   monitorOptionsTable().values({}));
 
   msg::KeyStore server_keys;
   if (!options.keys_file.empty()) {

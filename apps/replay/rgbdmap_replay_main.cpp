@@ -163,7 +163,7 @@ int run(int argc, char** argv) {
   args.checkAllowed({"stream", "config", "robot-id", "transport", "rate", "duration", "start", "phase", "out",
                      "log-level", "help"});
   std::vector<std::string> errors;
-  applyLogLevel(args, &errors);
+  cli::applyLogLevel(args, &errors);
   const std::string stream_path = args.getOr("stream", "");
   if (stream_path.empty()) errors.push_back("--stream FILE is required");
   double phase = 0.0;

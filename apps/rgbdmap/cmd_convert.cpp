@@ -36,7 +36,7 @@ int convert(int argc, char** argv) {
   if (!out) errors.push_back("--out is required");
   const long long frames = args.getInt("frames").value_or(0);
   if (frames < 0) errors.push_back("--frames must be >= 0");
-  app::applyLogLevel(args, &errors);
+  cli::applyLogLevel(args, &errors);
   if (!errors.empty() || !args.errors().empty()) app::addConfigErrors(args, url, &errors);
   errors.insert(errors.begin(), args.errors().begin(), args.errors().end());
   if (!errors.empty() || !url) return cli::usageError(errors, kConvertUsage);

@@ -48,7 +48,7 @@ int odometry(int argc, char** argv) {
   const long long threads = args.getInt("threads").value_or(1);
   if (frames < 0) errors.push_back("--frames must be >= 0");
   if (threads < 1 || threads > 256) errors.push_back("--threads must be in [1, 256]");
-  app::applyLogLevel(args, &errors);
+  cli::applyLogLevel(args, &errors);
   if (!errors.empty() || !args.errors().empty()) app::addConfigErrors(args, url, &errors);
   errors.insert(errors.begin(), args.errors().begin(), args.errors().end());
   if (!errors.empty() || !url) return cli::usageError(errors, kOdometryUsage);
@@ -63,7 +63,7 @@ int odometry(int argc, char** argv) {
   log::info("frames from ", opened->source->describe());
   log::info("camera from ", setup.camera_source, ": fx ", setup.camera.fx, " fy ", setup.camera.fy, " cx ",
             setup.camera.cx, " cy ", setup.camera.cy, " depth_scale ", setup.camera.depth_scale);
-  logConfiguration("configuration in effect", setup.effective);
+  logConfiguration("configuration in effect", setup.effective, defaultOdometryFileValues());
   const app::OdometryRun run = app::runOdometry(*opened->source, setup);
   if (!run.source_error.empty()) log::error(run.source_error);
   if (run.frames == 0) {  // unreadable frames are skipped and counted; with none readable there is no result

@@ -81,7 +81,7 @@ RunOptions parseRun(cli::Args& args, ServerAppConfig* server_config, std::vector
   RunOptions o = parseRunOptions(args, errors);
   if (args.has("source") && args.has("dataset"))
     errors->push_back("--dataset DIR and --source URL are one choice (--dataset DIR = --source tum:DIR)");
-  app::applyLogLevel(args, errors);
+  cli::applyLogLevel(args, errors);
   if (!o.server_config.empty()) {
     auto reader = ConfigReader::fromFile(o.server_config);
     if (!reader) {
@@ -282,7 +282,8 @@ int run(int argc, char** argv) {
   RunInputs in;
   if (const auto failed = loadInputs(args, &o, &in)) return *failed;
   logConfiguration("configuration in effect (camera of the first dataset)",
-                   concatConfigValues(in.setups.front().effective, serverConfigValues(server_config)));
+                   concatConfigValues(in.setups.front().effective, serverConfigValues(server_config)),
+                   concatConfigValues(defaultOdometryFileValues(), serverConfigValues({})));
   std::vector<size_t> dataset_frames;
   for (const TumDataset& d : in.datasets) dataset_frames.push_back(d.size());
   const std::vector<RobotPlan> plans = planRobots(o, dataset_frames, in.synthetic);

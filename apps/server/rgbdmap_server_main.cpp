@@ -29,6 +29,7 @@ const char* kUsage =
     "  --transport URL     memq:// | udpm://239.255.76.67:7667?ttl=0 | dds://?domain=0 (overrides)\n"
     "                      dds:// needs CYCLONEDDS_URI, e.g. file://$PWD/deploy/dds/cyclonedds-loopback.xml\n"
     "  --robots a,b,c      robots to serve (overrides server.robots)\n"
+    "  --keys-file FILE    the robots' keys (overrides server.keys_file; `rgbdmap keys new R...` writes it)\n"
     "  --open              accept unsigned messages (local demos only)\n"
     "  --status-every S    print a status line every S seconds (default 5; 0: never)\n"
     "  --log-level L       debug|info|warn|error\n"
@@ -143,6 +144,7 @@ ServerOptions parseOptions(cli::Args& args, std::vector<std::string>* errors) {
   if (const auto v = args.get("map-dir")) o.config.server.map_dir = *v;
   if (const auto v = args.get("transport")) o.config.transport_url = *v;
   if (const auto v = args.get("robots")) o.config.server.robots = splitList(*v);
+  if (const auto v = args.get("keys-file")) o.config.keys_file = *v;
   if (args.has("open")) o.config.open_mode = true;
   o.status_every = args.getDouble("status-every").value_or(5.0);
   cli::applyLogLevel(args, errors);
@@ -220,11 +222,11 @@ int main(int argc, char** argv) {
     std::fputs(kUsage, stdout);
     return 0;
   }
-  args.checkAllowed({"config", "map-dir", "transport", "robots", "open", "status-every", "log-level"});
+  args.checkAllowed({"config", "map-dir", "transport", "robots", "keys-file", "open", "status-every", "log-level"});
   std::vector<std::string> errors(args.errors().begin(), args.errors().end());
   const ServerOptions options = parseOptions(args, &errors);
   if (!errors.empty()) return cli::usageError(errors, kUsage);
-  logConfiguration("configuration in effect", serverConfigValues(options.config));
+  logConfiguration("configuration in effect", serverConfigValues(options.config), serverConfigValues({}));
   Result<msg::KeyStore> keys = loadKeys(options.config);
   if (!keys) {
     log::error(keys.error());

@@ -82,4 +82,8 @@ std::vector<ConfigValue> odometryFileValues(const CameraIntrinsics& camera, cons
   return concatConfigValues(out, odometryConfigTable().values(odometry, "odometry."));
 }
 
+std::vector<ConfigValue> defaultOdometryFileValues() {
+  return odometryFileValues(CameraIntrinsics(), DatasetOptions(), OdometryConfig());
+}
+
 }  // namespace rgbdmap

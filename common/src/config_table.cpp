@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <iomanip>
 #include <limits>
+#include <map>
 #include <sstream>
 
 #include "rgbdmap/common/logging.hpp"
@@ -184,10 +185,33 @@ std::vector<ConfigValue> concatConfigValues(std::vector<ConfigValue> a, const st
   return a;
 }
 
-void logConfiguration(const std::string& title, const std::vector<ConfigValue>& values) {
+void logConfiguration(const std::string& title, const std::vector<ConfigValue>& values,
+                      const std::vector<ConfigValue>& defaults) {
+  constexpr size_t kNamed = 10;
+  std::map<std::string, std::string> default_of;
+  for (const ConfigValue& d : defaults)
+    if (!d.section) default_of[d.key] = d.value;
+  std::vector<std::string> changed;
+  size_t settings = 0;
+  for (const ConfigValue& v : values) {
+    if (v.section) continue;
+    ++settings;
+    const auto it = default_of.find(v.key);
+    if (it == default_of.end() || it->second != v.value)
+      changed.push_back(v.key + " = " + (v.quoted ? "\"" + v.value + "\"" : v.value));
+  }
+  std::string line = title + ": " + std::to_string(settings) + " settings, ";
+  if (changed.empty()) {
+    line += "all at their defaults";
+  } else {
+    line += std::to_string(changed.size()) + " not at their defaults: ";
+    for (size_t i = 0; i < changed.size() && i < kNamed; ++i) line += (i ? ", " : "") + changed[i];
+    if (changed.size() > kNamed) line += " and " + std::to_string(changed.size() - kNamed) + " more";
+  }
+  log::info(line, " (every value: --log-level debug)");
   std::string block = formatConfigValues(values);
   if (!block.empty()) block.pop_back();  // the logger ends the line
-  log::info(title, ":\n", block);
+  log::debug(title, ":\n", block);
 }
 
 }  // namespace rgbdmap

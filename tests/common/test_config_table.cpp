@@ -2,6 +2,7 @@
 #include <gtest/gtest.h>
 
 #include "rgbdmap/common/config_table.hpp"
+#include "rgbdmap/common/logging.hpp"
 
 namespace rgbdmap {
 namespace {
@@ -108,6 +109,28 @@ TEST(ConfigTable, ReadsChecksDocumentsAndLogsFromOneTable) {
   Outer again;
   outerTable().read(*back, &again);
   EXPECT_TRUE(back->errors().empty());
+}
+
+TEST(ConfigTable, LogsOneInfoLineOfWhatDiffersFromTheDefaultsAndEveryValueAtDebug) {
+  std::vector<std::pair<log::Level, std::string>> lines;
+  const log::Level old_level = log::level();
+  log::setLevel(log::Level::kDebug);
+  log::setSink([&](log::Level l, const std::string& m) { lines.emplace_back(l, m); });
+  Outer changed;
+  changed.count = 5;
+  changed.inner.mode = Mode::kSlow;
+  logConfiguration("configuration in effect", outerTable().values(changed), outerTable().values(Outer()));
+  logConfiguration("configuration in effect", outerTable().values(Outer()), outerTable().values(Outer()));
+  log::setSink(nullptr);
+  log::setLevel(old_level);
+  ASSERT_EQ(lines.size(), 4u);
+  EXPECT_EQ(lines[0].first, log::Level::kInfo);
+  EXPECT_NE(lines[0].second.find("6 settings, 2 not at their defaults: count = 5, inner.mode = slow"),
+            std::string::npos)
+      << lines[0].second;
+  EXPECT_EQ(lines[1].first, log::Level::kDebug);
+  EXPECT_NE(lines[1].second.find("count = 5, scale = 1.2"), std::string::npos) << lines[1].second;
+  EXPECT_NE(lines[2].second.find("6 settings, all at their defaults"), std::string::npos) << lines[2].second;
 }
 
 }  // namespace

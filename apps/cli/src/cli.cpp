@@ -107,7 +107,7 @@ void applyLogLevel(const Args& args, std::vector<std::string>* errors) {
   if (log::parseLevel(*level, &l))
     log::setLevel(l);
   else
-    errors->push_back("--log-level must be debug, info, warn or error");
+    errors->push_back("--log-level: unknown level '" + *level + "' (debug, info, warn or error)");
 }
 
 }  // namespace rgbdmap::cli

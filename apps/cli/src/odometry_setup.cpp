@@ -80,16 +80,6 @@ OdometrySetup loadOdometrySetup(cli::Args& args, const std::optional<CameraIntri
   return s;
 }
 
-void applyLogLevel(cli::Args& args, std::vector<std::string>* errors) {
-  if (auto name = args.get("log-level")) {
-    log::Level level;
-    if (log::parseLevel(*name, &level))
-      log::setLevel(level);
-    else
-      errors->push_back("--log-level: unknown level '" + *name + "'");
-  }
-}
-
 std::vector<std::string> datasetOptionNames() { return {"config", "intrinsics", "depth-scale", "log-level"}; }
 
 const char* datasetOptionsHelp() {

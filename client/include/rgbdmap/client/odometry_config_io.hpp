@@ -30,5 +30,7 @@ void readDatasetConfig(ConfigReader& reader, DatasetOptions* options);
 /// The camera:, dataset: and odometry: sections with these values, as documented and logged.
 std::vector<ConfigValue> odometryFileValues(const CameraIntrinsics& camera, const DatasetOptions& dataset,
                                             const OdometryConfig& odometry);
+/// odometryFileValues of the defaults (what logConfiguration compares with).
+std::vector<ConfigValue> defaultOdometryFileValues();
 
 }  // namespace rgbdmap

@@ -264,7 +264,10 @@ std::string formatConfigValues(const std::vector<ConfigValue>& values);
 /// a followed by b.
 std::vector<ConfigValue> concatConfigValues(std::vector<ConfigValue> a, const std::vector<ConfigValue>& b);
 
-/// Logs formatConfigValues(values) once at info level under `title`.
-void logConfiguration(const std::string& title, const std::vector<ConfigValue>& values);
+/// Logs the configuration under `title`: at info one line naming the values that differ from `defaults`
+/// (the same keys for the default structs; the first 10 named, the rest counted), and every value
+/// (formatConfigValues) at debug level.
+void logConfiguration(const std::string& title, const std::vector<ConfigValue>& values,
+                      const std::vector<ConfigValue>& defaults);
 
 }  // namespace rgbdmap

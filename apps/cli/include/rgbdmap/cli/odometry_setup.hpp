@@ -39,8 +39,6 @@ OdometrySetup loadOdometrySetup(cli::Args& args, const std::optional<CameraIntri
                                 const std::string& camera_name, std::vector<std::string>* errors,
                                 const std::function<void(ConfigReader&)>& read_more);
 
-/// Applies --log-level if given.
-void applyLogLevel(cli::Args& args, std::vector<std::string>* errors);
 
 /// Options every dataset command accepts, for Args::checkAllowed.
 std::vector<std::string> datasetOptionNames();
