@@ -29,7 +29,7 @@ while [ $# -gt 0 ]; do
     --only) only=$2; shift 2 ;;
     --robots2) robots2=$2; shift 2 ;;
     --server-config|--config) extra+=("$1" "$(cd "$(dirname "$2")" && pwd)/$(basename "$2")"); shift 2 ;;
-    -h|--help) sed -n '2,17p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
+    -h|--help) awk 'NR > 1 && !/^#/ {exit} NR > 1 {sub(/^# ?/, ""); print}' "$0"; exit 0 ;;
     *) echo "bench_accuracy: unknown argument $1 (see --help)" >&2; exit 2 ;;
   esac
 done

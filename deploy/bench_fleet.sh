@@ -37,7 +37,7 @@ while [ $# -gt 0 ]; do
     --check) check="$2"; shift 2 ;;
     --server) [[ "$2" =~ ^[a-z_]+=[^[:space:]]+$ ]] || { echo "--server takes KEY=VALUE" >&2; exit 2; }
       server_keys+=("$2"); shift 2 ;;
-    -h|--help) sed -n '2,24p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
+    -h|--help) awk 'NR > 1 && !/^#/ {exit} NR > 1 {sub(/^# ?/, ""); print}' "$0"; exit 0 ;;
     *) echo "unknown argument: $1 (see --help)" >&2; exit 2 ;;
   esac
 done

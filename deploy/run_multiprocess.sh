@@ -39,7 +39,7 @@ while [ $# -gt 0 ]; do
     --viewer) viewer="$2"; shift 2 ;;
     --realtime) pace=""; shift ;;
     --record-keyframes) record=1; shift ;;
-    -h|--help) sed -n '2,27p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
+    -h|--help) awk 'NR > 1 && !/^#/ {exit} NR > 1 {sub(/^# ?/, ""); print}' "$0"; exit 0 ;;
     *) echo "unknown argument: $1 (see --help)" >&2; exit 2 ;;
   esac
 done
@@ -192,11 +192,14 @@ one_map=0; [ "$(jq '.merged_maps | length' "$sj")" -eq 1 ] && one_map=1  # [[...
 bt_kb=n/a  # the map stream as rgbdmap-monitor --save-map recorded it (needs a server that publishes maps)
 ls "$out"/maps_monitor/*.bt >/dev/null 2>&1 && bt_kb=$(du -ck "$out"/maps_monitor/*.bt | awk 'END {print $1}')
 srv_cpu=$(cpu_s "$out/time_server.txt"); srv_mb=$(peak_mb "$out/time_server.txt")
+fixed() { awk -v v="$1" -v d="$2" 'BEGIN {if (v ~ /^-?[0-9.]+([eE][-+]?[0-9]+)?$/) printf "%.*f", d, v; else printf "%s", v}'; }
 echo
-echo "server: keyframes $skf, loops $loops, maps $maps, merged $groups, ingest median ${ingest} ms (CPU ${ingest_cpu} ms)," \
-  "CPU ${srv_cpu} s, peak ${srv_mb} MB; map .bt ${bt_kb} KB; merged keyframe ATE ${merged_ate} m; wall ${clients_s} s"
+echo "server: keyframes $skf, loops $loops, maps $maps, merged $groups, ingest median $(fixed "$ingest" 1) ms" \
+  "(CPU $(fixed "$ingest_cpu" 1) ms), CPU ${srv_cpu} s, peak ${srv_mb} MB; map .bt ${bt_kb} KB;" \
+  "merged keyframe ATE $(fixed "$merged_ate" 4) m; wall $(fixed "$clients_s" 1) s"
 status_ok=0; grep -q 'state=running' "$out/logs/monitor_once.txt" && status_ok=1
-echo "monitor: $(head -c 300 "$out/logs/monitor_once.txt")"
+echo "monitor (rgbdmap-monitor --once):"
+head -n 8 "$out/logs/monitor_once.txt" | sed 's/^/  /'
 { echo "server_keyframes=$skf"; echo "loops=$loops"; echo "maps=$maps"; echo "merged_maps=$groups"
   echo "one_map=$one_map"; echo "ingest_ms_median=$ingest"; echo "ingest_cpu_ms_median=$ingest_cpu"
   echo "server_cpu_s=$srv_cpu"; echo "map_bt_kb=$bt_kb"; echo "server_peak_mb=$srv_mb"; echo "merged_ate_m=$merged_ate"

@@ -20,6 +20,7 @@
 #include "rgbdmap/link/keyframe_stream.hpp"
 #include "rgbdmap/link/robot_client_config.hpp"
 #include "rgbdmap/source/frame_recorder.hpp"
+#include "rgbdmap/transport/transport.hpp"
 
 namespace rgbdmap::app {
 namespace {
@@ -111,6 +112,7 @@ Result<OpenedSource> loadClientConfig(cli::Args& args, const ClientArgs& a, Robo
   if (!opened && errors->empty()) return opened;  // the source cannot be opened (exit 1)
   c.robot_id = args.getOr("robot-id", c.robot_id);
   c.transport_url = args.getOr("transport", c.transport_url);
+  if (const Status s = transport::checkTransportUrl(c.transport_url); !s) errors->push_back(s.error());
   // robot.key_file is relative to the configuration file's folder, --key-file to the current folder.
   const std::string config_dir =
       args.has("key-file") ? "" : std::filesystem::path(args.getOr("config", "")).parent_path().string();

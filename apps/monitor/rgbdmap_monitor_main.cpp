@@ -295,6 +295,8 @@ MonitorOptions parseOptions(cli::Args& args, std::vector<std::string>* errors) {
   MonitorOptions o;
   o.transport_url = args.getOr("transport", "");
   if (o.transport_url.empty()) errors->push_back("--transport URL is required");
+  else if (const Status s = transport::checkTransportUrl(o.transport_url); !s)
+    errors->push_back(s.error());
   o.robots = splitList(args.getOr("robots", ""));
   if (o.robots.empty()) errors->push_back("--robots a,b is required");
   o.keys_file = args.getOr("keys-file", "");

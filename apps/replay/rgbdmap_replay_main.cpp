@@ -103,6 +103,7 @@ RobotClientConfig readReplayConfig(cli::Args& args, std::vector<std::string>* er
   }
   config.robot_id = args.getOr("robot-id", config.robot_id);
   config.transport_url = args.getOr("transport", config.transport_url);
+  if (const Status s = transport::checkTransportUrl(config.transport_url); !s) errors->push_back(s.error());
   if (!config.key_file.empty()) {
     if (auto key = readKeyFile(config.key_file, std::filesystem::path(config_path).parent_path().string()))
       config.link.key = *key;

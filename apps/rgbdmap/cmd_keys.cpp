@@ -79,7 +79,8 @@ int keys(int argc, char** argv) {
     Result<msg::Bytes> key = Result<msg::Bytes>::failure("");
     if (!args.has("force") && std::ifstream(path)) {
       key = readKeyFile(path);
-      if (!key) return std::fprintf(stderr, "rgbdmap keys: %s (--force replaces it)\n", key.error().c_str()), 1;
+      if (!key)
+        return std::fprintf(stderr, "rgbdmap keys: %s (--force replaces it)\n", key.error().c_str()), 1;
       what = "kept";
     } else {
       key = msg::newKey();
@@ -90,7 +91,8 @@ int keys(int argc, char** argv) {
     (*server_keys)[robot] = msg::toHex(*key);
     std::printf("%s: %s (%s)\n", robot.c_str(), path.c_str(), what.c_str());
   }
-  std::string text = "# robot_id hexkey: the server's keys file (server.keys_file), written by rgbdmap keys\n";
+  std::string text =
+      "# robot_id hexkey: the server's keys file (server.keys_file), written by rgbdmap keys\n";
   for (const auto& [robot, key] : *server_keys) text += robot + " " + key + "\n";
   if (const Status s = writeFileAtomic(server_path, text); !s)
     return std::fprintf(stderr, "rgbdmap keys: %s\n", s.error().c_str()), 1;

@@ -60,9 +60,9 @@ const char* kRunUsage =
     "                          kept open after the run until Ctrl-C\n"
     "  --record FILE.mcap      with --viewer: also record the viewer's topics (Foxglove schemas, JSON) into\n"
     "                          an MCAP file that Foxglove opens; written when the viewer closes (Ctrl-C)\n"
-    "  --ros2                  publish the map as ROS 2 topics over Cyclone DDS (as rgbdmap-ros2: /map, /tf,\n"
-    "                          /octomap_binary, /map_cloud, /<robot>/pose|path|local_map) in ROS_DOMAIN_ID,\n"
-    "                          kept after the run until Ctrl-C\n";
+    "  --ros2                  publish the map as ROS 2 topics over Cyclone DDS (as rgbdmap-ros2:\n"
+    "                          /map, /tf, /octomap_binary, /map_cloud, /<robot>/pose|path|local_map) in\n"
+    "                          ROS_DOMAIN_ID, kept after the run until Ctrl-C\n";
 
 /// The datasets the robots read and, per dataset, its camera, odometry and reader settings.
 struct RunInputs {
@@ -265,6 +265,7 @@ int writeOutputs(const RunOptions& o, const RunInputs& in, const std::vector<Rob
 }  // namespace
 
 int run(int argc, char** argv) {
+  const auto started = std::chrono::steady_clock::now();
   ViewerArgv viewer_argv(argc, argv);
   cli::Args args(viewer_argv.argc(), viewer_argv.argv(), {"help", "realtime", "async", "ros2"});
   if (args.has("help")) {
@@ -299,7 +300,12 @@ int run(int argc, char** argv) {
   log::info("running ", plans.size(), " robot(s) over ", transportUrl(o.transport), ", server map directory ",
             o.out, "/map");
   std::vector<RobotOutcome> robots;
+  const double prepare_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
   ServerOutcome server = runDeployment(o, in, plans, **deployment, &robots);
+  server.prepare_s = prepare_s;
+  server.prepare_what = in.synthetic         ? "synthesising the sequence"
+                        : args.has("source") ? "converting the sources"
+                                             : "reading the datasets";
   const int status =
       writeOutputs(o, in, plans, server_config.server.occupancy_enabled, **deployment, &robots, &server);
   if (viewer) keepViewerOpen(*viewer);

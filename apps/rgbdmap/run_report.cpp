@@ -133,8 +133,8 @@ Json reportJson(const RunOptions& o, const std::vector<RobotPlan>& plans,
 void printRunSummary(const RunOptions& o, const std::string& url, const std::vector<RobotPlan>& plans,
                      const std::vector<RobotOutcome>& robots, const ServerOutcome& server) {
   const MapServerStats& stats = server.stats;
-  std::fprintf(stderr, "rgbdmap run: %zu robot(s) over %s, %.1f s\n", plans.size(), url.c_str(),
-               server.wall_s);
+  std::fprintf(stderr, "rgbdmap run: %zu robot(s) over %s, %.1f s (and %.1f s before it: %s)\n", plans.size(),
+               url.c_str(), server.wall_s, server.prepare_s, server.prepare_what.c_str());
   for (size_t i = 0; i < plans.size(); ++i) {
     const RobotOutcome& r = robots[i];
     std::fprintf(

@@ -27,6 +27,8 @@ struct ServerOutcome {
   std::vector<std::vector<std::string>> maps;  ///< robot ids per map
   std::optional<AteResult> joint;  ///< all robots' frames (one dataset) aligned once: only a merge fits
   double wall_s = 0.0;
+  double prepare_s = 0.0;    ///< before the run: sources converted, the sequence synthesised, datasets read
+  std::string prepare_what;  ///< what that was, for the summary line
 };
 
 /// ATE of every robot's final and odometry-only trajectory, and the joint ATE of all robots on one dataset.

@@ -101,8 +101,10 @@ Result<std::unique_ptr<RunViewer>> startRunViewer(const RunViewerOptions& option
     run_viewer->ros2 = std::move(*created);
     if (const Status s = run_viewer->ros2->subscribe(*transport); !s) return R::failure(s.error());
     if (const Status s = run_viewer->ros2->start(); !s) return R::failure("ros2: " + s.error());
-    log::info("ros2: publishing /map, /tf, /octomap_binary, /map_cloud and /<robot>/{pose,path,local_map} in "
-              "ROS 2 domain ", o.domain);
+    log::info(
+        "ros2: publishing /map, /tf, /octomap_binary, /map_cloud and /<robot>/{pose,path,local_map} in "
+        "ROS 2 domain ",
+        o.domain);
   }
   if (run_viewer->transport)
     if (const Status s = run_viewer->transport->start(); !s)
@@ -127,8 +129,8 @@ void keepViewerOpen(const RunViewer& run_viewer) {
   }
   if (run_viewer.ros2) {
     const ros2::BridgeStats s = run_viewer.ros2->stats();
-    log::info("ros2: closing (", s.published, " samples published, ", s.publish_errors, " errors, ",
-              s.voxels, " voxels in /map_cloud)");
+    log::info("ros2: closing (", s.published, " samples published, ", s.publish_errors, " errors, ", s.voxels,
+              " voxels in /map_cloud)");
   }
   if (!run_viewer.viewer) return;
   const viewer::ViewerStats s = run_viewer.viewer->stats();

@@ -16,6 +16,7 @@
 #include "rgbdmap/common/logging.hpp"
 #include "rgbdmap/common/text_lines.hpp"
 #include "rgbdmap/ros2_bridge/bridge.hpp"
+#include "rgbdmap/transport/transport.hpp"
 
 namespace rgbdmap {
 namespace {
@@ -66,7 +67,8 @@ void parseMounts(const std::string& text, Ros2Cli* o, std::vector<std::string>* 
       mount.rpy_deg = {v[3], v[4], v[5]};
     }
     const std::string problems = v.size() == 6 ? mount.validate() : "needs R=x,y,z,roll,pitch,yaw";
-    const bool known = std::find(o->bridge.robots.begin(), o->bridge.robots.end(), robot) != o->bridge.robots.end();
+    const bool known =
+        std::find(o->bridge.robots.begin(), o->bridge.robots.end(), robot) != o->bridge.robots.end();
     if (!problems.empty())
       errors->push_back("--mounts '" + item + "': " + problems);
     else if (!known)
@@ -79,7 +81,10 @@ void parseMounts(const std::string& text, Ros2Cli* o, std::vector<std::string>* 
 Ros2Cli parseOptions(cli::Args& args, std::vector<std::string>* errors) {
   Ros2Cli o;
   o.transport_url = args.getOr("transport", "");
-  if (o.transport_url.empty()) errors->push_back("--transport URL is required");
+  if (o.transport_url.empty())
+    errors->push_back("--transport URL is required");
+  else if (const Status s = transport::checkTransportUrl(o.transport_url); !s)
+    errors->push_back(s.error());
   o.bridge.robots = splitList(args.getOr("robots", ""));
   if (o.bridge.robots.empty()) errors->push_back("--robots a,b is required");
   o.keys_file = args.getOr("keys-file", "");
@@ -88,6 +93,9 @@ Ros2Cli parseOptions(cli::Args& args, std::vector<std::string>* errors) {
   const long long domain = args.getInt("domain").value_or(0);
   if (domain < 0 || domain > 232) errors->push_back("--domain must be 0..232");
   o.bridge.domain = static_cast<int>(domain);
+  // The ROS 2 side is DDS whatever the robot link is: the same configuration check as a dds:// link.
+  if (const Status s = transport::checkTransportUrl("dds://?domain=" + std::to_string(o.bridge.domain)); !s)
+    errors->push_back("ROS 2: " + s.error());
   parseMounts(args.getOr("mounts", ""), &o, errors);
   o.bridge.map_period_s = args.getDouble("map-period").value_or(1.0);
   if (!(o.bridge.map_period_s >= 0.0 && o.bridge.map_period_s <= 3600.0))
@@ -112,8 +120,8 @@ int runRos2(int argc, char** argv) {
   sigemptyset(&signals);
   for (int s : {SIGINT, SIGTERM}) sigaddset(&signals, s);
   pthread_sigmask(SIG_BLOCK, &signals, nullptr);  // before any thread starts; taken by waitForSignal
-  args.checkAllowed({"transport", "robots", "keys-file", "open", "domain", "mounts", "map-period", "tf-period",
-                     "timeout", "log-level"});
+  args.checkAllowed({"transport", "robots", "keys-file", "open", "domain", "mounts", "map-period",
+                     "tf-period", "timeout", "log-level"});
   std::vector<std::string> errors(args.errors().begin(), args.errors().end());
   Ros2Cli options = parseOptions(args, &errors);
   if (!errors.empty()) return cli::usageError(errors, kUsage);
@@ -136,13 +144,13 @@ int runRos2(int argc, char** argv) {
   (*transport)->stop();
   (*bridge)->stop();
   const ros2::BridgeStats s = (*bridge)->stats();
-  std::fprintf(stderr,
-               "rgbdmap-ros2: published=%llu publish_errors=%llu map_updates=%llu map_errors=%llu "
-               "rejected=%llu voxels=%llu\n",
-               static_cast<unsigned long long>(s.published), static_cast<unsigned long long>(s.publish_errors),
-               static_cast<unsigned long long>(s.map_updates), static_cast<unsigned long long>(s.map_errors),
-               static_cast<unsigned long long>(s.rejected_stream_messages),
-               static_cast<unsigned long long>(s.voxels));
+  std::fprintf(
+      stderr,
+      "rgbdmap-ros2: published=%llu publish_errors=%llu map_updates=%llu map_errors=%llu "
+      "rejected=%llu voxels=%llu\n",
+      static_cast<unsigned long long>(s.published), static_cast<unsigned long long>(s.publish_errors),
+      static_cast<unsigned long long>(s.map_updates), static_cast<unsigned long long>(s.map_errors),
+      static_cast<unsigned long long>(s.rejected_stream_messages), static_cast<unsigned long long>(s.voxels));
   return s.publish_errors > 0 ? 1 : 0;
 }
 

@@ -143,6 +143,7 @@ ServerOptions parseOptions(cli::Args& args, std::vector<std::string>* errors) {
   }
   if (const auto v = args.get("map-dir")) o.config.server.map_dir = *v;
   if (const auto v = args.get("transport")) o.config.transport_url = *v;
+  if (const Status s = transport::checkTransportUrl(o.config.transport_url); !s) errors->push_back(s.error());
   if (const auto v = args.get("robots")) o.config.server.robots = splitList(*v);
   if (const auto v = args.get("keys-file")) o.config.keys_file = *v;
   if (args.has("open")) o.config.open_mode = true;

@@ -15,6 +15,7 @@
 #include "rgbdmap/common/config_table.hpp"
 #include "rgbdmap/common/logging.hpp"
 #include "rgbdmap/common/text_lines.hpp"
+#include "rgbdmap/transport/transport.hpp"
 #include "rgbdmap/viewer/viewer.hpp"
 
 namespace rgbdmap {
@@ -58,6 +59,8 @@ ViewerCli parseOptions(cli::Args& args, std::vector<std::string>* errors) {
   ViewerCli o;
   o.transport_url = args.getOr("transport", "");
   if (o.transport_url.empty()) errors->push_back("--transport URL is required");
+  else if (const Status s = transport::checkTransportUrl(o.transport_url); !s)
+    errors->push_back(s.error());
   o.viewer.robots = splitList(args.getOr("robots", ""));
   if (o.viewer.robots.empty()) errors->push_back("--robots a,b is required");
   o.keys_file = args.getOr("keys-file", "");

@@ -2,6 +2,7 @@
 #include <openssl/rand.h>
 
 #include <chrono>
+#include <filesystem>
 #include <fstream>
 #include <sstream>
 
@@ -122,7 +123,12 @@ uint64_t RejectCounters::total() const {
 
 Result<KeyStore> readKeysFile(const std::string& path, KeyStore keys) {
   std::ifstream in(path);
-  if (!in) return Result<KeyStore>::failure("cannot read keys file " + path);
+  if (!in) {
+    std::error_code ec;
+    const std::string resolved = std::filesystem::absolute(path, ec).lexically_normal().string();
+    return Result<KeyStore>::failure("cannot read keys file " + path +
+                                     (ec || resolved == path ? "" : " (" + resolved + ")"));
+  }
   std::string line;
   int number = 0;
   while (std::getline(in, line)) {

@@ -41,7 +41,8 @@ struct Topic {
 }  // namespace
 
 int main(int argc, char** argv) {
-  if (argc < 5) return std::fprintf(stderr, "usage: ros2_capture OUT_DIR TIMEOUT_S COUNT TOPIC:TYPE:QOS...\n"), 2;
+  if (argc < 5)
+    return std::fprintf(stderr, "usage: ros2_capture OUT_DIR TIMEOUT_S COUNT TOPIC:TYPE:QOS...\n"), 2;
   const std::string out = argv[1];
   const double timeout_s = std::atof(argv[2]);
   const int count = std::atoi(argv[3]);
@@ -65,8 +66,8 @@ int main(int argc, char** argv) {
     const bool latched = spec.substr(b + 1) == "latched";
     dds_qset_durability(qos, latched ? DDS_DURABILITY_TRANSIENT_LOCAL : DDS_DURABILITY_VOLATILE);
     dds_qset_history(qos, DDS_HISTORY_KEEP_LAST, latched ? 1 : 100);
-    const dds_entity_t topic = dds_create_topic(participant, type, rgbdmap::ros2::ddsTopicName(t.name).c_str(),
-                                                nullptr, nullptr);
+    const dds_entity_t topic =
+        dds_create_topic(participant, type, rgbdmap::ros2::ddsTopicName(t.name).c_str(), nullptr, nullptr);
     t.reader = topic < 0 ? topic : dds_create_reader(participant, topic, qos, nullptr);
     dds_delete_qos(qos);
     if (t.reader < 0) return std::fprintf(stderr, "no reader for %s\n", t.name.c_str()), 1;
@@ -78,7 +79,8 @@ int main(int argc, char** argv) {
       if (t.samples < count) return false;
     return true;
   };
-  while (!done() && std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count() < timeout_s) {
+  while (!done() &&
+         std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count() < timeout_s) {
     for (Topic& t : topics) {
       for (int k = 0; k < 200; ++k) {  // bounded: at most 200 samples a topic a round
         struct ddsi_serdata* data = nullptr;
@@ -88,8 +90,8 @@ int main(int argc, char** argv) {
         ddsi_serdata_to_ser(data, 0, bytes.size(), bytes.data());
         ddsi_serdata_unref(data);
         if (!info.valid_data) continue;
-        std::ofstream(t.file, std::ios::binary | std::ios::trunc).write(bytes.data(),
-                                                                       static_cast<std::streamsize>(bytes.size()));
+        std::ofstream(t.file, std::ios::binary | std::ios::trunc)
+            .write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
         ++t.samples;
       }
     }

@@ -22,7 +22,8 @@ msg::MapLoopEdge edge(const std::string& from, const std::string& to) {
 using Groups = std::vector<std::vector<std::string>>;
 
 TEST(MapGroups, RobotsWithoutSharedLoopsAreMapsOfTheirOwn) {
-  EXPECT_EQ(mapGroups({"a", "b", "c"}, {{edge("a", "a")}, {}, {edge("c", "c")}}), (Groups{{"a"}, {"b"}, {"c"}}));
+  EXPECT_EQ(mapGroups({"a", "b", "c"}, {{edge("a", "a")}, {}, {edge("c", "c")}}),
+            (Groups{{"a"}, {"b"}, {"c"}}));
 }
 
 TEST(MapGroups, AnEdgeBetweenRobotsJoinsTheirMapsAndTheLargestComesFirst) {
@@ -60,7 +61,8 @@ TEST(OdomTransforms, ArePlanarBaseMotionUnderATiltedRaisedCamera) {
   const SE3 T_map_cam = se3::exp((Vec6() << 0.3, -1, 2, 0.1, 0.2, -0.3).finished());
   const SE3 other = se3::exp((Vec6() << 1, 2, 0.5, -0.2, 0.1, 0.4).finished());
   const OdomTransforms u = odomTransforms(other, T_map_cam, T_base_camera);
-  EXPECT_LT(((u.T_map_odom * u.T_odom_base).matrix() - baseOf(T_map_cam, T_base_camera).matrix()).norm(), 1e-12);
+  EXPECT_LT(((u.T_map_odom * u.T_odom_base).matrix() - baseOf(T_map_cam, T_base_camera).matrix()).norm(),
+            1e-12);
 }
 
 TEST(PointCloud, SixteenLittleEndianBytesAPointWithPackedRgb) {
@@ -75,8 +77,8 @@ TEST(PointCloud, SixteenLittleEndianBytesAPointWithPackedRgb) {
   std::memcpy(&high, data.data() + 28, 4);
   EXPECT_EQ(x, 1.5f);
   EXPECT_EQ(z, 3.0f);
-  EXPECT_EQ(low & 0xff000000u, 0u);  // 0x00RRGGBB
-  EXPECT_GT(low & 0xff, low >> 16);   // the lowest voxel blue
+  EXPECT_EQ(low & 0xff000000u, 0u);    // 0x00RRGGBB
+  EXPECT_GT(low & 0xff, low >> 16);    // the lowest voxel blue
   EXPECT_GT(high >> 16, high & 0xff);  // the highest red
   EXPECT_TRUE(pointCloudData({}).empty());
 }

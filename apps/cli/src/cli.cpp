@@ -95,8 +95,17 @@ void Args::checkAllowed(const std::vector<std::string>& allowed) {
 }
 
 int usageError(const std::vector<std::string>& errors, const char* usage) {
-  for (const auto& e : errors) std::fprintf(stderr, "error: %s\n", e.c_str());
-  std::fprintf(stderr, "%s", usage);
+  bool command_line = false;
+  for (const auto& e : errors) {
+    std::fprintf(stderr, "error: %s\n", e.c_str());
+    command_line = command_line || e.find("--") != std::string::npos || e.rfind("unknown option", 0) == 0 ||
+                   e.rfind("unexpected argument", 0) == 0 || e.rfind("expected", 0) == 0;
+  }
+  // A configuration file's errors stand alone; a command-line mistake gets the synopsis, not every option.
+  if (command_line) {
+    const std::string text(usage);
+    std::fprintf(stderr, "%s (--help: every option)\n", text.substr(0, text.find('\n')).c_str());
+  }
   return 2;
 }
 

@@ -56,7 +56,12 @@ Result<msg::Bytes> readKeyFile(const std::string& path, const std::string& base_
   std::filesystem::path p(path);
   if (p.is_relative() && !base_dir.empty()) p = std::filesystem::path(base_dir) / p;
   std::ifstream in(p);
-  if (!in) return Result<msg::Bytes>::failure("cannot read key file " + p.string());
+  if (!in) {
+    std::error_code ec;
+    const std::string resolved = std::filesystem::absolute(p, ec).lexically_normal().string();
+    return Result<msg::Bytes>::failure("cannot read key file " + p.string() +
+                                       (ec || resolved == p.string() ? "" : " (" + resolved + ")"));
+  }
   std::string hex, line;
   while (std::getline(in, line)) {
     if (line.find_first_not_of(" \t") != std::string::npos && line[line.find_first_not_of(" \t")] == '#')

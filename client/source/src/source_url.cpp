@@ -1,6 +1,7 @@
 // --source URL parsing and the dispatch to the concrete sources.
 #include <set>
 
+#include "rgbdmap/ros2/dds.hpp"
 #include "rgbdmap/source/live_source.hpp"
 #include "sources.hpp"
 
@@ -63,6 +64,8 @@ Result<SourceUrl> SourceUrl::parse(const std::string& url) {
       return R::failure("source '" + url + "': unknown option '" + key + "' for " + u.scheme);
   if (u.path.empty() && u.scheme != "openni2" && u.scheme != "ros2")
     return R::failure("source '" + url + "': " + (u.scheme == "tum" ? "folder" : "file") + " missing");
+  if (u.scheme == "ros2")  // a configuration error, like a dds:// link without it
+    if (const Status s = ros2::checkDdsConfiguration(); !s) return R::failure("source '" + url + "': " + s.error());
   return u;
 }
 

@@ -28,8 +28,7 @@ Result<dds_entity_t> createWriter(dds_entity_t participant, const dds_topic_desc
       dds_create_topic(participant, type, ddsTopicName(ros_name).c_str(), nullptr, nullptr);
   if (topic < 0) return Result<dds_entity_t>::failure(ddsError(("topic " + ros_name).c_str(), topic));
   dds_qos_t* q = dds_create_qos();
-  dds_qset_reliability(q, qos.reliable ? DDS_RELIABILITY_RELIABLE : DDS_RELIABILITY_BEST_EFFORT,
-                       DDS_SECS(1));
+  dds_qset_reliability(q, qos.reliable ? DDS_RELIABILITY_RELIABLE : DDS_RELIABILITY_BEST_EFFORT, DDS_SECS(1));
   dds_qset_durability(q, qos.transient_local ? DDS_DURABILITY_TRANSIENT_LOCAL : DDS_DURABILITY_VOLATILE);
   dds_qset_history(q, DDS_HISTORY_KEEP_LAST, qos.depth);
   const dds_entity_t writer = dds_create_writer(participant, topic, q, nullptr);

@@ -26,40 +26,53 @@ std::string queryValue(const std::string& url, const std::string& key, const std
   return fallback;
 }
 
-TransportResult makeDds(const TransportOptions& options) {
-  const std::string domain_text = queryValue(options.url, "domain", "0");
+/// The DDS domain of a dds:// URL without its fault options, or the reason it cannot be used: a bad domain,
+/// or no CYCLONEDDS_URI (Cyclone's built-in default multicasts discovery on every interface).
+Result<int> ddsDomain(const std::string& url) {
+  const std::string domain_text = queryValue(url, "domain", "0");
   char* end = nullptr;
   const long domain = std::strtol(domain_text.c_str(), &end, 10);
-  if (end == domain_text.c_str() || *end != '\0' || domain < 0 || domain > 232) {
-    return TransportResult::failure("bad DDS domain '" + domain_text + "' in " + options.url);
-  }
-  // Cyclone's built-in default multicasts discovery on every interface; insist on an explicit config.
+  if (end == domain_text.c_str() || *end != '\0' || domain < 0 || domain > 232)
+    return Result<int>::failure("bad DDS domain '" + domain_text + "' in " + url);
   const char* uri = std::getenv("CYCLONEDDS_URI");
-  if ((uri == nullptr || *uri == '\0') && queryValue(options.url, "allow_default_config", "0") != "1") {
-    return TransportResult::failure(
+  if ((uri == nullptr || *uri == '\0') && queryValue(url, "allow_default_config", "0") != "1")
+    return Result<int>::failure(
         "CYCLONEDDS_URI is not set; point it at deploy/dds/cyclonedds-*.xml "
         "(or add allow_default_config=1 to the URL)");
-  }
-  return DdsTransport::create(options, static_cast<int>(domain));
+  return static_cast<int>(domain);
 }
 
-TransportResult makeAdapter(const TransportOptions& options) {
-  if (startsWith(options.url, "memq://") || startsWith(options.url, "udpm://")) {
-    return LcmTransport::create(options);
+/// The adapter URL without fault options; the reason when the URL cannot be used.
+Result<std::string> checkedAdapterUrl(const std::string& url, FaultOptions* faults) {
+  std::string inner = url;
+  if (const std::string e = parseFaultOptions(&inner, faults); !e.empty())
+    return Result<std::string>::failure(e + " in " + url);
+  if (startsWith(inner, "memq://") || startsWith(inner, "udpm://")) return inner;
+  if (startsWith(inner, "dds://")) {
+    if (auto domain = ddsDomain(inner); !domain) return Result<std::string>::failure(domain.error());
+    return inner;
   }
-  if (startsWith(options.url, "dds://")) return makeDds(options);
-  return TransportResult::failure("unknown transport URL '" + options.url +
-                                  "' (expected memq://, udpm://... or dds://?domain=N)");
+  return Result<std::string>::failure("unknown transport URL '" + url +
+                                      "' (expected memq://, udpm://... or dds://?domain=N)");
 }
 
 }  // namespace
 
-TransportResult makeTransport(const TransportOptions& options) {
-  TransportOptions inner = options;
+Status checkTransportUrl(const std::string& url) {
   FaultOptions faults;
-  if (const std::string e = parseFaultOptions(&inner.url, &faults); !e.empty())
-    return TransportResult::failure(e + " in " + options.url);
-  TransportResult adapter = makeAdapter(inner);
+  const Result<std::string> checked = checkedAdapterUrl(url, &faults);
+  return checked ? Status::success() : Status::failure(checked.error());
+}
+
+TransportResult makeTransport(const TransportOptions& options) {
+  FaultOptions faults;
+  const Result<std::string> url = checkedAdapterUrl(options.url, &faults);
+  if (!url) return TransportResult::failure(url.error());
+  TransportOptions inner = options;
+  inner.url = *url;
+  TransportResult adapter = startsWith(inner.url, "dds://")
+                                ? DdsTransport::create(inner, *ddsDomain(inner.url))
+                                : LcmTransport::create(inner);
   if (!adapter || !faults.enabled()) return adapter;
   return TransportResult(
       std::unique_ptr<Transport>(new FaultInjectingTransport(std::move(*adapter), faults)));

@@ -61,11 +61,18 @@ void EssentialGraph::apply(const BundleResult& r, std::vector<CovisibleEdge>* ch
     }
     graph_->setEdgeMeasurement(c.edge->id, c.measured);
   }
-  if (far > 0)
-    log::warn("optimiser: a bundle adjustment of ", r.report.frames, " keyframes",
-              r.report.out_of_time ? " (out of time)" : "", " moved ", far, " edge measurements (",
-              far_odometry, " odometry) by more than 5 cm or 2 deg, up to ", far_t, " m and ", far_deg,
-              " deg");
+  if (far == 0) return;
+  // Bundle adjustment moving edges is what it is for (drift taken out after a loop): info. Only a jump no
+  // drift explains (a wrong loop, a broken track) is worth a warning.
+  const bool suspicious = far_t > 0.5 || far_deg > 20.0;
+  const std::string message = log::detail::concat(
+      "optimiser: a bundle adjustment of ", r.report.frames, " keyframes",
+      r.report.out_of_time ? " (out of time)" : "", " moved ", far, " edge measurements (", far_odometry,
+      " odometry) by more than 5 cm or 2 deg, up to ", far_t, " m and ", far_deg, " deg");
+  if (suspicious)
+    log::warn(message);
+  else
+    log::info(message);
 }
 
 }  // namespace rgbdmap

@@ -37,7 +37,8 @@ class Args {
 /// --log-level debug|info|warn|error, when given, set as the log level; a bad value appended to *errors.
 void applyLogLevel(const Args& args, std::vector<std::string>* errors);
 
-/// Prints all errors (one per line) and the usage text to stderr; returns exit code 2.
+/// Prints all errors (one per line) to stderr and, when one is about the command line, the usage text's
+/// first line (the synopsis); returns exit code 2.
 int usageError(const std::vector<std::string>& errors, const char* usage);
 
 }  // namespace rgbdmap::cli

@@ -73,6 +73,11 @@ std::string ddsTopicName(const std::string& channel);
 /// True if `channel` matches a subscription pattern (exact, or prefix when the pattern ends in '*').
 bool channelMatches(const std::string& pattern, const std::string& channel);
 
+/// What makeTransport checks before it creates anything (scheme, fault options, DDS domain, CYCLONEDDS_URI):
+/// the programs call it with their configuration so that a transport that cannot be used is a
+/// configuration error (exit 2), named at start.
+Status checkTransportUrl(const std::string& url);
+
 Result<std::unique_ptr<Transport>> makeTransport(const TransportOptions& options);
 Result<std::unique_ptr<Transport>> makeTransport(const std::string& url);
 
