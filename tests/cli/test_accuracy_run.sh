@@ -13,6 +13,9 @@ data=$(cd "$(dirname "$0")/../../.." && pwd)/shared/data/tum_fr1_rpy_first250
 source "$(dirname "$0")/cli_test_lib.sh"
 
 check "rgbdmap run, one robot" 0 "$bin/rgbdmap" run --dataset "$data" --out "$tmp/one" --log-level warn
+# A healthy run on real data warns about nothing (expected events are info).
+warnings=$(grep -c 'warn\]' "$tmp/err.txt")
+[ "$warnings" -eq 0 ] && echo "ok: no warning" || { echo "FAIL: $warnings warnings"; grep 'warn\]' "$tmp/err.txt" | head -5; fail=1; }
 json "every frame in the trajectory" "$tmp/one/report.json" '.robots.robot0.frames == 250'
 json "full system ATE <= 0.0140 m" "$tmp/one/report.json" '.robots.robot0.ate_rmse_m <= 0.0140'
 json "at most 0.7 x odometry" "$tmp/one/report.json" \
