@@ -186,8 +186,8 @@ TEST(RobotLink, DeliveryReportSaysWhyFromTheServersCountersForThisRobot) {
   run.link.server_rejects_verified = false;  // a robot with a wrong key cannot verify the status
   DeliveryReport d = deliveryReport(run, "robot0");
   EXPECT_EQ(d.unaccepted, 5);
-  EXPECT_NE(d.message.find("5 of 5 keyframes not accepted: the server reports 12 bad signatures from robot0 "
-                           "(wrong key?)"),
+  EXPECT_NE(d.message.find("5 of 5 keyframes not accepted: the server refused 12 messages from robot0 "
+                           "(hellos, heartbeats, keyframe chunks) for a bad signature (wrong key?)"),
             std::string::npos)
       << d.message;
   EXPECT_NE(d.message.find("could not verify (7 bad signatures here)"), std::string::npos) << d.message;

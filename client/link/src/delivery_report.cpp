@@ -71,8 +71,8 @@ DeliveryReport deliveryReport(const RobotRunResult& r, const std::string& robot_
   const std::string count =
       std::to_string(d.unaccepted) + " of " + std::to_string(d.keyframes) + " keyframes not accepted";
   if (const int64_t bad = serverBadSignatures(l); bad > 0) {
-    d.message = count + ": the server reports " + std::to_string(bad) + " bad signatures from " + who +
-                " (wrong key?)";
+    d.message = count + ": the server refused " + std::to_string(bad) + " messages from " + who +
+                " (hellos, heartbeats, keyframe chunks) for a bad signature (wrong key?)";
     if (!l.server_rejects_verified)
       d.message += "; read from a server status this robot could not verify (" +
                    std::to_string(l.bad_signatures) + " bad signatures here): the keys differ";

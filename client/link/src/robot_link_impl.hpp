@@ -77,6 +77,10 @@ class RobotLink::Impl : public std::enable_shared_from_this<RobotLink::Impl> {
   template <typename T>
   Status sealAndPublish(const T& message, const std::string& channel);
   void runPeriodic();  ///< Hello until the server answered, Heartbeat, and a tick for waiters
+  /// No valid message from a server kDiagnoseAfterS after the start: says once what is likely wrong and
+  /// which setting to look at (keys that differ, or no server for this robot on this transport), and once
+  /// more when a server is heard after all. Nothing else changes: keyframes are kept and retried.
+  void diagnoseLink(Clock::time_point now);  ///< caller holds mutex_
   Status sendHello();
   Status sendHeartbeat();
   bool allAnswered() const;  ///< caller holds mutex_
@@ -109,7 +113,8 @@ class RobotLink::Impl : public std::enable_shared_from_this<RobotLink::Impl> {
   std::string hello_channel_, heartbeat_channel_, keyframe_channel_;
   msg::KeyStore keys_;
   msg::ReplayGuard replay_guard_;
-  msg::RejectCounters rejects_;
+  /// Rejected messages; logged at most every 30 s (diagnoseLink() names the likely cause once, at 3 s).
+  msg::RejectCounters rejects_{1.0 / 30.0};
   const msg::KeyStore unverified_keys_ = msg::KeyStore::openMode(false);  ///< readUnverifiedStatus only
   std::mutex signer_mutex_;
   /// One session for both signers: the server sends PoseCorrections only for keyframes of the session the
@@ -131,6 +136,7 @@ class RobotLink::Impl : public std::enable_shared_from_this<RobotLink::Impl> {
   /// Hello is resent every hello_period_s: under loss the server may be heard before it heard the Hello,
   /// and keyframes wait unacknowledged for the robot's Hello.
   bool server_knows_me_ = false;
+  bool warned_no_server_ = false;  ///< diagnoseLink() said it
   std::map<int, SentKeyframe> sent_;
   std::map<int, SE3> T_map_cam_;   ///< corrected keyframes
   std::map<int, SE3> T_map_odom_;  ///< per segment

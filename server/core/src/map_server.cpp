@@ -150,9 +150,12 @@ void MapServer::Impl::startWorkers() {
 Status MapServer::Impl::subscribe() {
   gate.open();
   std::vector<std::string> patterns;
+  // Every robot's channels where the transport takes a pattern (LCM): a robot that is not served, or signs
+  // with another key, is then heard, counted and named in the log (the inbox refuses its messages) instead
+  // of being silence. DDS takes exact names only: there the listed robots' channels.
   if (config.robots.empty()) {
     patterns.push_back("rgbdmap/*");
-  } else {
+  } else if (!transport.subscribe("rgbdmap/*", gate.handler())) {
     for (const std::string& robot : config.robots)
       for (const auto type : {msg::MessageType::kHello, msg::MessageType::kHeartbeat,
                               msg::MessageType::kKeyframe, msg::MessageType::kKeyframeChunk})
