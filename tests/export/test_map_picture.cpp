@@ -112,6 +112,31 @@ TEST(ExportPicture, WrittenWithTrajectoriesInTheirColoursAndTreeUntouched) {
   EXPECT_EQ(before.str(), after.str()) << "the picture must not change (prune) the tree";
 }
 
+TEST(ExportPicture, HasAHeightColourBarAndTheMapFramesAxes) {
+  MapPictureOptions options;
+  options.max_side_px = 400;
+  const std::vector<NamedTrajectory> trajectories{{"alpha", straightPath(Vec3(-1, 0, 0), Vec3(1, 0, 0), 10)}};
+  auto picture = renderMapPicture(smallRoom(false), trajectories, options);
+  ASSERT_TRUE(picture) << picture.error();
+  auto colours_in = [&](const cv::Rect& box) {
+    std::set<int> colours;
+    int black = 0;
+    for (int r = box.y; r < box.y + box.height; ++r)
+      for (int c = box.x; c < box.x + box.width; ++c) {
+        const cv::Vec3b v = picture->at<cv::Vec3b>(r, c);
+        colours.insert(v[0] << 16 | v[1] << 8 | v[2]);
+        black += v[0] + v[1] + v[2] < 60;
+      }
+    return std::make_pair(colours.size(), black);
+  };
+  // Bottom right: the colour ramp from the lowest to the highest leaf, with its labels.
+  const cv::Rect bar(picture->cols - 80, picture->rows - 140, 16, 120);
+  EXPECT_GE(colours_in(bar).first, 30u);
+  // Top right: the x and y arrows and the frame's name, in black.
+  const auto [axes_colours, axes_black] = colours_in(cv::Rect(picture->cols - 100, 0, 100, 80));
+  EXPECT_GE(axes_black, 100) << axes_colours << " colours";
+}
+
 TEST(ExportPicture, FreeSpaceGreyUnknownWhiteAndBadInputRejected) {
   octomap::OcTree tree(0.1);
   for (double x = 0.0; x < 1.0; x += 0.1) tree.updateNode(octomap::point3d(x, 0.05f, 0.05f), false);

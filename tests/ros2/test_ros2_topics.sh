@@ -19,7 +19,8 @@ if ! command -v node >/dev/null 2>&1 ||
   echo "SKIP: node or @foxglove/rosmsg2-serialization, rosmsg-msgs-common, rosmsg in $node_dir missing (bash deploy/install_deps.sh installs them)"
   exit 77
 fi
-source "$here/../cli/cli_test_lib.sh"  # $tmp, $fail, one_error_line
+source "$here/../cli/cli_test_lib.sh"  # $tmp, $fail
+source "$here/../cli/map_test_lib.sh"  # wait_for_line, occupied_voxels, largest_grid
 pid=""
 cleanup() { [ -n "$pid" ] && kill -INT "$pid" 2>/dev/null; wait 2>/dev/null; rm -rf "$tmp"; }
 trap cleanup EXIT
@@ -28,25 +29,15 @@ bad() { echo "FAIL: $1"; fail=1; }
 export CYCLONEDDS_URI="file://$here/../../deploy/dds/cyclonedds-loopback.xml"
 "$bin/rgbdmap" run --robots 2 --frames 200 --transport lcm --out "$tmp/out" --ros2 >"$tmp/run.log" 2>&1 &
 pid=$!
-for _ in $(seq 1 240); do
-  grep -q "the map stays on the ROS 2 topics" "$tmp/run.log" && break
-  kill -0 "$pid" 2>/dev/null || break
-  sleep 0.5
-done
-grep -q "the map stays on the ROS 2 topics" "$tmp/run.log" ||
+wait_for_line "$tmp/run.log" "the map stays on the ROS 2 topics" "$pid" ||
   { echo "FAIL: the run did not finish with the ROS 2 topics up"; tail -20 "$tmp/run.log"; exit 1; }
 maps=$(jq -c '.server.merged_maps' "$tmp/out/report.json")
 [ "$maps" = '[["robot0","robot1"]]' ] || { echo "FAIL: expected one merged map, report says $maps"; exit 1; }
 
 # What the run wrote: the occupied voxels of map.bt, the largest map_<id>.pgm, the robots' keyframes.
-read -r resolution voxels < <("$bin/rgbdmap" view-map "$tmp/out/map.bt" | awk '/^resolution_m/ {r = $2}
-  /^occupied_volume_m3/ {v = $2} END {printf "%s %d\n", r, v / (r * r * r) + 0.5}')
-grid_w=0 grid_h=0
-for pgm in "$tmp"/out/map_*.pgm; do
-  [ -f "$pgm" ] || continue
-  read -r w h < <(sed -n 3p "$pgm")
-  [ $((w * h)) -gt $((grid_w * grid_h)) ] && grid_w=$w grid_h=$h
-done
+voxels=$(occupied_voxels "$tmp/out/map.bt")
+resolution=$("$bin/rgbdmap" view-map "$tmp/out/map.bt" | awk '/^resolution_m/ {print $2}')
+read -r grid_w grid_h < <(largest_grid "$tmp/out")
 {
   printf '{"resolution": %s, "voxels": %s, "grid": {"width": %s, "height": %s}, "robots": {' \
     "$resolution" "$voxels" "$grid_w" "$grid_h"
@@ -71,8 +62,7 @@ timeout 60 "$bin/ros2_capture" "$tmp/capture" 30 1 "${topics[@]}" >"$tmp/capture
   ok "a late ROS 2 subscriber got all ${#topics[@]} topics" || { bad "capture"; cat "$tmp/capture.log"; }
 NODE_PATH="$node_dir/node_modules" timeout 60 node "$here/ros2_topics_check.js" "$tmp/capture" \
   "$tmp/expected.json" "$tmp/octomap.bt" || fail=1
-bt_voxels=$("$bin/rgbdmap" view-map "$tmp/octomap.bt" 2>"$tmp/bt.log" | awk '/^resolution_m/ {r = $2}
-  /^occupied_volume_m3/ {v = $2} END {printf "%d", v / (r * r * r) + 0.5}')
+bt_voxels=$(occupied_voxels "$tmp/octomap.bt" 2>"$tmp/bt.log")
 [ "$bt_voxels" = "$voxels" ] && ok "/octomap_binary read back by rgbdmap view-map: $bt_voxels occupied voxels, as map.bt" ||
   { bad "/octomap_binary as .bt: '$bt_voxels' occupied voxels, map.bt $voxels"; cat "$tmp/bt.log"; }
 

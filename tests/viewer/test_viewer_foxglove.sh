@@ -18,6 +18,7 @@ if ! command -v node >/dev/null 2>&1 || ! command -v zstd >/dev/null 2>&1 ||
   echo "SKIP: node, zstd, @foxglove/ws-protocol or @mcap/core in $node_dir missing (bash deploy/install_deps.sh installs them)"
   exit 77
 fi
+source "$here/../cli/map_test_lib.sh"
 tmp=$(mktemp -d)
 pid=""
 cleanup() { [ -n "$pid" ] && kill -INT "$pid" 2>/dev/null; wait 2>/dev/null; rm -rf "$tmp"; }
@@ -26,25 +27,14 @@ port=18765
 "$bin/rgbdmap" run --robots 2 --frames 200 --transport lcm --out "$tmp/out" --viewer "$port" \
   --record "$tmp/map.mcap" >"$tmp/run.log" 2>&1 &
 pid=$!
-for _ in $(seq 1 240); do
-  grep -q "the map stays at" "$tmp/run.log" && break
-  kill -0 "$pid" 2>/dev/null || break
-  sleep 0.5
-done
-grep -q "the map stays at" "$tmp/run.log" || { echo "FAIL: the run did not finish with the viewer open"; tail -20 "$tmp/run.log"; exit 1; }
+wait_for_line "$tmp/run.log" "the map stays at" "$pid" || { echo "FAIL: the run did not finish with the viewer open"; tail -20 "$tmp/run.log"; exit 1; }
 maps=$(jq -c '.server.merged_maps' "$tmp/out/report.json")
 [ "$maps" = '[["robot0","robot1"]]' ] || { echo "FAIL: expected one merged map, report says $maps"; exit 1; }
 # Occupied voxels of map.bt at the finest resolution (pruned leaves counted by volume).
-voxels=$("$bin/rgbdmap" view-map "$tmp/out/map.bt" | awk '/^resolution_m/ {r = $2} /^occupied_volume_m3/ {v = $2}
-  END {printf "%d", v / (r * r * r) + 0.5}')
+voxels=$(occupied_voxels "$tmp/out/map.bt")
 # The server's global 2-D map of the merged map (map_<id>.pgm, the largest if there are more): the viewer
 # cuts its own from the streamed tree, so it has the same extent.
-grid_w=0 grid_h=0
-for pgm in "$tmp"/out/map_*.pgm; do
-  [ -f "$pgm" ] || continue
-  read -r w h < <(sed -n 3p "$pgm")
-  [ $((w * h)) -gt $((grid_w * grid_h)) ] && grid_w=$w grid_h=$h
-done
+read -r grid_w grid_h < <(largest_grid "$tmp/out")
 [ "$grid_w" -gt 0 ] || { echo "FAIL: no map_<id>.pgm in $tmp/out"; ls "$tmp/out"; exit 1; }
 {
   printf '{"grid": {"width": %s, "height": %s}, "robots": {' "$grid_w" "$grid_h"

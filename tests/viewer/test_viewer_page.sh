@@ -10,6 +10,7 @@ bin="$1"
 copy="${2:-}"
 command -v chromium >/dev/null 2>&1 || { echo "SKIP: chromium is not installed (deploy/install_deps.sh)"; exit 77; }
 command -v python3 >/dev/null 2>&1 || { echo "SKIP: python3 is not installed (deploy/install_deps.sh)"; exit 77; }
+source "$(dirname "$0")/../cli/map_test_lib.sh"
 tmp=$(mktemp -d)
 pid=""
 cleanup() { [ -n "$pid" ] && kill -INT "$pid" 2>/dev/null; wait 2>/dev/null; rm -rf "$tmp"; }
@@ -17,14 +18,8 @@ trap cleanup EXIT
 port=18766
 "$bin/rgbdmap" run --robots 2 --frames 200 --out "$tmp/out" --viewer "$port" >"$tmp/run.log" 2>&1 &
 pid=$!
-for _ in $(seq 1 240); do
-  grep -q "the map stays at" "$tmp/run.log" && break
-  kill -0 "$pid" 2>/dev/null || break
-  sleep 0.5
-done
-grep -q "the map stays at" "$tmp/run.log" || { echo "FAIL: the run did not finish with the viewer open"; tail -20 "$tmp/run.log"; exit 1; }
-voxels=$("$bin/rgbdmap" view-map "$tmp/out/map.bt" | awk '/^resolution_m/ {r = $2} /^occupied_volume_m3/ {v = $2}
-  END {printf "%d", v / (r * r * r) + 0.5}')
+wait_for_line "$tmp/run.log" "the map stays at" "$pid" || { echo "FAIL: the run did not finish with the viewer open"; tail -20 "$tmp/run.log"; exit 1; }
+voxels=$(occupied_voxels "$tmp/out/map.bt")
 fail=0
 # The page is loaded once and watched in real time (tests/viewer/page_probe.py, the DevTools protocol over a
 # pipe) until its title reports both robots' maps drawn, for up to 150 s: on a machine busy with other tests

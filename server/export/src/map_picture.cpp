@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <iomanip>
 #include <map>
 #include <sstream>
 #include <unordered_set>
@@ -107,20 +108,69 @@ void fillLeaf(cv::Mat* image, const MapPictureLayout& layout, const Leaf& l, con
   cv::rectangle(*image, a, cv::Point(std::max(a.x, b.x), std::max(a.y, b.y)), colour, cv::FILLED);
 }
 
-void drawOccupied(cv::Mat* image, const MapPictureLayout& layout, std::vector<Leaf> occupied) {
-  if (occupied.empty()) return;
+/// The height colours: turbo without its darkest blues (index < 35), which would hide the trajectories'
+/// outlines; t in [0, 1] from the lowest to the highest occupied leaf.
+cv::Scalar heightColour(double t) {
+  static const cv::Mat lut = [] {
+    cv::Mat ramp(1, 256, CV_8UC1), out;
+    for (int i = 0; i < 256; ++i) ramp.at<uint8_t>(0, i) = static_cast<uint8_t>(i);
+    cv::applyColorMap(ramp, out, cv::COLORMAP_TURBO);
+    return out;
+  }();
+  const cv::Vec3b c =
+      lut.at<cv::Vec3b>(0, 35 + static_cast<int>(std::lround(220.0 * std::clamp(t, 0.0, 1.0))));
+  return cv::Scalar(c[0], c[1], c[2]);
+}
+
+/// Draws the occupied leaves, highest on top; returns their height range (lo > hi when there are none).
+std::pair<double, double> drawOccupied(cv::Mat* image, const MapPictureLayout& layout,
+                                       std::vector<Leaf> occupied) {
+  if (occupied.empty()) return {1.0, 0.0};
   std::sort(occupied.begin(), occupied.end(),
             [](const Leaf& a, const Leaf& b) { return a.height < b.height; });
   const double lo = occupied.front().height, hi = occupied.back().height;
-  cv::Mat ramp(1, 256, CV_8UC1), lut;
-  for (int i = 0; i < 256; ++i) ramp.at<uint8_t>(0, i) = static_cast<uint8_t>(i);
-  cv::applyColorMap(ramp, lut, cv::COLORMAP_TURBO);
-  for (const Leaf& l : occupied) {
-    // Turbo without its darkest blues (index < 35), which would hide the trajectories' outlines.
-    const int i = hi > lo ? 35 + static_cast<int>(std::lround(220.0 * (l.height - lo) / (hi - lo))) : 128;
-    const cv::Vec3b c = lut.at<cv::Vec3b>(0, i);
-    fillLeaf(image, layout, l, cv::Scalar(c[0], c[1], c[2]));
+  for (const Leaf& l : occupied)
+    fillLeaf(image, layout, l, heightColour(hi > lo ? (l.height - lo) / (hi - lo) : 0.5));
+  return {lo, hi};
+}
+
+void label(cv::Mat* image, const std::string& text, cv::Point at, double scale = 0.45) {
+  const int font = cv::FONT_HERSHEY_SIMPLEX;
+  cv::putText(*image, text, at, font, scale, cv::Scalar(255, 255, 255), 3, cv::LINE_AA);
+  cv::putText(*image, text, at, font, scale, cv::Scalar(0, 0, 0), 1, cv::LINE_AA);
+}
+
+/// Bottom right: the height colour bar, its range in metres along the map's up axis.
+void drawHeightBar(cv::Mat* image, double lo, double hi) {
+  if (lo > hi || image->rows < 160 || image->cols < 200) return;
+  const int w = 14, h = std::min(120, image->rows / 3), x0 = image->cols - 80, y0 = image->rows - h - 16;
+  cv::rectangle(*image, cv::Point(x0 - 4, y0 - 22), cv::Point(image->cols - 4, y0 + h + 10),
+                cv::Scalar(255, 255, 255), cv::FILLED);
+  for (int y = 0; y < h; ++y)
+    cv::line(*image, cv::Point(x0, y0 + y), cv::Point(x0 + w, y0 + y),
+             heightColour(1.0 - double(y) / (h - 1)));
+  std::ostringstream top, bottom;
+  top << std::fixed << std::setprecision(2) << hi << " m";
+  bottom << std::fixed << std::setprecision(2) << lo << " m";
+  label(image, "height", cv::Point(x0 - 2, y0 - 8));
+  label(image, top.str(), cv::Point(x0 + w + 4, y0 + 10), 0.4);
+  label(image, bottom.str(), cv::Point(x0 + w + 4, y0 + h), 0.4);
+}
+
+/// Top right: the map frame's x and y axes as arrows, and the frame's name.
+void drawAxes(cv::Mat* image, const MapPictureLayout& layout) {
+  if (image->cols < 200) return;
+  const cv::Point origin(image->cols - 50, 50);
+  const int len = 30;
+  for (const auto& [axis, name] : {std::pair<Vec3, const char*>{Vec3::UnitX(), "x"}, {Vec3::UnitY(), "y"}}) {
+    const cv::Point2d d(axis.dot(layout.u_axis), axis.dot(layout.v_axis));
+    if (std::hypot(d.x, d.y) < 0.1) continue;  // the axis points out of the picture
+    const cv::Point2d unit = d / std::hypot(d.x, d.y);
+    const cv::Point tip = origin + cv::Point(static_cast<int>(len * unit.x), static_cast<int>(len * unit.y));
+    cv::arrowedLine(*image, origin, tip, cv::Scalar(0, 0, 0), 2, cv::LINE_AA, 0, 0.25);
+    label(image, name, tip + cv::Point(static_cast<int>(8 * unit.x) - 4, static_cast<int>(8 * unit.y) + 5));
   }
+  label(image, "map frame", cv::Point(image->cols - 92, 72));
 }
 
 cv::Point px(const cv::Point2d& p) {
@@ -231,10 +281,12 @@ Result<cv::Mat> renderMapPicture(const octomap::OcTree& tree,
 
   cv::Mat image(layout.height_px, layout.width_px, CV_8UC3, bgr(options.unknown_rgb));
   for (const Leaf& l : leaves.free) fillLeaf(&image, layout, l, bgr(options.free_rgb));
-  drawOccupied(&image, layout, std::move(occupied));
+  const auto [lo, hi] = drawOccupied(&image, layout, std::move(occupied));
   drawTrajectories(&image, layout, trajectories, options);
   drawLegend(&image, trajectories, options);
   drawScaleBar(&image, layout);
+  drawHeightBar(&image, lo, hi);
+  drawAxes(&image, layout);
   if (layout_out) *layout_out = layout;
   return image;
 }

@@ -4,7 +4,7 @@
 // Looking down along -up: occupied leaves coloured by height (turbo colour map, blue low, red high, highest
 // leaf on top), free space light grey, unknown white; each robot's trajectory (map frame) as a coloured
 // polyline with a black (white for dark colours) outline, a filled circle at its start, a legend of robot
-// names and a scale bar. Const access to the tree only (leaf iteration); the tree is not pruned or changed.
+// names, a scale bar, a height colour bar with its range, and the map frame's x and y axes. Const access to the tree only (leaf iteration); the tree is not pruned or changed.
 #include <array>
 #include <cstdint>
 #include <limits>
