@@ -1,5 +1,6 @@
-// RobotLink: the handlers of the server->robot channels. They run on the transport's receive thread, so
-// they only decode, update state under the mutex and acknowledge; they never wait.
+// RobotLink: the handlers of the server->robot channels, and what the robot makes of them when none is
+// valid (diagnoseLink). The handlers run on the transport's receive thread, so they only decode, update state
+// under the mutex and acknowledge; they never wait.
 #include <algorithm>
 
 #include <functional>
@@ -192,6 +193,35 @@ void RobotLink::Impl::noteServerRejects(const msg::ServerStatus& status, bool ve
   counts_.server_rejects.clear();
   for (const msg::RejectCount& r : status.rejects)
     if (r.robot_id == options_.robot_id) counts_.server_rejects[r.reason] = r.count;
+}
+
+void RobotLink::Impl::diagnoseLink(Clock::time_point now) {
+  constexpr double kDiagnoseAfterS = 3.0;
+  const std::string& id = options_.robot_id;
+  if (heard_from_server_) {
+    if (warned_no_server_) log::info("robot ", id, ": a server is heard now");
+    warned_no_server_ = false;
+    return;
+  }
+  if (warned_no_server_ || std::chrono::duration<double>(now - created_).count() < kDiagnoseAfterS) return;
+  warned_no_server_ = true;
+  const uint64_t bad_here = rejects_.get(msg::RejectReason::kBadSignature);
+  const auto reported = counts_.server_rejects.find("bad_signature");
+  const int64_t bad_there = reported == counts_.server_rejects.end() ? 0 : reported->second;
+  if (bad_here > 0 || bad_there > 0) {
+    log::warn("robot ", id, ": a server is there but the keys differ: ", bad_here,
+              " of its messages failed verification here",
+              bad_there > 0 ? ", and it reports " + std::to_string(bad_there) + " messages from " + id +
+                                  " with a bad signature"
+                            : std::string(),
+              ". Fix robot.key_file (--key-file) or the server's line for ", id,
+              " in server.keys_file. Keyframes are kept and retried.");
+  } else {
+    log::warn("robot ", id, ": no server heard in ", kDiagnoseAfterS,
+              " s. Check that rgbdmap-server runs on the same transport (URL; CYCLONEDDS_URI for DDS; the "
+              "multicast route for LCM) and serves robot id '",
+              id, "' (server.robots) with this robot's key. Keyframes are kept and retried.");
+  }
 }
 
 }  // namespace rgbdmap
