@@ -26,8 +26,8 @@
 #   bash deploy/test.sh --quick   the unit tier only, Release, no sanitizers (about a minute after the build)
 #   Further arguments go to both ctest runs, e.g. `bash deploy/test.sh -L e2e` or `-R '^server\.'` (the
 #   sanitizer tree names its tests by executable: test_map_server.unit.1of2, test_map_server.e2e).
-# Tests needing ../shared/data skip when it is absent. By hand: `ctest --test-dir build -L unit` (or e2e,
-# slow, netns, cli, accuracy, faults, sanitize; -LE to exclude).
+# Tests needing ../shared/data skip when it is absent. By hand: `ctest --test-dir build -j 4 -L unit` (or
+# e2e, slow, netns, cli, accuracy, faults, sanitize; -LE to exclude; -j: two slots per core, as below).
 # Environment: BUILD_DIR (Release tree, default build), RGBDMAP_SKIP_SANITIZERS=1 skips the sanitizer pass
 # and runs the sanitize tier in Release instead.
 set -euo pipefail
@@ -39,14 +39,16 @@ if [ "${1:-}" = "--quick" ]; then
 fi
 "$root/deploy/build.sh"
 build_dir=$(cd "${BUILD_DIR:-$root/build}" && pwd)
+# Two process slots per core: a test takes two, one that mostly waits takes one (tests/CMakeLists.txt).
+slots=$((2 * $(nproc)))
 if [ "$quick" = 1 ]; then
-  exec ctest --test-dir "$build_dir" --output-on-failure -j "$(nproc)" -L '^unit$' "$@"
+  exec ctest --test-dir "$build_dir" --output-on-failure -j "$slots" -L '^unit$' "$@"
 fi
 if [ "${RGBDMAP_SKIP_SANITIZERS:-0}" = "1" ]; then
-  exec ctest --test-dir "$build_dir" --output-on-failure -j "$(nproc)" "$@"
+  exec ctest --test-dir "$build_dir" --output-on-failure -j "$slots" "$@"
 fi
 # The sanitize tier runs under the sanitizers below, the rest here (`ctest --test-dir build` runs all).
-ctest --test-dir "$build_dir" --output-on-failure -j "$(nproc)" -LE '^sanitize$' "$@"
+ctest --test-dir "$build_dir" --output-on-failure -j "$slots" -LE '^sanitize$' "$@"
 echo "== sanitizer pass (ASan + UBSan): the sanitize tier"
 # The server tests' recorded keyframe stream is copied from the Release tree (byte-identical). Only the
 # GoogleTest executables (rgbdmap_test_executables), unity (16 sources per compiler run), the libraries at
@@ -58,7 +60,7 @@ CMAKE_EXTRA_ARGS="-DRGBDMAP_SANITIZE=ON -DRGBDMAP_BUILD_BENCHMARKS=OFF \
   "$root/deploy/build.sh"
 export UBSAN_OPTIONS=halt_on_error=1:print_stacktrace=1 ASAN_OPTIONS=detect_leaks=1
 log="$root/build-asan/sanitizer_tests.log"
-if ! ctest --test-dir "$root/build-asan" --output-on-failure -j "$(nproc)" -L '^sanitize$' "$@" 2>&1 | tee "$log"; then
+if ! ctest --test-dir "$root/build-asan" --output-on-failure -j "$slots" -L '^sanitize$' "$@" 2>&1 | tee "$log"; then
   # LeakSanitizer's own tracer sometimes crashes at exit after a test passed ("Tracer caught signal 11",
   # google/sanitizers#1353): not a leak, not our failure. Then, and only then, the failed tests run again.
   grep -q "LeakSanitizer has encountered a fatal error" "$log" || exit 1

@@ -232,6 +232,11 @@ int run(int argc, char** argv) {
   ro.final_wait_s = config.final_wait_s;
   ro.stop = &stop;
   Progress progress("robot " + config.robot_id, source->sizeHint());
+  progress.setNote([&link] {
+    const RobotLinkStats s = link.stats();
+    return (s.diagnosis.empty() ? "" : s.diagnosis + ", ") + std::to_string(s.keyframes_acked) +
+           " keyframes acknowledged";
+  });
   ro.progress = [&progress](int done, int) { progress.update(static_cast<size_t>(done)); };
   const RobotRunResult result = runRobot(*source, setup.camera, setup.odometry, link, ro);
   progress.finish();

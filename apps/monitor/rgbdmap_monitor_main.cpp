@@ -39,7 +39,8 @@ const char* kUsage =
     "  --open              accept unsigned messages (server in open mode)\n"
     "  --period S          print every S seconds (default 2)\n"
     "  --save-map DIR      write the latest map stream of each robot to DIR/map_<robot>.bt\n"
-    "  --once              exit after the first status message (exit 1 if none within --timeout)\n"
+    "  --once              print one line and exit once a status came and one period passed (exit 1 if no\n"
+    "                      status within --timeout)\n"
     "  --timeout S         give up after S seconds (default 0: run until SIGINT/SIGTERM)\n"
     "  --log-level L       debug|info|warn|error\n"
     "On a terminal the table is redrawn in place; otherwise one line per period.\n";
@@ -109,7 +110,8 @@ class Monitor {
     return Status();
   }
 
-  /// Prints every period until stopped (or the first status with --once). Returns the exit code.
+  /// Prints every period until stopped (with --once: the first period that ends with a status). Returns
+  /// the exit code.
   int run() {
     std::unique_lock<std::mutex> lock(mutex_);
     auto last = Clock::now();
@@ -120,8 +122,9 @@ class Monitor {
                                 : Clock::time_point::max();
       const auto next = last + std::chrono::duration_cast<Clock::duration>(
                                    std::chrono::duration<double>(options_.period_s));
-      cv_.wait_until(lock, std::min(next, deadline), [&] { return stop_ || (options_.once && anyStatus()); });
-      if (options_.once && anyStatus()) {
+      cv_.wait_until(lock, std::min(next, deadline), [&] { return stop_; });
+      // --once answers after a whole period, so that its bandwidth columns cover one.
+      if (options_.once && anyStatus() && (Clock::now() >= next || Clock::now() >= deadline)) {
         print(Clock::now() - last);
         return 0;
       }

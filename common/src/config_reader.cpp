@@ -78,6 +78,13 @@ bool ConfigReader::lookup(const std::string& key, YAML::Node* out) const {
   return true;
 }
 
+bool ConfigReader::present(const std::string& key, YAML::Node* out) {
+  if (!lookup(key, out)) return false;
+  if (!out->IsNull()) return true;
+  errors_.push_back(source_ + ": " + key + ": has no value (give one, or remove the key for its default)");
+  return false;
+}
+
 bool ConfigReader::has(const std::string& key) const {
   YAML::Node n;
   return lookup(key, &n);
@@ -87,7 +94,7 @@ template <typename T>
 void ConfigReader::read(const std::string& key, T* value, const ConfigRange& range) {
   read_keys_.push_back(key);
   YAML::Node n;
-  if (lookup(key, &n)) {
+  if (present(key, &n)) {
     try {
       const T v = n.as<T>();
       if constexpr (std::is_floating_point_v<T>) {
@@ -127,7 +134,7 @@ void ConfigReader::read(const std::string& key, float* v, float min, float max) 
 void ConfigReader::read(const std::string& key, bool* value) {
   read_keys_.push_back(key);
   YAML::Node n;
-  if (lookup(key, &n)) {
+  if (present(key, &n)) {
     try {
       *value = n.as<bool>();
     } catch (const YAML::Exception&) {
@@ -140,7 +147,7 @@ void ConfigReader::read(const std::string& key, bool* value) {
 void ConfigReader::read(const std::string& key, std::string* value, const std::vector<std::string>& allowed) {
   read_keys_.push_back(key);
   YAML::Node n;
-  if (lookup(key, &n)) {
+  if (present(key, &n)) {
     const std::string v = n.IsScalar() ? n.as<std::string>() : "";
     if (!n.IsScalar() ||
         (!allowed.empty() && std::find(allowed.begin(), allowed.end(), v) == allowed.end())) {
@@ -157,7 +164,7 @@ void ConfigReader::read(const std::string& key, std::string* value, const std::v
 void ConfigReader::readList(const std::string& key, double* values, size_t count) {
   read_keys_.push_back(key);
   YAML::Node n;
-  if (lookup(key, &n)) {
+  if (present(key, &n)) {
     bool ok = n.IsSequence() && n.size() == count;
     std::vector<double> tmp(count);
     for (size_t i = 0; ok && i < count; ++i) {

@@ -96,7 +96,7 @@ function(rgbdmap_add_test_suite name)
     return()
   endif()
   gtest_discover_tests(${name} ${discover} TEST_FILTER "*-${not_unit}" TEST_LIST ${name}_unit_tests
-                       PROPERTIES TIMEOUT 600 LABELS unit)
+                       PROPERTIES PROCESSORS ${RGBDMAP_TEST_PROCESSORS} TIMEOUT 600 LABELS unit)
   set(sanitize_lists ${name}_unit_tests)
   if(tier_E2E)
     list(JOIN tier_E2E ":" e2e)
@@ -104,12 +104,12 @@ function(rgbdmap_add_test_suite name)
     list(JOIN not_e2e ":" not_e2e)
     # COST: `ctest -j` starts the long ones first, also in a fresh tree without timings of an earlier run.
     gtest_discover_tests(${name} ${discover} TEST_FILTER "${e2e}-${not_e2e}" TEST_LIST ${name}_e2e_tests
-                         PROPERTIES TIMEOUT 600 LABELS e2e COST 100)
+                         PROPERTIES PROCESSORS ${RGBDMAP_TEST_PROCESSORS} TIMEOUT 600 LABELS e2e COST 100)
   endif()
   if(tier_SANITIZE)  # e2e tests run under the sanitizers too
     list(JOIN tier_SANITIZE ":" sanitize)
     gtest_discover_tests(${name} ${discover} TEST_FILTER "${sanitize}-${elsewhere}"
-                         TEST_LIST ${name}_sanitize_tests PROPERTIES TIMEOUT 600 LABELS e2e COST 100)
+                         TEST_LIST ${name}_sanitize_tests PROPERTIES PROCESSORS ${RGBDMAP_TEST_PROCESSORS} TIMEOUT 600 LABELS e2e COST 100)
     list(APPEND sanitize_lists ${name}_sanitize_tests)
   endif()
   set(labels_file ${CMAKE_CURRENT_BINARY_DIR}/${name}_sanitize_labels.cmake)
@@ -134,6 +134,6 @@ function(rgbdmap_add_test_suite name)
   if(tier_ACCURACY)
     list(JOIN tier_ACCURACY ":" accuracy)
     gtest_discover_tests(${name} ${discover} TEST_FILTER "${accuracy}-${elsewhere}"
-                         PROPERTIES TIMEOUT 600 LABELS accuracy COST 200)
+                         PROPERTIES PROCESSORS ${RGBDMAP_TEST_PROCESSORS} TIMEOUT 600 LABELS accuracy COST 200)
   endif()
 endfunction()

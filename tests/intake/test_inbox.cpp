@@ -42,10 +42,11 @@ class InboxTest : public ::testing::Test {
   void deliver(Inbox& inbox, const T& message, msg::Signer& signer) {
     const Result<msg::Bytes> sealed = signer.seal(message, 1000);
     ASSERT_TRUE(sealed) << sealed.error();
-    inbox.onMessage(msg::channelFor(T::kType, "robot_1").value(), sealed->data(), sealed->size());
+    inbox.onMessage(msg::channelFor(T::kType, signer.sender()).value(), sealed->data(), sealed->size());
   }
-  msg::Keyframe keyframe(int id) const {
+  msg::Keyframe keyframe(int id, const std::string& robot = "robot_1") const {
     msg::Keyframe k = kf_;
+    k.robot_id = robot;
     k.keyframe_id = id;
     k.previous_keyframe_id = id - 1;
     return k;
@@ -106,6 +107,34 @@ TEST_F(InboxTest, WrongKeysAndRobotsOutsideTheListAreCountedNotQueued) {
   ASSERT_EQ(s.rejects.size(), 1u);
   EXPECT_EQ(s.rejects[0].robot_id, "robot_1");
   EXPECT_EQ(s.rejects[0].reason, "bad_signature");
+}
+
+TEST_F(InboxTest, RobotsNotServedGetOneUnsignedNoticeSayingWhyNotEveryMessage) {
+  std::vector<std::pair<std::string, msg::ServerStatus>> sent;
+  auto sink = [&sent](const std::string& robot, const msg::ServerStatus& notice) {
+    sent.emplace_back(robot, notice);
+  };
+  InboxConfig config;
+  config.robots = {"robot_1", "robot_2"};
+  Inbox inbox(config, keys_, registry_, queue_.calls());
+  inbox.setNoticeSink(sink);
+  msg::Signer unlisted("robot_9", testing::testKey(9));  // neither listed nor keyed
+  for (int id = 1; id <= 3; ++id) deliver(inbox, keyframe(id, "robot_9"), unlisted);
+  ASSERT_EQ(sent.size(), 1u) << "rate-limited per robot (one per second)";
+  EXPECT_EQ(sent[0].first, "robot_9");
+  ASSERT_EQ(sent[0].second.rejects.size(), 1u);
+  EXPECT_EQ(sent[0].second.rejects[0].reason, "unknown_robot") << "not in server.robots says more than no key";
+  msg::Signer keyless("robot_2", testing::testKey(2));  // listed, but the server holds no key for it
+  deliver(inbox, keyframe(1, "robot_2"), keyless);
+  ASSERT_EQ(sent.size(), 2u);
+  EXPECT_EQ(sent[1].first, "robot_2");
+  EXPECT_EQ(sent[1].second.rejects[0].reason, "unknown_sender");
+  deliver(inbox, keyframe(1), signer_);  // served: no notice
+  msg::Signer forger("robot_1", testing::testKey(7));  // served, wrong key: its status says so, not a notice
+  deliver(inbox, keyframe(2), forger);
+  EXPECT_EQ(sent.size(), 2u);
+  EXPECT_EQ(inbox.stats().refusal_notices_sent, 2u);
+  EXPECT_EQ(queue_.keyframes.size(), 1u);
 }
 
 }  // namespace

@@ -76,6 +76,35 @@ TEST(RobotLink, ReadsItsOwnCountersFromTheServerStatusVerifiedOrNot) {
   link.stop();
 }
 
+TEST(RobotLink, AnUnsignedNotServedNoticeWordsTheDiagnosisAndNothingElse) {
+  auto transport = testing::makeMemq();
+  RobotLink link(*transport, linkOptions("robot2", linkKey(5)));
+  ASSERT_TRUE(link.start());
+  EXPECT_EQ(link.stats().diagnosis, "") << "no verdict before 3 s";
+  msg::ServerStatus notice;  // what the server's RefusalNotices sends: unsigned, no robots
+  notice.state = "not serving robot2";
+  notice.rejects = {{"robot2", "unknown_robot", 4}};
+  msg::Signer unsigned_server(msg::kServerId, msg::Bytes{});
+  ASSERT_TRUE(transport->publish(*msg::channelFor(msg::MessageType::kServerStatus, "robot2"),
+                                 sealOrFail(unsigned_server, notice)));
+  RobotLinkStats st = statsWhen(link, [](const RobotLinkStats& s) { return s.diagnosis != ""; });
+  EXPECT_EQ(st.not_served_notices, 1u);
+  EXPECT_EQ(st.bad_signatures, 0u) << "a notice is not a server with another key";
+  EXPECT_FALSE(st.server_heard);
+  EXPECT_FALSE(st.server_rejects_verified);
+  EXPECT_EQ(st.diagnosis, "not served by the server");
+  EXPECT_EQ(notServedReason(st), "it is not in the server's robot list");
+  link.stop();
+  RobotRunResult run;
+  run.keyframes = 3;
+  run.link = st;
+  EXPECT_NE(deliveryReport(run, "robot2").message.find(
+                "3 of 3 keyframes not accepted: the server does not serve robot id 'robot2': it is not in the "
+                "server's robot list (its unsigned notice, not verifiable here)"),
+            std::string::npos)
+      << deliveryReport(run, "robot2").message;
+}
+
 TEST(RobotLink, CorrectionsMoveEachSegmentIntoTheMap) {
   auto transport = testing::makeMemq();
   FakeServerOptions so = serverOptions(linkKey(4));

@@ -21,14 +21,16 @@ void Progress::update(size_t done) {
   last_ = now;
   const double elapsed = std::chrono::duration<double>(now - start_).count();
   const double rate = elapsed > 0 ? done / elapsed : 0;
+  std::string note = note_ ? note_() : "";
+  if (!note.empty()) note = ", " + note;
   if (total_ == 0) {  // a live source: no end known
-    std::fprintf(stderr, "\r%s: %zu frames, %.1f frames/s   ", label_.c_str(), done, rate);
+    std::fprintf(stderr, "\r%s: %zu frames, %.1f frames/s%s   ", label_.c_str(), done, rate, note.c_str());
     std::fflush(stderr);
     return;
   }
   const double eta = rate > 0 && done < total_ ? (total_ - done) / rate : 0;
-  std::fprintf(stderr, "\r%s: %zu/%zu frames, %.1f frames/s, ETA %.0f s   ", label_.c_str(), done, total_,
-               rate, eta);
+  std::fprintf(stderr, "\r%s: %zu/%zu frames, %.1f frames/s, ETA %.0f s%s   ", label_.c_str(), done, total_,
+               rate, eta, note.c_str());
   std::fflush(stderr);
 }
 

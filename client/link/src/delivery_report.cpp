@@ -30,7 +30,7 @@ std::string breakdown(const RobotRunResult& r) {
 std::string otherServerRejects(const RobotLinkStats& l) {
   std::string out;
   for (const auto& [reason, count] : l.server_rejects)
-    if (reason != "bad_signature" && count > 0)
+    if (reason != "bad_signature" && reason != "unknown_robot" && reason != "unknown_sender" && count > 0)
       out += (out.empty() ? "" : ", ") + std::to_string(count) + " " + reason;
   return out;
 }
@@ -60,6 +60,12 @@ std::string heardWhy(const RobotLinkStats& l) {
 
 }  // namespace
 
+std::string notServedReason(const RobotLinkStats& l) {
+  if (l.server_rejects.count("unknown_robot") != 0) return "it is not in the server's robot list";
+  if (l.server_rejects.count("unknown_sender") != 0) return "the server holds no key for it";
+  return "";
+}
+
 DeliveryReport deliveryReport(const RobotRunResult& r, const std::string& robot_id) {
   const RobotLinkStats& l = r.link;
   DeliveryReport d;
@@ -70,7 +76,11 @@ DeliveryReport deliveryReport(const RobotRunResult& r, const std::string& robot_
   const std::string who = robot_id.empty() ? "this robot" : robot_id;
   const std::string count =
       std::to_string(d.unaccepted) + " of " + std::to_string(d.keyframes) + " keyframes not accepted";
-  if (const int64_t bad = serverBadSignatures(l); bad > 0) {
+  if (const std::string why = notServedReason(l); !d.server_heard && !why.empty()) {
+    d.message = count + ": the server does not serve robot id '" + who + "': " + why +
+                " (its unsigned notice, not verifiable here). Add it to server.robots and its key to "
+                "server.keys_file";
+  } else if (const int64_t bad = serverBadSignatures(l); bad > 0) {
     d.message = count + ": the server refused " + std::to_string(bad) + " messages from " + who +
                 " (hellos, heartbeats, keyframe chunks) for a bad signature (wrong key?)";
     if (!l.server_rejects_verified)

@@ -2,6 +2,8 @@
 #include "rgbdmap/link/robot_client_config.hpp"
 
 #include <cctype>
+#include <cerrno>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
@@ -60,7 +62,8 @@ Result<msg::Bytes> readKeyFile(const std::string& path, const std::string& base_
     std::error_code ec;
     const std::string resolved = std::filesystem::absolute(p, ec).lexically_normal().string();
     return Result<msg::Bytes>::failure("cannot read key file " + p.string() +
-                                       (ec || resolved == p.string() ? "" : " (" + resolved + ")"));
+                                       (ec || resolved == p.string() ? "" : " (" + resolved + ")") + ": " +
+                                       std::strerror(errno) + " (`rgbdmap keys new ROBOT` writes one)");
   }
   std::string hex, line;
   while (std::getline(in, line)) {

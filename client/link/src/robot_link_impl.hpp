@@ -77,9 +77,10 @@ class RobotLink::Impl : public std::enable_shared_from_this<RobotLink::Impl> {
   template <typename T>
   Status sealAndPublish(const T& message, const std::string& channel);
   void runPeriodic();  ///< Hello until the server answered, Heartbeat, and a tick for waiters
-  /// No valid message from a server kDiagnoseAfterS after the start: says once what is likely wrong and
-  /// which setting to look at (keys that differ, or no server for this robot on this transport), and once
-  /// more when a server is heard after all. Nothing else changes: keyframes are kept and retried.
+  /// From kDiagnoseAfterS after the start: what is likely wrong and which setting to look at (a server that
+  /// says it does not serve this robot, keys that differ, or no server for this robot on this transport),
+  /// logged when it changes (also when a server is heard after all) and kept in counts_.diagnosis. Nothing
+  /// else changes: keyframes are kept and retried.
   void diagnoseLink(Clock::time_point now);  ///< caller holds mutex_
   Status sendHello();
   Status sendHeartbeat();
@@ -105,6 +106,9 @@ class RobotLink::Impl : public std::enable_shared_from_this<RobotLink::Impl> {
   void handle(const msg::VelocityCommand& command);
   void handle(const msg::ServerStatus& status);
   void readUnverifiedStatus(const uint8_t* data, size_t size);  ///< one that failed its signature check
+  /// The unsigned answer of a server that does not serve this robot (server intake's RefusalNotices):
+  /// counted and read as a hint; false for anything else.
+  bool readNotServedNotice(const uint8_t* data, size_t size);
   void noteServerRejects(const msg::ServerStatus& status, bool verified);  ///< caller holds mutex_
   void updateSegmentAnchors(const msg::PoseCorrections& corrections);      ///< caller holds mutex_
 
@@ -113,7 +117,7 @@ class RobotLink::Impl : public std::enable_shared_from_this<RobotLink::Impl> {
   std::string hello_channel_, heartbeat_channel_, keyframe_channel_;
   msg::KeyStore keys_;
   msg::ReplayGuard replay_guard_;
-  /// Rejected messages; logged at most every 30 s (diagnoseLink() names the likely cause once, at 3 s).
+  /// Rejected messages; logged at most every 30 s (diagnoseLink() names the likely cause from 3 s on).
   msg::RejectCounters rejects_{1.0 / 30.0};
   const msg::KeyStore unverified_keys_ = msg::KeyStore::openMode(false);  ///< readUnverifiedStatus only
   std::mutex signer_mutex_;
@@ -136,7 +140,6 @@ class RobotLink::Impl : public std::enable_shared_from_this<RobotLink::Impl> {
   /// Hello is resent every hello_period_s: under loss the server may be heard before it heard the Hello,
   /// and keyframes wait unacknowledged for the robot's Hello.
   bool server_knows_me_ = false;
-  bool warned_no_server_ = false;  ///< diagnoseLink() said it
   std::map<int, SentKeyframe> sent_;
   std::map<int, SE3> T_map_cam_;   ///< corrected keyframes
   std::map<int, SE3> T_map_odom_;  ///< per segment

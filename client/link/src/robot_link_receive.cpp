@@ -6,6 +6,7 @@
 #include <functional>
 #include <string_view>
 #include "rgbdmap/common/logging.hpp"
+#include "rgbdmap/link/delivery_report.hpp"
 #include "rgbdmap/proto/channels.hpp"
 
 #include "robot_link_impl.hpp"
@@ -46,6 +47,9 @@ void RobotLink::Impl::onMessage(const uint8_t* data, size_t size) {
     }
   }
   bytes_received_ += size;
+  if constexpr (std::is_same_v<T, msg::ServerStatus>) {
+    if (readNotServedNotice(data, size)) return;
+  }
   msg::RejectNote note;
   Result<msg::OpenedEnvelope> opened = msg::openEnvelope(data, size, keys_, &replay_guard_, &rejects_, &note);
   if (!opened) {  // counted and logged (rate-limited) by rejects_
@@ -177,14 +181,33 @@ void RobotLink::Impl::handle(const msg::ServerStatus& status) {
 }
 
 void RobotLink::Impl::readUnverifiedStatus(const uint8_t* data, size_t size) {
-  // No replay guard and no counters: nothing here is trusted or acted on; it only words the delivery report
-  // of a robot that cannot verify the server (a wrong key on one side).
+  // No replay guard and no counters: nothing here is trusted or acted on; it only words the diagnosis and
+  // the delivery report of a robot that cannot verify the server (a wrong key on one side, or a server that
+  // does not serve it and answers with an unsigned notice).
   Result<msg::OpenedEnvelope> opened = msg::openEnvelope(data, size, unverified_keys_, nullptr);
   if (!opened || opened->header.sender != msg::kServerId) return;
   Result<msg::ServerStatus> status = msg::decodeMessage<msg::ServerStatus>(*opened);
   if (!status) return;
   std::lock_guard<std::mutex> lock(mutex_);
   if (!counts_.server_rejects_verified) noteServerRejects(*status, false);
+}
+
+bool RobotLink::Impl::readNotServedNotice(const uint8_t* data, size_t size) {
+  // Read before the signature check, which it would fail (it is unsigned): not a rejection to count or log.
+  Result<msg::OpenedEnvelope> opened = msg::openEnvelope(data, size, unverified_keys_, nullptr);
+  if (!opened || opened->header.sender != msg::kServerId || opened->type != msg::MessageType::kServerStatus)
+    return false;
+  Result<msg::ServerStatus> status = msg::decodeMessage<msg::ServerStatus>(*opened);
+  if (!status || !status->robots.empty()) return false;
+  bool notice = false;
+  for (const msg::RejectCount& r : status->rejects)
+    notice = notice || (r.robot_id == options_.robot_id &&
+                        (r.reason == "unknown_robot" || r.reason == "unknown_sender"));
+  if (!notice) return false;
+  std::lock_guard<std::mutex> lock(mutex_);
+  ++counts_.not_served_notices;
+  if (!counts_.server_rejects_verified) noteServerRejects(*status, false);
+  return true;
 }
 
 void RobotLink::Impl::noteServerRejects(const msg::ServerStatus& status, bool verified) {
@@ -198,17 +221,25 @@ void RobotLink::Impl::noteServerRejects(const msg::ServerStatus& status, bool ve
 void RobotLink::Impl::diagnoseLink(Clock::time_point now) {
   constexpr double kDiagnoseAfterS = 3.0;
   const std::string& id = options_.robot_id;
-  if (heard_from_server_) {
-    if (warned_no_server_) log::info("robot ", id, ": a server is heard now");
-    warned_no_server_ = false;
-    return;
-  }
-  if (warned_no_server_ || std::chrono::duration<double>(now - created_).count() < kDiagnoseAfterS) return;
-  warned_no_server_ = true;
+  if (std::chrono::duration<double>(now - created_).count() < kDiagnoseAfterS) return;
   const uint64_t bad_here = rejects_.get(msg::RejectReason::kBadSignature);
   const auto reported = counts_.server_rejects.find("bad_signature");
   const int64_t bad_there = reported == counts_.server_rejects.end() ? 0 : reported->second;
-  if (bad_here > 0 || bad_there > 0) {
+  const std::string why_not_served = notServedReason(counts_);
+  std::string cause = "no server heard";
+  if (heard_from_server_) cause = "server heard";
+  else if (!why_not_served.empty()) cause = "not served by the server";
+  else if (bad_here > 0 || bad_there > 0) cause = "keys differ";
+  if (cause == counts_.diagnosis) return;
+  const bool first = counts_.diagnosis.empty();
+  counts_.diagnosis = cause;
+  if (cause == "server heard") {
+    if (!first) log::info("robot ", id, ": a server is heard now");
+  } else if (cause == "not served by the server") {
+    log::warn("robot ", id, ": the server does not serve robot id '", id, "': ", why_not_served,
+              " (its unsigned notice, not verifiable here). Add '", id, "' to server.robots and its key to ",
+              "server.keys_file (rgbdmap keys new ", id, "). Keyframes are kept and retried.");
+  } else if (cause == "keys differ") {
     log::warn("robot ", id, ": a server is there but the keys differ: ", bad_here,
               " of its messages failed verification here",
               bad_there > 0 ? ", and it reports " + std::to_string(bad_there) + " messages from " + id +

@@ -79,6 +79,9 @@ struct MapServer::Impl {
     status.setRejectCounts([this] { return inbox.rejectCounts(); });
     inbox.setChunkAckSink(
         [this](const std::string& robot, const msg::ChunkAck& ack) { publisher.publish(robot, ack); });
+    inbox.setNoticeSink([this](const std::string& robot, const msg::ServerStatus& notice) {
+      publisher.publishNotice(robot, notice);
+    });
   }
 
   Status openAndRestore();

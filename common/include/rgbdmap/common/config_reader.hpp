@@ -47,6 +47,8 @@ class ConfigReader {
 
  private:
   bool lookup(const std::string& key, YAML::Node* out) const;
+  /// lookup(), and a key given without a value ("key:") is an error, not its default.
+  bool present(const std::string& key, YAML::Node* out);
 
   std::shared_ptr<YAML::Node> root_;
   std::string source_;

@@ -29,6 +29,8 @@ void Inbox::onMessage(const std::string& channel, const uint8_t* data, size_t si
   if (!opened) {  // counted and logged (rate-limited) by RejectCounters, and by claimed sender here
     ledger_.add(note.claimed_sender.empty() ? robot : note.claimed_sender,
                 RejectLedger::reasonKey(note.reason));
+    if (note.reason == msg::RejectReason::kUnknownSender && note.claimed_sender == robot)
+      notServed(robot, admitted(robot) ? RejectLedger::reasonKey(note.reason) : "unknown_robot");
     return;
   }
   if (opened->header.sender != robot) {
@@ -39,6 +41,7 @@ void Inbox::onMessage(const std::string& channel, const uint8_t* data, size_t si
   if (!admitted(robot)) {
     ++unknown_robot_;
     ledger_.add(robot, "unknown_robot", "not in the server's robot list");
+    notServed(robot, "unknown_robot");
     return;
   }
   registry_.addBytesReceived(robot, size, opened->header.utime);
@@ -68,6 +71,7 @@ InboxStats Inbox::stats() const {
   s.keyframes_duplicates_queued = duplicates_queued_.load();
   s.keyframes_throttled = throttled_.load();
   s.rejects = ledger_.counts();
+  s.refusal_notices_sent = notices_.sent();
   return s;
 }
 
@@ -119,6 +123,11 @@ void Inbox::reject(const std::string& robot, msg::RejectReason reason, const std
                    const std::string& ledger_detail) {
   rejects_.add(reason, detail);
   ledger_.add(robot, RejectLedger::reasonKey(reason), ledger_detail);
+}
+
+void Inbox::notServed(const std::string& robot, const std::string& reason) {
+  if (!notice_sink_) return;
+  if (std::optional<msg::ServerStatus> notice = notices_.refused(robot, reason)) notice_sink_(robot, *notice);
 }
 
 void Inbox::countOverShare(const std::string& robot, RobotRegistry::KeyframeOutcome outcome) {

@@ -20,6 +20,16 @@ void RobotPublisher::acknowledge(const std::string& robot_id, int keyframe_id, b
   publish(robot_id, ack);
 }
 
+void RobotPublisher::publishNotice(const std::string& robot_id, const msg::ServerStatus& notice) {
+  const auto channel = msg::channelFor(msg::ServerStatus::kType, robot_id);
+  if (!channel) return;
+  std::lock_guard<std::mutex> lock(mutex_);
+  const auto bytes = notice_signer_.seal(notice, nowUtime());
+  if (!bytes) return log::warn("server: cannot seal a notice for ", robot_id, ": ", bytes.error());
+  if (const Status s = transport_.publish(*channel, *bytes); !s)
+    log::warn("server: publish on ", *channel, " failed: ", s.error());
+}
+
 int64_t RobotPublisher::nowUtime() {
   return std::chrono::duration_cast<std::chrono::microseconds>(
              std::chrono::system_clock::now().time_since_epoch())

@@ -11,7 +11,8 @@ struct DeliveryReport {
   int keyframes = 0;   ///< made by the odometry
   int unaccepted = 0;  ///< not accepted by a server: refused, given up, unanswered at the end, or not sent
   bool server_heard = false;
-  /// "" when every keyframe was accepted; else the count and why: the server reports bad signatures from
+  /// "" when every keyframe was accepted; else the count and why: the server says it does not serve this
+  /// robot (an unsigned notice), the server reports bad signatures from
   /// this robot (wrong key?), no server heard at all (transport, robot id or key), or a server heard that
   /// refused keyframes ("refused: <reasons>") or did not answer them ("server heard but no ack (loss?)").
   std::string message;
@@ -19,6 +20,11 @@ struct DeliveryReport {
 
 /// `robot_id` names the robot in the message ("this robot" when empty). The server's own counters for this
 /// robot (RobotLinkStats::server_rejects, from its status) come first: bad signatures mean the keys differ.
+/// A server never heard that sent a "not serving" notice comes before that.
 DeliveryReport deliveryReport(const RobotRunResult& result, const std::string& robot_id = "");
+
+/// Why a server says it does not serve this robot, from its unsigned notice (RobotLinkStats::server_rejects
+/// "unknown_robot": not in server.robots; "unknown_sender": no key for it), or "" when none said so.
+std::string notServedReason(const RobotLinkStats& link);
 
 }  // namespace rgbdmap

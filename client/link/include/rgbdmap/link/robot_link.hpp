@@ -116,6 +116,12 @@ struct RobotLinkStats {
   std::map<std::string, int64_t> server_rejects;
   bool server_rejects_verified = false;
   bool server_status_seen = false;  ///< any ServerStatus arrived, verified or not
+  /// Unsigned "not serving <robot>" notices of a server that holds no key for this robot or does not list
+  /// it (not rejections; server_rejects then holds "unknown_sender" or "unknown_robot").
+  uint64_t not_served_notices = 0;
+  /// The link's likely state in a few words, for a status line: "" for the first 3 s, then "server heard",
+  /// "no server heard", "keys differ" or "not served by the server" (RobotLink's diagnosis; also logged).
+  std::string diagnosis;
   /// Time from a keyframe's first transmission to its (first) accepting ack, over the accepted keyframes
   /// (bounded reservoir, common/sample_reservoir.hpp); 0 before any.
   uint64_t ack_latency_samples = 0;

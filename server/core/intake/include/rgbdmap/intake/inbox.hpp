@@ -15,6 +15,7 @@
 #include "rgbdmap/intake/chunk_reassembly.hpp"
 #include "rgbdmap/intake/intake_stats.hpp"
 #include "rgbdmap/intake/keyframe_throttle.hpp"
+#include "rgbdmap/intake/refusal_notices.hpp"
 #include "rgbdmap/intake/reject_ledger.hpp"
 #include "rgbdmap/intake/robot_queues.hpp"
 #include "rgbdmap/intake/robot_registry.hpp"
@@ -50,6 +51,9 @@ class Inbox {
   /// Where ChunkAcks go (the server's RobotPublisher); chunked keyframes are refused without one.
   using ChunkAckSink = std::function<void(const std::string& robot, const msg::ChunkAck& ack)>;
   void setChunkAckSink(ChunkAckSink sink) { chunk_ack_sink_ = std::move(sink); }
+  /// Where the notices to robots the server does not serve go (RefusalNotices: unsigned); none without one.
+  using NoticeSink = std::function<void(const std::string& robot, const msg::ServerStatus& notice)>;
+  void setNoticeSink(NoticeSink sink) { notice_sink_ = std::move(sink); }
 
   /// Its counters now (any thread).
   InboxStats stats() const;
@@ -73,6 +77,8 @@ class Inbox {
     if (!message) ledger_.add(robot, RejectLedger::reasonKeyOf(message.error()));
     return message;
   }
+  /// A message of `robot` refused because the server does not serve it: counted, and a notice when due.
+  void notServed(const std::string& robot, const std::string& reason);
   void onChunk(const msg::OpenedEnvelope& opened, const std::string& robot);  ///< inbox_chunks.cpp
   void onReassembled(const std::string& robot, const msg::Bytes& envelope);
 
@@ -90,6 +96,8 @@ class Inbox {
   RejectLedger ledger_;
   ChunkReassembly chunks_;
   ChunkAckSink chunk_ack_sink_;
+  RefusalNotices notices_;
+  NoticeSink notice_sink_;
 };
 
 }  // namespace rgbdmap

@@ -36,6 +36,10 @@ class RobotPublisher {
     sendLocked(robot_id, *channel, *bytes);
   }
 
+  /// A notice to a robot the server does not serve (intake's RefusalNotices), unsigned: the server shares no
+  /// key with it. Not counted as bytes sent to a robot.
+  void publishNotice(const std::string& robot_id, const msg::ServerStatus& notice);
+
   /// KeyframeAck (reason cut to the message's text limit).
   void acknowledge(const std::string& robot_id, int keyframe_id, bool accepted, const std::string& reason);
 
@@ -50,6 +54,7 @@ class RobotPublisher {
   RobotRegistry& registry_;
   std::mutex mutex_;
   std::map<std::string, std::unique_ptr<msg::Signer>> signers_;
+  msg::Signer notice_signer_{msg::kServerId, msg::Bytes{}, server_session_};
 };
 
 }  // namespace rgbdmap
