@@ -4,14 +4,14 @@
 # (ctest integration.mistakes.netns). The table below is the contract: program, mistake, exit code, the line
 # expected. The robot's link mistakes are named within 5 s of its start, while it keeps retrying (a wrong
 # key: the server's status fails verification; a robot id the server does not serve: the server's unsigned
-# notice; no server at all: silence). After the table: the server's log names each claimed sender, the
+# notice, over LCM and DDS; no server at all: silence). After the table: the server's log names each claimed sender, the
 # monitor says "bad signature" (and, with the wrong key, that it cannot verify), server_summary.json counts
 # the bad signatures and the notice. Usage: mistakes.sh BIN_DIR
 set -u
 bin="$1"
 tmp=$(mktemp -d)
-server=""
-trap '[ -n "$server" ] && kill "$server" 2>/dev/null; rm -rf "$tmp"' EXIT
+server="" dds_server=""
+trap '[ -n "$server" ] && kill "$server" $dds_server 2>/dev/null; rm -rf "$tmp"' EXIT
 fail=0
 ok() { echo "ok: $1"; }
 bad() { echo "FAIL: $1"; fail=1; }
@@ -62,7 +62,11 @@ mistake() {
   ok "$name: $verdict: $(grep -Em1 -- "$pattern" "$log" | cut -c1-160)"
 }
 
+export CYCLONEDDS_URI="file://$(cd "$(dirname "$0")/../.." && pwd)/deploy/dds/cyclonedds-loopback.xml"
+dds_url='dds://?domain=0'
 "$bin/rgbdmap-server" --config "$tmp/server.yaml" >"$tmp/server.log" 2>&1 & server=$!
+"$bin/rgbdmap-server" --config "$tmp/server.yaml" --transport "$dds_url" --map-dir "$tmp/map_dds" \
+  >"$tmp/server_dds.log" 2>&1 & dds_server=$!
 sleep 1
 run_client() { "$bin/rgbdmap-client" --dataset "$tmp/seq" --fast --frames 2:30 "$@"; }
 #       name                 exit  the line expected                                                  timed
@@ -75,6 +79,10 @@ mistake "client, robot id not served" 3 \
   run_client --config "$tmp/client.yaml" --robot-id robot2 --key-file "$tmp/robot2.key" --out "$tmp/out2"
 has "robot id not served: the final line says why" "$tmp/mistake_client__robot_id_not_served.log" \
   "keyframes not accepted: the server does not serve robot id 'robot2'"
+mistake "client, robot id not served (DDS)" 3 \
+  "warn\] robot robot2: the server does not serve robot id 'robot2': it is not in the server's robot list" 1 \
+  run_client --config "$tmp/client.yaml" --transport "$dds_url" --robot-id robot2 --key-file "$tmp/robot2.key" \
+  --out "$tmp/out2dds"
 mistake "client, no server at all" 3 "warn\] robot robot0: no server heard in 3 s" 1 \
   run_client --config "$tmp/client.yaml" --transport 'udpm://239.255.76.68:7668?ttl=0' --out "$tmp/out3"
 mistake "server, missing server.keys_file" 2 "no server.keys_file and open mode is off" 0 \
@@ -99,7 +107,8 @@ has "monitor says bad signature" "$tmp/monitor.txt" "robot0 .*status=bad signatu
 code=$?
 [ "$code" -eq 1 ] && ok "monitor with the wrong key: no status, exit 1" || bad "monitor exit code $code"
 has "monitor says it cannot verify" "$tmp/monitor_wrong.txt" "cannot verify the server's status for robot0"
-kill -INT "$server"; wait "$server"; server=""
+kill -INT "$server" "$dds_server"; wait "$server" "$dds_server"; server=""
+has "the DDS server's log names the unknown robot" "$tmp/server_dds.log" "claiming to be from 'robot2'"
 has "server log names the unknown robot" "$tmp/server.log" "claiming to be from 'robot2'"
 has "server log names the claimed sender" "$tmp/server.log" "claiming to be from 'robot0': bad signature"
 jq -e '.rejects_by_robot.robot0.bad_signature > 0 and .keyframes == 0 and .refusal_notices_sent >= 1' \

@@ -19,6 +19,19 @@ TEST(TransportChannel, DdsTopicNamesAreValidAndOneToOne) {
   }
 }
 
+TEST(TransportChannel, DdsTopicNamesReadBackAsTheirChannelsAndNothingElse) {
+  for (const std::string channel :
+       {"rgbdmap/robot1/keyframe_chunk", "rgbdmap/robot-7/pose graph!", "3d.map", "a__b"}) {
+    std::string back;
+    ASSERT_TRUE(channelFromDdsTopic(ddsTopicName(channel), &back)) << channel;
+    EXPECT_EQ(back, channel);
+  }
+  std::string out = "unchanged";
+  for (const std::string topic : {"rt/map", "a_b", "a_x5", "a_xZZ", "a_x41", "_", "9lives", "caf\xc3\xa9"})
+    EXPECT_FALSE(channelFromDdsTopic(topic, &out)) << topic;  // "a_x41" would be "aA": not how it is named
+  EXPECT_EQ(out, "unchanged");
+}
+
 TEST(TransportChannel, LateJoinerChannels) {
   TransportOptions options;
   EXPECT_TRUE(isLatestForLateJoiners("rgbdmap/server/map", options));

@@ -41,6 +41,30 @@ std::string ddsTopicName(const std::string& channel) {
   return out;
 }
 
+bool channelFromDdsTopic(const std::string& topic, std::string* channel) {
+  std::string out;
+  for (size_t i = 0; i < topic.size(); ++i) {
+    const auto c = static_cast<unsigned char>(topic[i]);
+    if (c != '_') {
+      if (std::isalnum(c) == 0 || c >= 128) return false;
+      out.push_back(static_cast<char>(c));
+    } else if (i + 1 < topic.size() && topic[i + 1] == '_') {
+      out.push_back('/');
+      ++i;
+    } else if (i + 3 < topic.size() && topic[i + 1] == 'x' &&
+               std::isxdigit(static_cast<unsigned char>(topic[i + 2])) &&
+               std::isxdigit(static_cast<unsigned char>(topic[i + 3]))) {
+      out.push_back(static_cast<char>(std::stoi(topic.substr(i + 2, 2), nullptr, 16)));
+      i += 3;
+    } else {
+      return false;
+    }
+  }
+  if (ddsTopicName(out) != topic) return false;  // one name per channel: anything else is not ours
+  *channel = std::move(out);
+  return true;
+}
+
 bool channelMatches(const std::string& pattern, const std::string& channel) {
   if (!pattern.empty() && pattern.back() == '*') {
     return channel.compare(0, pattern.size() - 1, pattern, 0, pattern.size() - 1) == 0;

@@ -1,7 +1,9 @@
 // Cyclone DDS adapter; see dds_transport.hpp.
 #include "dds_transport.hpp"
 
+#include <algorithm>
 #include <cstdlib>
+#include <cstring>
 
 #include "envelope.h"
 #include "rgbdmap/common/logging.hpp"
@@ -100,12 +102,20 @@ Status DdsTransport::publish(const std::string& channel, const uint8_t* data, si
 
 Status DdsTransport::subscribe(const std::string& channel, Handler handler) {
   if (channel.empty() || !handler) return Status::failure("subscribe needs a channel and a handler");
-  if (channel.back() == '*') return Status::failure("DDS subscriptions take exact channel names");
   std::lock_guard<std::mutex> lock(entities_mutex_);
-  if (readers_.count(channel) != 0) {
+  if (channel.back() == '*') {
+    if (Status s = watchPublications(); !s) return s;
     handlers_.add(channel, std::move(handler));
+    prefixes_.push_back(channel);
     return Status::success();
   }
+  // The handler is in place before the waitset can report the reader's first sample.
+  handlers_.add(channel, std::move(handler));
+  if (readers_.count(channel) != 0) return Status::success();
+  return createReader(channel);
+}
+
+Status DdsTransport::createReader(const std::string& channel) {
   auto topic = topicFor(channel);
   if (!topic) return Status::failure(topic.error());
   dds_qos_t* qos = qosFor(channel, false);
@@ -117,13 +127,64 @@ Status DdsTransport::subscribe(const std::string& channel, Handler handler) {
     dds_delete(reader);
     return Status::failure(ddsError("dds_create_readcondition", cond));
   }
-  // The handler is in place before the waitset can report the reader's first sample.
-  handlers_.add(channel, std::move(handler));
   readers_.emplace(channel, reader);
   reader_channels_.emplace(reader, channel);
   const dds_return_t rc = dds_waitset_attach(waitset_, cond, static_cast<dds_attach_t>(reader));
   if (rc != DDS_RETCODE_OK) return Status::failure(ddsError("dds_waitset_attach", rc));
   return Status::success();
+}
+
+Status DdsTransport::watchPublications() {
+  if (publications_ > 0) return Status::success();
+  const dds_entity_t reader =
+      dds_create_reader(participant_, DDS_BUILTIN_TOPIC_DCPSPUBLICATION, nullptr, nullptr);
+  if (reader < 0) return Status::failure(ddsError("dds_create_reader(DCPSPublication)", reader));
+  const dds_entity_t cond = dds_create_readcondition(reader, DDS_ANY_STATE);
+  if (cond < 0 || dds_waitset_attach(waitset_, cond, static_cast<dds_attach_t>(reader)) != DDS_RETCODE_OK) {
+    dds_delete(reader);
+    return Status::failure("could not watch the DDS publications");
+  }
+  publications_ = reader;
+  return Status::success();
+}
+
+void DdsTransport::discover() {
+  dds_guid_t own;
+  if (dds_get_guid(participant_, &own) != DDS_RETCODE_OK) return;
+  constexpr int kBatch = 16;
+  for (;;) {
+    void* samples[kBatch] = {nullptr};
+    dds_sample_info_t infos[kBatch];
+    const dds_return_t n = dds_take(publications_, samples, infos, kBatch, kBatch);
+    if (n <= 0) break;
+    std::lock_guard<std::mutex> lock(entities_mutex_);
+    for (dds_return_t i = 0; i < n; ++i) {
+      const auto* p = static_cast<const dds_builtintopic_endpoint_t*>(samples[i]);
+      std::string channel;
+      if (!infos[i].valid_data || !p->topic_name || !p->type_name ||
+          std::memcmp(&p->participant_key, &own, sizeof own) == 0 ||
+          std::strcmp(p->type_name, rgbdmap_Envelope_desc.m_typename) != 0 ||
+          !channelFromDdsTopic(p->topic_name, &channel) || readers_.count(channel) != 0)
+        continue;
+      const bool wanted = std::any_of(prefixes_.begin(), prefixes_.end(), [&](const std::string& prefix) {
+        return channelMatches(prefix, channel);
+      });
+      if (!wanted) continue;
+      if (discovered_readers_ >= kMaxDiscoveredReaders) {
+        uint64_t suppressed = 0;
+        if (g_dds_log.allow(&suppressed))
+          log::warn("dds: not reading ", channel, ": ", kMaxDiscoveredReaders, " topics read already");
+        continue;
+      }
+      if (const Status s = createReader(channel); !s) {
+        log::warn("dds: cannot read ", channel, ": ", s.error());
+        continue;
+      }
+      ++discovered_readers_;
+    }
+    dds_return_loan(publications_, samples, n);
+    if (n < kBatch) break;
+  }
 }
 
 Status DdsTransport::start() {
@@ -153,7 +214,11 @@ void DdsTransport::receiveLoop() {
       return;
     }
     for (dds_return_t i = 0; i < n && i < 64; ++i) {
-      if (triggered[i] != kGuardAttach) drain(static_cast<dds_entity_t>(triggered[i]));
+      if (triggered[i] == kGuardAttach) continue;
+      if (publications_ > 0 && triggered[i] == static_cast<dds_attach_t>(publications_))
+        discover();
+      else
+        drain(static_cast<dds_entity_t>(triggered[i]));
     }
   }
 }

@@ -1,7 +1,10 @@
 #pragma once
 // Cyclone DDS adapter (dds://?domain=N). One topic per channel (created lazily), reliable QoS; channels
 // that keep their latest message for late joiners are TRANSIENT_LOCAL. A waitset thread takes samples;
-// a guard condition wakes it for stop().
+// a guard condition wakes it for stop(). A prefix subscription ("rgbdmap/*") reads the built-in
+// DCPSPublication topic: each rgbdmap envelope topic another participant publishes whose channel matches
+// gets a reader (at most kMaxDiscoveredReaders, so invented topic names cannot grow it without bound); the
+// messages a writer sent before its reader matched are not received.
 #include <dds/dds.h>
 
 #include <atomic>
@@ -9,6 +12,7 @@
 #include <memory>
 #include <mutex>
 #include <thread>
+#include <vector>
 
 #include "handler_table.hpp"
 #include "rgbdmap/transport/transport.hpp"
@@ -35,6 +39,9 @@ class DdsTransport final : public Transport {
   dds_qos_t* qosFor(const std::string& channel, bool writer) const;
   void receiveLoop();
   void drain(dds_entity_t reader);
+  Status createReader(const std::string& channel);  // caller holds entities_mutex_
+  Status watchPublications();                       // caller holds entities_mutex_
+  void discover();  ///< new publications: readers for the channels a prefix subscription matches
 
   TransportOptions options_;
   dds_entity_t participant_;
@@ -43,6 +50,10 @@ class DdsTransport final : public Transport {
   std::mutex entities_mutex_;
   std::map<std::string, dds_entity_t> topics_, writers_, readers_;
   std::map<dds_entity_t, std::string> reader_channels_;
+  static constexpr size_t kMaxDiscoveredReaders = 4096;
+  std::vector<std::string> prefixes_;  ///< prefix subscriptions ("rgbdmap/*")
+  dds_entity_t publications_ = 0;      ///< reader of DCPSPublication, once a prefix is subscribed
+  size_t discovered_readers_ = 0;
   std::thread thread_;
   std::mutex lifecycle_mutex_;
   std::atomic<bool> stopping_{false};

@@ -153,9 +153,10 @@ void MapServer::Impl::startWorkers() {
 Status MapServer::Impl::subscribe() {
   gate.open();
   std::vector<std::string> patterns;
-  // Every robot's channels where the transport takes a pattern (LCM): a robot that is not served, or signs
-  // with another key, is then heard, counted and named in the log (the inbox refuses its messages) instead
-  // of being silence. DDS takes exact names only: there the listed robots' channels.
+  // Every robot's channels (LCM: a pattern; DDS: the topics other participants publish, as they appear):
+  // a robot that is not served, or signs with another key, is then heard, counted, named in the log and
+  // told (the inbox refuses its messages) instead of being silence. A transport without patterns: the
+  // listed robots' channels.
   if (config.robots.empty()) {
     patterns.push_back("rgbdmap/*");
   } else if (!transport.subscribe("rgbdmap/*", gate.handler())) {

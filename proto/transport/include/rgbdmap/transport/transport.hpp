@@ -35,7 +35,8 @@ class Transport {
   virtual ~Transport() = default;
 
   virtual Status publish(const std::string& channel, const uint8_t* data, size_t size) = 0;
-  /// Exact channel name, or a prefix ending in '*' ("rgbdmap/robot1/*"; LCM only).
+  /// Exact channel name, or a prefix ending in '*' ("rgbdmap/robot1/*"; on DDS the topics other
+  /// participants publish, found as they appear).
   virtual Status subscribe(const std::string& channel, Handler handler) = 0;
   /// Starts the receive thread. Subscriptions may be added before or after.
   virtual Status start() = 0;
@@ -69,6 +70,8 @@ bool isLatestForLateJoiners(const std::string& channel, const TransportOptions& 
 /// DDS topic name for a channel: letters and digits stay, '/' becomes "__", every other byte becomes
 /// "_xHH" (hex), so the mapping is one-to-one; a leading digit is escaped too.
 std::string ddsTopicName(const std::string& channel);
+/// The channel of a DDS topic name (the inverse of ddsTopicName); false for a name ddsTopicName never makes.
+bool channelFromDdsTopic(const std::string& topic, std::string* channel);
 
 /// True if `channel` matches a subscription pattern (exact, or prefix when the pattern ends in '*').
 bool channelMatches(const std::string& pattern, const std::string& channel);
