@@ -1,11 +1,12 @@
 #!/usr/bin/env bash
 # Fault benchmark: every fault of tests/integration/faults.sh (clean, 30 % and 60 % message loss,
-# 5 % datagram loss, server kill -9 x5) over LCM and over Cyclone DDS, two robots on a synthetic 200-frame
-# loop, each run inside a private loopback-only network namespace. Prints one row per run: keyframes sent /
-# acknowledged / stored (both robots), retransmissions, ack latency median and p90 (the worse robot),
-# merged maps and the final ATE of the server's keyframes. Then the two faults that do not run over
-# processes here: a flooding robot (in-process against the real MapServer, MapServerFair.*) and a full
-# disk (tests/integration/disk_full.sh, a private tmpfs), with what they measured. Needs root; jq.
+# 5 % datagram loss, 30 % datagram loss with the default link settings (LCM only), server kill -9 x5)
+# over LCM and over Cyclone DDS, two robots on a synthetic 200-frame loop, each run inside a private
+# loopback-only network namespace. Prints one row per run: keyframes sent / acknowledged / stored (both
+# robots), retransmissions, ack latency median and p90 (the worse robot), merged maps and the final ATE of
+# the server's keyframes. Then the two faults that do not run over processes here: a flooding robot
+# (in-process against the real MapServer, MapServerFair.*) and a full disk
+# (tests/integration/disk_full.sh, a private tmpfs), with what they measured. Needs root; jq.
 #
 # Usage: bash deploy/bench_faults.sh [--out DIR] [--faults "clean loss30 ..."] [--transports "lcm dds"]
 #          [--seed N]
@@ -13,7 +14,7 @@
 set -u
 repo="$(cd "$(dirname "$0")/.." && pwd)"
 bin="${RGBDMAP_BIN:-$repo/build/bin}"
-out="out/bench_faults" faults="clean loss30 loss60 dgram5 kill9" transports="lcm dds" seed=7
+out="out/bench_faults" faults="clean loss30 loss60 dgram5 dgram30 kill9" transports="lcm dds" seed=7
 while [ $# -gt 0 ]; do
   case "$1" in
     --out) out="$2"; shift 2 ;;

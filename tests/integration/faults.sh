@@ -15,6 +15,7 @@
 #   dgram5    5 % of the UDP datagrams: DDS via Cyclone's Internal/Test/XmitLossiness (a test config
 #             derived from deploy/dds/cyclonedds-loopback.xml); LCM: 5 % of the IP packets (MTU 1500)
 #             through rgbdmap-lossy-relay between the robots' and the server's multicast groups
+#   dgram30   30 % of the datagrams through the relay (LCM only), the robots' link at its defaults
 #   kill9     the server is killed (SIGKILL) at five random moments of the run and restarted on the same
 #             map directory each time (the robots at 30 Hz here, not --fast: the run must last the kills)
 #   flood, diskfull: exit 77 here, see fault_flood and fault_diskfull below
@@ -67,8 +68,11 @@ write_configs() {
     i=$((i + 1))
     od -An -tx1 -N32 /dev/urandom | tr -d ' \n' >"$out/keys/$r.key"
     echo "$r $(cat "$out/keys/$r.key")" >>"$out/keys/server_keys.txt"
-    printf 'robot:\n  id: %s\n  key_file: keys/%s.key\ntransport:\n  url: "%s"\nlink:\n  final_wait_s: %s\n  chunk_bytes: %s\n  reliable: {max_attempts: %s}\n' \
-      "$r" "$r" "$(url_for "$i")" "$final_wait" "$chunk_bytes" "$max_attempts" >"$out/client_$r.yaml"
+    printf 'robot:\n  id: %s\n  key_file: keys/%s.key\ntransport:\n  url: "%s"\nlink:\n  chunk_bytes: %s\n' \
+      "$r" "$r" "$(url_for "$i")" "$chunk_bytes" >"$out/client_$r.yaml"
+    # empty: the default
+    [ -n "$final_wait" ] && printf '  final_wait_s: %s\n' "$final_wait" >>"$out/client_$r.yaml"
+    [ -n "$max_attempts" ] && printf '  reliable: {max_attempts: %s}\n' "$max_attempts" >>"$out/client_$r.yaml"
   done
   chmod 600 "$out/keys/"*
   printf 'server:\n  map_dir: %s\n  robots: "robot0,robot1"\n  transport: "%s"\n  keys_file: %s\n' \
@@ -151,11 +155,19 @@ fault_dgram5_dds() {  # 50 per mille of Cyclone's outgoing datagrams dropped, in
 # LCM: the robots on one multicast group and port, the server on another, rgbdmap-lossy-relay between them
 # dropping 5 % of the IP packets (--mtu 1500: a datagram is lost with any of its fragments). The robots
 # send keyframes in chunks of 1100 bytes (the udpm:// default), one datagram each.
-fault_dgram5_lcm() {
+fault_dgram5_lcm() { relay_loss 0.05; }
+# dgram30 (LCM): 30 % of the datagrams through the relay, the robots with the default link configuration
+# (final wait, attempts): what a robot on a bad Wi-Fi link meets.
+fault_dgram30() {
+  [ "$transport" = lcm ] || { echo "SKIP: dgram30 runs over LCM (the relay)"; exit 77; }
+  final_wait="" max_attempts=""
+  relay_loss 0.3
+}
+relay_loss() {
   [ -x "$bin/rgbdmap-lossy-relay" ] || { echo "FAIL: no $bin/rgbdmap-lossy-relay"; exit 1; }
   server_url='udpm://239.255.76.68:7668?ttl=0&recv_buf_size=8388608'
   write_configs
-  "$bin/rgbdmap-lossy-relay" --a "$lcm_url" --b "$server_url" --drop-datagrams 0.05 --mtu 1500 \
+  "$bin/rgbdmap-lossy-relay" --a "$lcm_url" --b "$server_url" --drop-datagrams "$1" --mtu 1500 \
     --seed "$seed" --duration 170 --stats "$out/relay.json" >"$out/logs/relay.log" 2>&1 &
   local relay=$!
   sleep 0.3

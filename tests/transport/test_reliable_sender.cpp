@@ -90,6 +90,37 @@ TEST(TransportReliableSender, ZeroMaxAttemptsResendsUntilAcknowledged) {
   EXPECT_TRUE(sender.acknowledge(1));
 }
 
+TEST(TransportReliableSender, ProgressIsAnRttSampleRestartsTheTimeoutAndTheAttemptCount) {
+  ReliableSenderOptions o;
+  o.initial_backoff = 2000ms;  // no sample yet: every id would wait 2 s
+  o.min_backoff = 20ms;
+  o.max_backoff = 2000ms;
+  o.jitter = 0.0;
+  o.max_attempts = 3;
+  SendLog log;
+  ReliableSender sender(o, log.fn());
+  sender.start();
+  ASSERT_TRUE(sender.submit(1));
+  sender.progress(1, 5ms);  // e.g. a ChunkAck 5 ms after the chunks went out
+  const auto s = sender.stats();
+  EXPECT_EQ(s.rtt_samples, 1u);
+  EXPECT_NEAR(s.rto_ms, 20.0, 1e-6) << "SRTT 5 + max(G 10, 4 x RTTVAR 2.5) -> 15, raised to min_backoff";
+  // The id's timeout restarted from that RTO: resent within ~0.5 s, not after the 2 s it started with.
+  const auto deadline = Clock::now() + 1500ms;
+  while (log.count(1) < 2 && Clock::now() < deadline) std::this_thread::sleep_for(5ms);
+  EXPECT_GE(log.count(1), 2u);
+  // max_attempts counts sends without any answer: progress after two more keeps the id pending.
+  while (log.count(1) < 3 && Clock::now() < deadline + 1s) std::this_thread::sleep_for(2ms);
+  sender.progress(1, 5ms);
+  std::this_thread::sleep_for(100ms);  // two more timeouts of 20 and 40 ms: sends 4 and 5
+  EXPECT_EQ(sender.stats().given_up, 0u) << log.count(1) << " sends";
+  EXPECT_GE(log.count(1), 4u);
+  sender.progress(99, 5ms);  // an id not pending: a sample, nothing else
+  EXPECT_EQ(sender.stats().rtt_samples, 3u);
+  ASSERT_TRUE(sender.waitUntilEmpty(3s)) << "given up after 3 sends without an answer";
+  EXPECT_EQ(sender.stats().given_up, 1u);
+}
+
 TEST(TransportReliableSender, QueueIsBoundedAndAckFreesASlot) {
   ReliableSenderOptions o;
   o.max_pending = 4;

@@ -12,7 +12,10 @@
 namespace rgbdmap {
 namespace {
 
-constexpr int kIdleRoundsBeforeReseal = 3;  ///< timeouts: ~0.7 s after the last chunk from a 100 ms RTO
+/// Every chunk arrived but no KeyframeAck (lost, or the server did not queue the keyframe): a new transfer
+/// only after this many times the usual wait for the server to store it, and at least kMinResealWait.
+constexpr double kResealAfterStoreAcks = 4.0;
+constexpr std::chrono::milliseconds kMinResealWait{500};
 constexpr int kMaxAckRounds = 16;           ///< resends answering ChunkAcks per transfer
 
 std::vector<int> missingChunks(const std::vector<bool>& received) {
@@ -47,8 +50,11 @@ Status RobotLink::Impl::transmitChunked(int keyframe_id) {
     ++entry.transmissions;
     if (entry.transfer.envelope) missing = missingChunks(entry.transfer.received);
     // Every chunk arrived: the KeyframeAck usually follows once the server stored the keyframe; a new
-    // transfer only after a few deadlines without it (the server may have refused to queue the keyframe).
-    if (entry.transfer.envelope && missing.empty() && ++entry.transfer.idle_rounds < kIdleRoundsBeforeReseal)
+    // transfer only when it is much later than usual (lost, or the server did not queue the keyframe).
+    const auto reseal_after = std::max<Clock::duration>(
+        kMinResealWait, std::chrono::duration_cast<Clock::duration>(
+                            std::chrono::duration<double, std::milli>(kResealAfterStoreAcks * store_ack_ms_)));
+    if (entry.transfer.envelope && missing.empty() && Clock::now() - entry.transfer.completed < reseal_after)
       return Status::success();
     if (!missing.empty()) {
       envelope = entry.transfer.envelope;
@@ -100,6 +106,11 @@ Status RobotLink::Impl::sendChunks(int keyframe_id, const std::shared_ptr<const 
   }
   std::lock_guard<std::mutex> lock(mutex_);
   counts_.chunks_sent += sent;
+  auto it = sent_.find(keyframe_id);
+  if (it != sent_.end() && it->second.transfer.transfer_id == transfer_id) {
+    it->second.transfer.burst_sent = Clock::now();
+    it->second.transfer.burst_answered = false;
+  }
   return result;
 }
 
@@ -117,8 +128,15 @@ void RobotLink::Impl::handle(const msg::ChunkAck& ack) {
       return;  // an older transfer of this keyframe, or not ours
     for (size_t i = 0; i < transfer.received.size(); ++i)
       if (msg::chunkReceived(ack.received, static_cast<int>(i))) transfer.received[i] = true;
+    if (!transfer.burst_answered) {  // the server is there: the next timeout restarts from the RTO
+      transfer.burst_answered = true;
+      reliable_.progress(static_cast<uint64_t>(ack.keyframe_id), Clock::now() - transfer.burst_sent);
+    }
     missing = missingChunks(transfer.received);
-    if (missing.empty()) return;                        // the KeyframeAck follows once the server stored it
+    if (missing.empty()) {  // the KeyframeAck follows once the server stored it
+      if (transfer.completed == Clock::time_point{}) transfer.completed = Clock::now();
+      return;
+    }
     if (++transfer.ack_rounds > kMaxAckRounds) return;  // no ping-pong with a server that keeps refusing
     envelope = transfer.envelope;
     counts_.chunks_resent += missing.size();

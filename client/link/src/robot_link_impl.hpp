@@ -58,8 +58,10 @@ class RobotLink::Impl : public std::enable_shared_from_this<RobotLink::Impl> {
     std::shared_ptr<const msg::Bytes> envelope;
     int64_t transfer_id = -1;
     std::vector<bool> received;  ///< per chunk, from the server's ChunkAcks
-    int idle_rounds = 0;         ///< retransmission deadlines passed with every chunk received
+    Clock::time_point completed{};  ///< a ChunkAck said every chunk arrived (the epoch before)
     int ack_rounds = 0;          ///< resends answering a ChunkAck (bounded; then only the deadlines resend)
+    Clock::time_point burst_sent{};  ///< the last chunk of the latest burst went out
+    bool burst_answered = true;      ///< a ChunkAck came since (its round trip: ReliableSender::progress)
   };
   struct SentKeyframe {
     int segment = 0;
@@ -147,6 +149,9 @@ class RobotLink::Impl : public std::enable_shared_from_this<RobotLink::Impl> {
   int last_keyframe_id_ = -1, segment_ = 0;
   TrackingState tracking_state_ = TrackingState::kInitialized;
   SampleReservoir ack_latency_ms_{1024};
+  /// Smoothed time from "every chunk arrived" to the KeyframeAck (the server storing it): a transfer is
+  /// sealed anew only when its ack is this late several times over (robot_link_chunks.cpp).
+  double store_ack_ms_ = 0.0;
   RobotLinkStats counts_;  ///< the counters kept here (the rest come from the sender and rejects_)
   std::atomic<uint64_t> bytes_sent_{0}, bytes_received_{0};
   /// Hashes of the last commands this link published: their echo on the subscribed cmd_vel channel is

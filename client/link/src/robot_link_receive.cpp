@@ -105,6 +105,11 @@ void RobotLink::Impl::handle(const msg::KeyframeAck& ack) {
     } else {
       entry.answer = ack.accepted ? Answer::kAccepted : Answer::kRefused;
       entry.message.reset();
+      if (entry.transfer.completed != Clock::time_point{}) {  // how long the server took to store it
+        const double ms =
+            std::chrono::duration<double, std::milli>(Clock::now() - entry.transfer.completed).count();
+        store_ack_ms_ = store_ack_ms_ == 0.0 ? ms : 0.875 * store_ack_ms_ + 0.125 * ms;
+      }
       entry.transfer = ChunkTransfer{};
       ++(ack.accepted ? counts_.keyframes_acked : counts_.keyframes_refused);
       if (ack.accepted) entry.accepted_utime = nowUtime();

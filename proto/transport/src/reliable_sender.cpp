@@ -95,7 +95,7 @@ Status ReliableSender::submit(uint64_t id) {
       return Status::failure("reliable send queue full");
     }
     Item item;
-    item.attempts = 1;
+    item.attempts = item.unanswered = 1;
     item.first_sent = Clock::now();
     item.delay = rto_;
     schedule(id, item, item.first_sent);
@@ -122,6 +122,18 @@ bool ReliableSender::acknowledge(uint64_t id) {
   ++stats_.acked;
   changed_.notify_all();
   return true;
+}
+
+void ReliableSender::progress(uint64_t id, nanoseconds round_trip) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  noteSample(round_trip);
+  auto it = items_.find(id);
+  if (it == items_.end()) return;
+  deadlines_.erase({it->second.deadline, id});
+  it->second.delay = rto_;
+  it->second.unanswered = 0;
+  schedule(id, it->second, Clock::now());
+  if (deadlines_.begin()->second == id) wake_.notify_all();
 }
 
 size_t ReliableSender::pending() const {
@@ -168,13 +180,14 @@ void ReliableSender::run() {
       const uint64_t id = deadlines_.begin()->second;
       deadlines_.erase(deadlines_.begin());
       Item& item = items_.at(id);
-      if (options_.max_attempts > 0 && item.attempts >= options_.max_attempts) {
+      if (options_.max_attempts > 0 && item.unanswered >= options_.max_attempts) {
         items_.erase(id);
         ++stats_.given_up;
         changed_.notify_all();
         continue;
       }
       ++item.attempts;
+      ++item.unanswered;
       ++stats_.retransmissions;
       item.delay = backedOff(options_, item.delay, rto_);
       if (options_.adaptive) rto_ = std::max(rto_, item.delay);  // kept for new ids (RFC 6298 5.5)

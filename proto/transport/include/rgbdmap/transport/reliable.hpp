@@ -32,7 +32,8 @@ struct ReliableSenderOptions {
   std::chrono::milliseconds max_backoff{2000};     // the RTO and each id's backoff stop growing here
   double backoff_factor = 2.0;                     // growth per retransmission
   double jitter = 0.2;    // each delay is scaled by 1 + U(-jitter, +jitter); adaptive: 1 + U(0, jitter)
-  int max_attempts = 20;  // sends per id (first included); then it is given up. 0: until acknowledged
+  int max_attempts = 20;  // sends per id (first included) without an answer (progress() starts them
+                          // again); then it is given up. 0: until acknowledged
   uint64_t seed = 1;      // jitter random stream
 };
 
@@ -79,6 +80,12 @@ class ReliableSender {
   Status submit(uint64_t id);
   /// Removes `id`; true if it was pending.
   bool acknowledge(uint64_t id);
+  /// `id` made progress, answered after `round_trip` by something other than its ack (a ChunkAck for the
+  /// chunks of a keyframe): an RTT sample (it ends a backoff, RFC 6298 5.7; Karn's rule leaves none on a
+  /// link where every id needs more than one send), the id's next timeout restarts from the RTO and its
+  /// max_attempts count starts again (an id is given up after max_attempts sends without any answer).
+  /// Nothing for an id not pending.
+  void progress(uint64_t id, std::chrono::nanoseconds round_trip);
   size_t pending() const;
   ReliableSenderStats stats() const;
 
@@ -108,7 +115,8 @@ class ReliableSender {
     Clock::time_point first_sent;  // for the ack latency sample
     Clock::time_point deadline;
     std::chrono::nanoseconds delay{0};  // unjittered timeout of the latest send
-    int attempts = 0;
+    int attempts = 0;                   // sends (Karn's rule)
+    int unanswered = 0;                 // sends since the id's last progress (max_attempts)
   };
   void run();
   void schedule(uint64_t id, Item& item, Clock::time_point now);  // caller holds mutex_
