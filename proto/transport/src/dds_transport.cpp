@@ -155,7 +155,8 @@ void DdsTransport::discover() {
   for (;;) {
     void* samples[kBatch] = {nullptr};
     dds_sample_info_t infos[kBatch];
-    const dds_return_t n = dds_take(publications_, samples, infos, kBatch, kBatch);
+    const dds_entity_t reader = publications_.load();
+    const dds_return_t n = dds_take(reader, samples, infos, kBatch, kBatch);
     if (n <= 0) break;
     std::lock_guard<std::mutex> lock(entities_mutex_);
     for (dds_return_t i = 0; i < n; ++i) {
@@ -182,7 +183,7 @@ void DdsTransport::discover() {
       }
       ++discovered_readers_;
     }
-    dds_return_loan(publications_, samples, n);
+    dds_return_loan(reader, samples, n);
     if (n < kBatch) break;
   }
 }
@@ -215,7 +216,7 @@ void DdsTransport::receiveLoop() {
     }
     for (dds_return_t i = 0; i < n && i < 64; ++i) {
       if (triggered[i] == kGuardAttach) continue;
-      if (publications_ > 0 && triggered[i] == static_cast<dds_attach_t>(publications_))
+      if (const dds_entity_t p = publications_.load(); p > 0 && triggered[i] == static_cast<dds_attach_t>(p))
         discover();
       else
         drain(static_cast<dds_entity_t>(triggered[i]));

@@ -52,7 +52,8 @@ class DdsTransport final : public Transport {
   std::map<dds_entity_t, std::string> reader_channels_;
   static constexpr size_t kMaxDiscoveredReaders = 4096;
   std::vector<std::string> prefixes_;  ///< prefix subscriptions ("rgbdmap/*")
-  dds_entity_t publications_ = 0;      ///< reader of DCPSPublication, once a prefix is subscribed
+  /// Reader of DCPSPublication, once a prefix is subscribed (read by the receive thread without the lock).
+  std::atomic<dds_entity_t> publications_{0};
   size_t discovered_readers_ = 0;
   std::thread thread_;
   std::mutex lifecycle_mutex_;
