@@ -182,30 +182,35 @@ void Bridge::Impl::publishStatic() {
 }
 
 void Bridge::Impl::run() {
-  uint64_t seen = 0;
+  uint64_t seen = 0, copied = 0;
+  std::vector<viewer::RobotSnapshot> snapshots;
+  std::vector<std::string> frames(robots.size());
+  size_t main_index = 0;
   publishStatic();
   while (!stopping) {
     seen = view.waitForChange(seen, options.tf_period_s);
     if (stopping) break;
-    std::vector<viewer::RobotSnapshot> snapshots;
-    std::vector<std::vector<msg::MapLoopEdge>> loops;
-    for (const std::string& id : options.robots) {
-      snapshots.push_back(view.snapshot(id));
-      loops.push_back(snapshots.back().loops);
-    }
-    const auto groups = mapGroups(options.robots, loops);
-    std::vector<std::string> frames(robots.size());
-    for (size_t g = 0; g < groups.size(); ++g)
-      for (const std::string& id : groups[g]) {
-        const size_t i = static_cast<size_t>(std::find(options.robots.begin(), options.robots.end(), id) -
-                                             options.robots.begin());
-        frames[i] = g == 0 ? "map" : rosNameToken(groups[g].front()) + "/map";
+    if (snapshots.empty() || seen != copied) {  // a /tf tick with nothing new reuses the last copies
+      copied = seen;
+      snapshots.clear();
+      std::vector<std::vector<msg::MapLoopEdge>> loops;
+      for (const std::string& id : options.robots) {
+        snapshots.push_back(view.snapshot(id));
+        loops.push_back(snapshots.back().loops);
       }
+      const auto groups = mapGroups(options.robots, loops);
+      for (size_t g = 0; g < groups.size(); ++g)
+        for (const std::string& id : groups[g]) {
+          const size_t i = static_cast<size_t>(std::find(options.robots.begin(), options.robots.end(), id) -
+                                               options.robots.begin());
+          frames[i] = g == 0 ? "map" : rosNameToken(groups[g].front()) + "/map";
+        }
+      main_index = static_cast<size_t>(
+          std::find(options.robots.begin(), options.robots.end(), groups.front().front()) -
+          options.robots.begin());
+    }
     for (size_t i = 0; i < robots.size(); ++i) publishRobot(robots[i], snapshots[i], frames[i]);
-    const std::string& main = groups.front().front();
-    const size_t main_index = static_cast<size_t>(
-        std::find(options.robots.begin(), options.robots.end(), main) - options.robots.begin());
-    publishMainMap(main, snapshots[main_index]);
+    publishMainMap(options.robots[main_index], snapshots[main_index]);
     if (secondsSince(last_tf) >= options.tf_period_s) {
       last_tf = Clock::now();
       publishTransforms(snapshots, frames);
