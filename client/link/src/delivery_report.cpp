@@ -30,7 +30,7 @@ std::string breakdown(const RobotRunResult& r) {
 std::string otherServerRejects(const RobotLinkStats& l) {
   std::string out;
   for (const auto& [reason, count] : l.server_rejects)
-    if (reason != "bad_signature" && reason != "unknown_robot" && reason != "unknown_sender" && count > 0)
+    if (reason != "bad_signature" && !isNotServedReason(reason) && count > 0)
       out += (out.empty() ? "" : ", ") + std::to_string(count) + " " + reason;
   return out;
 }
@@ -59,6 +59,10 @@ std::string heardWhy(const RobotLinkStats& l) {
 }
 
 }  // namespace
+
+bool isNotServedReason(const std::string& reason) {
+  return reason == "unknown_robot" || reason == "unknown_sender";
+}
 
 std::string notServedReason(const RobotLinkStats& l) {
   if (l.server_rejects.count("unknown_robot") != 0) return "it is not in the server's robot list";

@@ -16,7 +16,7 @@ namespace {
 /// only after this many times the usual wait for the server to store it, and at least kMinResealWait.
 constexpr double kResealAfterStoreAcks = 4.0;
 constexpr std::chrono::milliseconds kMinResealWait{500};
-constexpr int kMaxAckRounds = 16;           ///< resends answering ChunkAcks per transfer
+constexpr int kMaxAckRounds = 16;  ///< resends answering ChunkAcks per transfer
 
 std::vector<int> missingChunks(const std::vector<bool>& received) {
   std::vector<int> out;
@@ -37,6 +37,12 @@ int resolveChunkBytes(int configured, const std::string& transport_url) {
   return transport_url.rfind("udpm://", 0) == 0 ? kUdpmChunkBytes : 0;
 }
 
+RobotLink::Impl::Clock::duration RobotLink::Impl::resealAfter() const {
+  return std::max<Clock::duration>(
+      kMinResealWait, std::chrono::duration_cast<Clock::duration>(
+                          std::chrono::duration<double, std::milli>(kResealAfterStoreAcks * store_ack_ms_)));
+}
+
 Status RobotLink::Impl::transmitChunked(int keyframe_id) {
   std::shared_ptr<const msg::Bytes> envelope;
   int64_t transfer_id = -1;
@@ -51,10 +57,7 @@ Status RobotLink::Impl::transmitChunked(int keyframe_id) {
     if (entry.transfer.envelope) missing = missingChunks(entry.transfer.received);
     // Every chunk arrived: the KeyframeAck usually follows once the server stored the keyframe; a new
     // transfer only when it is much later than usual (lost, or the server did not queue the keyframe).
-    const auto reseal_after = std::max<Clock::duration>(
-        kMinResealWait, std::chrono::duration_cast<Clock::duration>(
-                            std::chrono::duration<double, std::milli>(kResealAfterStoreAcks * store_ack_ms_)));
-    if (entry.transfer.envelope && missing.empty() && Clock::now() - entry.transfer.completed < reseal_after)
+    if (entry.transfer.envelope && missing.empty() && Clock::now() - entry.transfer.completed < resealAfter())
       return Status::success();
     if (!missing.empty()) {
       envelope = entry.transfer.envelope;

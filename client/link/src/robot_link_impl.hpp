@@ -57,9 +57,9 @@ class RobotLink::Impl : public std::enable_shared_from_this<RobotLink::Impl> {
   struct ChunkTransfer {  ///< the sealed keyframe envelope being sent in chunks
     std::shared_ptr<const msg::Bytes> envelope;
     int64_t transfer_id = -1;
-    std::vector<bool> received;  ///< per chunk, from the server's ChunkAcks
+    std::vector<bool> received;     ///< per chunk, from the server's ChunkAcks
     Clock::time_point completed{};  ///< a ChunkAck said every chunk arrived (the epoch before)
-    int ack_rounds = 0;          ///< resends answering a ChunkAck (bounded; then only the deadlines resend)
+    int ack_rounds = 0;  ///< resends answering a ChunkAck (bounded; then only the deadlines resend)
     Clock::time_point burst_sent{};  ///< the last chunk of the latest burst went out
     bool burst_answered = true;      ///< a ChunkAck came since (its round trip: ReliableSender::progress)
   };
@@ -90,6 +90,8 @@ class RobotLink::Impl : public std::enable_shared_from_this<RobotLink::Impl> {
 
   // Chunked keyframes (robot_link_chunks.cpp).
   bool chunking() const { return options_.chunk_bytes > 0; }
+  /// How long a transfer whose every chunk arrived waits for its KeyframeAck before it is sealed anew.
+  Clock::duration resealAfter() const;      ///< caller holds mutex_
   Status transmitChunked(int keyframe_id);  ///< the missing chunks, or a new transfer when none are missing
   Status sendChunks(int keyframe_id, const std::shared_ptr<const msg::Bytes>& envelope, int64_t transfer_id,
                     const std::vector<int>& indices);
@@ -107,6 +109,8 @@ class RobotLink::Impl : public std::enable_shared_from_this<RobotLink::Impl> {
   void handle(const msg::OccupancySlice& slice);
   void handle(const msg::VelocityCommand& command);
   void handle(const msg::ServerStatus& status);
+  /// A ServerStatus from "server" read without verifying it (a hint only), or nothing.
+  std::optional<msg::ServerStatus> unverifiedStatus(const uint8_t* data, size_t size) const;
   void readUnverifiedStatus(const uint8_t* data, size_t size);  ///< one that failed its signature check
   /// The unsigned answer of a server that does not serve this robot (server intake's RefusalNotices):
   /// counted and read as a hint; false for anything else.

@@ -4,6 +4,7 @@
 #include <algorithm>
 
 #include <functional>
+#include <optional>
 #include <string_view>
 #include "rgbdmap/common/logging.hpp"
 #include "rgbdmap/link/delivery_report.hpp"
@@ -185,13 +186,19 @@ void RobotLink::Impl::handle(const msg::ServerStatus& status) {
   noteServerRejects(status, true);
 }
 
-void RobotLink::Impl::readUnverifiedStatus(const uint8_t* data, size_t size) {
-  // No replay guard and no counters: nothing here is trusted or acted on; it only words the diagnosis and
-  // the delivery report of a robot that cannot verify the server (a wrong key on one side, or a server that
-  // does not serve it and answers with an unsigned notice).
+std::optional<msg::ServerStatus> RobotLink::Impl::unverifiedStatus(const uint8_t* data, size_t size) const {
+  // No replay guard and no counters: nothing read here is trusted or acted on; it only words the diagnosis
+  // and the delivery report of a robot that cannot verify the server (a wrong key on one side, or a server
+  // that does not serve it and answers with an unsigned notice).
   Result<msg::OpenedEnvelope> opened = msg::openEnvelope(data, size, unverified_keys_, nullptr);
-  if (!opened || opened->header.sender != msg::kServerId) return;
+  if (!opened || opened->header.sender != msg::kServerId) return std::nullopt;
   Result<msg::ServerStatus> status = msg::decodeMessage<msg::ServerStatus>(*opened);
+  if (!status) return std::nullopt;
+  return std::move(*status);
+}
+
+void RobotLink::Impl::readUnverifiedStatus(const uint8_t* data, size_t size) {
+  const std::optional<msg::ServerStatus> status = unverifiedStatus(data, size);
   if (!status) return;
   std::lock_guard<std::mutex> lock(mutex_);
   if (!counts_.server_rejects_verified) noteServerRejects(*status, false);
@@ -199,15 +206,12 @@ void RobotLink::Impl::readUnverifiedStatus(const uint8_t* data, size_t size) {
 
 bool RobotLink::Impl::readNotServedNotice(const uint8_t* data, size_t size) {
   // Read before the signature check, which it would fail (it is unsigned): not a rejection to count or log.
-  Result<msg::OpenedEnvelope> opened = msg::openEnvelope(data, size, unverified_keys_, nullptr);
-  if (!opened || opened->header.sender != msg::kServerId || opened->type != msg::MessageType::kServerStatus)
-    return false;
-  Result<msg::ServerStatus> status = msg::decodeMessage<msg::ServerStatus>(*opened);
+  const std::optional<msg::ServerStatus> status = unverifiedStatus(data, size);
   if (!status || !status->robots.empty()) return false;
-  bool notice = false;
-  for (const msg::RejectCount& r : status->rejects)
-    notice = notice || (r.robot_id == options_.robot_id &&
-                        (r.reason == "unknown_robot" || r.reason == "unknown_sender"));
+  const bool notice =
+      std::any_of(status->rejects.begin(), status->rejects.end(), [&](const msg::RejectCount& r) {
+        return r.robot_id == options_.robot_id && isNotServedReason(r.reason);
+      });
   if (!notice) return false;
   std::lock_guard<std::mutex> lock(mutex_);
   ++counts_.not_served_notices;
@@ -232,9 +236,12 @@ void RobotLink::Impl::diagnoseLink(Clock::time_point now) {
   const int64_t bad_there = reported == counts_.server_rejects.end() ? 0 : reported->second;
   const std::string why_not_served = notServedReason(counts_);
   std::string cause = "no server heard";
-  if (heard_from_server_) cause = "server heard";
-  else if (!why_not_served.empty()) cause = "not served by the server";
-  else if (bad_here > 0 || bad_there > 0) cause = "keys differ";
+  if (heard_from_server_)
+    cause = "server heard";
+  else if (!why_not_served.empty())
+    cause = "not served by the server";
+  else if (bad_here > 0 || bad_there > 0)
+    cause = "keys differ";
   if (cause == counts_.diagnosis) return;
   const bool first = counts_.diagnosis.empty();
   counts_.diagnosis = cause;

@@ -26,8 +26,7 @@ void RobotPublisher::publishNotice(const std::string& robot_id, const msg::Serve
   std::lock_guard<std::mutex> lock(mutex_);
   const auto bytes = notice_signer_.seal(notice, nowUtime());
   if (!bytes) return log::warn("server: cannot seal a notice for ", robot_id, ": ", bytes.error());
-  if (const Status s = transport_.publish(*channel, *bytes); !s)
-    log::warn("server: publish on ", *channel, " failed: ", s.error());
+  publishLocked(*channel, *bytes);
 }
 
 int64_t RobotPublisher::nowUtime() {
@@ -45,13 +44,17 @@ msg::Signer& RobotPublisher::signerFor(const std::string& robot_id) {
   return *signer;
 }
 
-void RobotPublisher::sendLocked(const std::string& robot_id, const std::string& channel,
-                                const msg::Bytes& bytes) {
+bool RobotPublisher::publishLocked(const std::string& channel, const msg::Bytes& bytes) {
   if (const Status s = transport_.publish(channel, bytes); !s) {
     log::warn("server: publish on ", channel, " failed: ", s.error());
-    return;
+    return false;
   }
-  registry_.addBytesSent(robot_id, bytes.size());
+  return true;
+}
+
+void RobotPublisher::sendLocked(const std::string& robot_id, const std::string& channel,
+                                const msg::Bytes& bytes) {
+  if (publishLocked(channel, bytes)) registry_.addBytesSent(robot_id, bytes.size());
 }
 
 }  // namespace rgbdmap

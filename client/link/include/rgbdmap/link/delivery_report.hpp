@@ -23,8 +23,11 @@ struct DeliveryReport {
 /// A server never heard that sent a "not serving" notice comes before that.
 DeliveryReport deliveryReport(const RobotRunResult& result, const std::string& robot_id = "");
 
-/// Why a server says it does not serve this robot, from its unsigned notice (RobotLinkStats::server_rejects
-/// "unknown_robot": not in server.robots; "unknown_sender": no key for it), or "" when none said so.
+/// The reasons of a server's unsigned "not serving" notice: "unknown_robot" (not in server.robots) and
+/// "unknown_sender" (no key for the robot).
+bool isNotServedReason(const std::string& reason);
+/// Why a server says it does not serve this robot, from its notice (RobotLinkStats::server_rejects), or ""
+/// when none said so.
 std::string notServedReason(const RobotLinkStats& link);
 
 }  // namespace rgbdmap

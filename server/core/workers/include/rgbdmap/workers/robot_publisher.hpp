@@ -46,6 +46,7 @@ class RobotPublisher {
  private:
   static int64_t nowUtime();
   msg::Signer& signerFor(const std::string& robot_id);  // caller holds mutex_
+  bool publishLocked(const std::string& channel, const msg::Bytes& bytes);  ///< false (logged) on failure
   void sendLocked(const std::string& robot_id, const std::string& channel, const msg::Bytes& bytes);
 
   transport::Transport& transport_;
