@@ -4,6 +4,7 @@
 // still drives retransmission when no answer comes: it resends what is missing, or seals a new transfer
 // when every chunk arrived but no KeyframeAck did (the server may have refused to queue it).
 #include <algorithm>
+#include <cmath>
 
 #include "rgbdmap/common/logging.hpp"
 #include "rgbdmap/proto/chunking.hpp"
@@ -13,9 +14,12 @@ namespace rgbdmap {
 namespace {
 
 /// Every chunk arrived but no KeyframeAck (lost, or the server did not queue the keyframe): a new transfer
-/// only after this many times the usual wait for the server to store it, and at least kMinResealWait.
+/// only after this many times the usual wait for the server to store it, and at least kMinResealWait; the
+/// wait doubles with each new transfer of the same keyframe, up to kMaxResealWait (a server that cannot
+/// store, e.g. on a full disk, is not flooded with whole keyframes every half second).
 constexpr double kResealAfterStoreAcks = 4.0;
 constexpr std::chrono::milliseconds kMinResealWait{500};
+constexpr std::chrono::milliseconds kMaxResealWait{8000};
 constexpr int kMaxAckRounds = 16;  ///< resends answering ChunkAcks per transfer
 
 std::vector<int> missingChunks(const std::vector<bool>& received) {
@@ -37,10 +41,11 @@ int resolveChunkBytes(int configured, const std::string& transport_url) {
   return transport_url.rfind("udpm://", 0) == 0 ? kUdpmChunkBytes : 0;
 }
 
-RobotLink::Impl::Clock::duration RobotLink::Impl::resealAfter() const {
-  return std::max<Clock::duration>(
-      kMinResealWait, std::chrono::duration_cast<Clock::duration>(
-                          std::chrono::duration<double, std::milli>(kResealAfterStoreAcks * store_ack_ms_)));
+RobotLink::Impl::Clock::duration RobotLink::Impl::resealAfter(int reseals) const {
+  const double ms = std::max<double>(kMinResealWait.count(), kResealAfterStoreAcks * store_ack_ms_) *
+                    std::ldexp(1.0, std::min(reseals, 8));
+  return std::chrono::duration_cast<Clock::duration>(
+      std::chrono::duration<double, std::milli>(std::min<double>(ms, kMaxResealWait.count())));
 }
 
 Status RobotLink::Impl::transmitChunked(int keyframe_id) {
@@ -57,7 +62,8 @@ Status RobotLink::Impl::transmitChunked(int keyframe_id) {
     if (entry.transfer.envelope) missing = missingChunks(entry.transfer.received);
     // Every chunk arrived: the KeyframeAck usually follows once the server stored the keyframe; a new
     // transfer only when it is much later than usual (lost, or the server did not queue the keyframe).
-    if (entry.transfer.envelope && missing.empty() && Clock::now() - entry.transfer.completed < resealAfter())
+    if (entry.transfer.envelope && missing.empty() &&
+        Clock::now() - entry.transfer.completed < resealAfter(entry.reseals))
       return Status::success();
     if (!missing.empty()) {
       envelope = entry.transfer.envelope;
@@ -86,6 +92,7 @@ Status RobotLink::Impl::transmitChunked(int keyframe_id) {
     std::lock_guard<std::mutex> lock(mutex_);
     auto it = sent_.find(keyframe_id);
     if (it == sent_.end() || it->second.answer != Answer::kPending) return Status::success();
+    if (it->second.transfer.envelope) ++it->second.reseals;
     it->second.transfer =
         ChunkTransfer{envelope, transfer_id, std::vector<bool>(static_cast<size_t>(count), false)};
   }

@@ -68,6 +68,7 @@ class RobotLink::Impl : public std::enable_shared_from_this<RobotLink::Impl> {
     SE3 T_odom_cam = SE3::Identity();
     std::unique_ptr<msg::Keyframe> message;  ///< encoded, unsealed; dropped once answered or last sent
     int transmissions = 0;
+    int reseals = 0;  ///< chunked: transfers sealed anew after the first
     Answer answer = Answer::kPending;
     Clock::time_point first_sent{};  ///< submitted (its first transmission follows at once)
     int64_t accepted_utime = 0;      ///< wall clock (us) of its accepting ack; 0 before
@@ -90,8 +91,9 @@ class RobotLink::Impl : public std::enable_shared_from_this<RobotLink::Impl> {
 
   // Chunked keyframes (robot_link_chunks.cpp).
   bool chunking() const { return options_.chunk_bytes > 0; }
-  /// How long a transfer whose every chunk arrived waits for its KeyframeAck before it is sealed anew.
-  Clock::duration resealAfter() const;      ///< caller holds mutex_
+  /// How long a transfer whose every chunk arrived waits for its KeyframeAck before it is sealed anew, after
+  /// `reseals` such transfers of the same keyframe.
+  Clock::duration resealAfter(int reseals) const;  ///< caller holds mutex_
   Status transmitChunked(int keyframe_id);  ///< the missing chunks, or a new transfer when none are missing
   Status sendChunks(int keyframe_id, const std::shared_ptr<const msg::Bytes>& envelope, int64_t transfer_id,
                     const std::vector<int>& indices);
