@@ -33,8 +33,13 @@ const char* toString(TrackingState state) {
   }
 }
 
-VisualOdometry::VisualOdometry(const CameraIntrinsics& intrinsics, const OdometryConfig& config)
-    : camera_(intrinsics), config_(config), extractor_(config.orb) {}
+VisualOdometry::VisualOdometry(const CameraIntrinsics& intrinsics, const OdometryConfig& config,
+                               int first_keyframe_id, int first_segment)
+    : camera_(intrinsics),
+      config_(config),
+      extractor_(config.orb),
+      first_keyframe_id_(first_keyframe_id),
+      segment_(first_segment) {}
 
 SE3 VisualOdometry::predictPose() const { return T_odom_last_ * velocity_; }
 
@@ -146,7 +151,7 @@ bool VisualOdometry::relocalize(const FrameFeatures& cur, const SE3& T_odom_pred
 std::shared_ptr<Keyframe> VisualOdometry::makeKeyframe(FrameFeatures features,
                                                        const TrackingResult& r) const {
   auto kf = std::make_shared<Keyframe>();
-  kf->id = static_cast<int>(keyframes_.size());
+  kf->id = first_keyframe_id_ + static_cast<int>(keyframes_.size());
   kf->segment = r.segment;
   kf->frame_index = r.frame_index;
   kf->timestamp = r.timestamp;

@@ -93,7 +93,7 @@ Result<OpenedEnvelope> openEnvelope(const uint8_t* data, size_t size, const KeyS
 
 namespace rgbdmap::msg {
 
-Signer::Signer(std::string sender, Bytes key, int64_t session)
-    : sender_(std::move(sender)), key_(std::move(key)), session_(session) {}
+Signer::Signer(std::string sender, Bytes key, int64_t session, int64_t first_seq)
+    : sender_(std::move(sender)), key_(std::move(key)), session_(session), next_seq_(first_seq) {}
 
 }  // namespace rgbdmap::msg

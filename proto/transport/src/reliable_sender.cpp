@@ -19,8 +19,12 @@ double toMs(nanoseconds d) { return std::chrono::duration<double, std::milli>(d)
 
 }  // namespace
 
-ReliableSender::ReliableSender(ReliableSenderOptions options, SendFn send)
-    : options_(options), send_(std::move(send)), rng_(options.seed), rto_(rto(options_, rtt_)) {}
+ReliableSender::ReliableSender(ReliableSenderOptions options, SendFn send, GiveUpFn given_up)
+    : options_(options),
+      send_(std::move(send)),
+      given_up_(std::move(given_up)),
+      rng_(options.seed),
+      rto_(rto(options_, rtt_)) {}
 
 ReliableSender::~ReliableSender() { stop(); }
 
@@ -163,7 +167,7 @@ bool ReliableSender::waitUntilEmpty(std::chrono::milliseconds timeout) {
 
 void ReliableSender::run() {
   std::unique_lock<std::mutex> lock(mutex_);
-  std::vector<uint64_t> due;
+  std::vector<uint64_t> due, dropped;
   while (!stopping_) {
     if (deadlines_.empty()) {
       wake_.wait(lock, [this] { return stopping_ || !deadlines_.empty(); });
@@ -176,6 +180,7 @@ void ReliableSender::run() {
       continue;
     }
     due.clear();
+    dropped.clear();
     while (!deadlines_.empty() && deadlines_.begin()->first <= now) {
       const uint64_t id = deadlines_.begin()->second;
       deadlines_.erase(deadlines_.begin());
@@ -184,6 +189,7 @@ void ReliableSender::run() {
         items_.erase(id);
         ++stats_.given_up;
         changed_.notify_all();
+        dropped.push_back(id);
         continue;
       }
       ++item.attempts;
@@ -197,6 +203,8 @@ void ReliableSender::run() {
     lock.unlock();
     uint64_t failures = 0;
     for (const uint64_t id : due) failures += send_(id).ok() ? 0 : 1;
+    if (given_up_)
+      for (const uint64_t id : dropped) given_up_(id);
     lock.lock();
     stats_.send_failures += failures;
   }

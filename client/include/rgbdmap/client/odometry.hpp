@@ -43,7 +43,10 @@ struct TrackingResult {
 
 class VisualOdometry {
  public:
-  VisualOdometry(const CameraIntrinsics& intrinsics, const OdometryConfig& config);
+  /// Keyframe ids start at first_keyframe_id and segments at first_segment (a robot resuming the session
+  /// of its keyframe spool continues above the numbers that session used).
+  VisualOdometry(const CameraIntrinsics& intrinsics, const OdometryConfig& config, int first_keyframe_id = 0,
+                 int first_segment = 0);
 
   TrackingResult track(const RgbdFrame& frame);
 
@@ -82,6 +85,7 @@ class VisualOdometry {
   int frames_since_keyframe_ = 0;
   int consecutive_lost_ = 0;
   int losses_ = 0;
+  int first_keyframe_id_ = 0;
   int segment_ = 0;
 };
 

@@ -173,8 +173,9 @@ int64_t newSessionId();
 /// Stamps headers (sender, session, seq, utime) and signs. One per sending process; not thread-safe.
 class Signer {
  public:
-  /// An empty key sends unsigned messages (accepted only by an open-mode receiver).
-  Signer(std::string sender, Bytes key, int64_t session = newSessionId());
+  /// An empty key sends unsigned messages (accepted only by an open-mode receiver). A sender resuming an
+  /// earlier session starts its seq above every one that session used (`first_seq`).
+  Signer(std::string sender, Bytes key, int64_t session = newSessionId(), int64_t first_seq = 0);
 
   /// Sets message.header, validates, encodes and signs. seq advances only on success.
   template <typename T>
@@ -193,7 +194,7 @@ class Signer {
   std::string sender_;
   Bytes key_;
   int64_t session_;
-  int64_t next_seq_ = 0;
+  int64_t next_seq_;
 };
 
 }  // namespace rgbdmap::msg

@@ -64,8 +64,10 @@ class ReliableSender {
   /// the message afresh each time (new seq): identical bytes are rejected by the receiver's replay guard.
   /// The receiver deduplicates by id (DedupFilter) and acknowledges duplicates again.
   using SendFn = std::function<Status(uint64_t id)>;
+  /// Called (on the worker, without the sender's lock) for each id given up after max_attempts.
+  using GiveUpFn = std::function<void(uint64_t id)>;
 
-  ReliableSender(ReliableSenderOptions options, SendFn send);
+  ReliableSender(ReliableSenderOptions options, SendFn send, GiveUpFn given_up = {});
   ~ReliableSender();
   ReliableSender(const ReliableSender&) = delete;
   ReliableSender& operator=(const ReliableSender&) = delete;
@@ -124,6 +126,7 @@ class ReliableSender {
 
   ReliableSenderOptions options_;
   SendFn send_;
+  GiveUpFn given_up_;
   std::mutex lifecycle_;  ///< serialises start() and stop(), held across the join
   mutable std::mutex mutex_;
   std::condition_variable wake_;     // worker: new earliest deadline or stop
