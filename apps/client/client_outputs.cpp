@@ -1,5 +1,7 @@
 #include "client_outputs.hpp"
 
+#include <sys/resource.h>
+
 #include <cstdio>
 
 #include "rgbdmap/link/delivery_report.hpp"
@@ -7,6 +9,21 @@
 namespace rgbdmap::app {
 
 namespace {
+
+/// The process's peak resident memory (getrusage ru_maxrss), MiB.
+double peakRssMb() {
+  struct rusage usage {};
+  return ::getrusage(RUSAGE_SELF, &usage) == 0 ? usage.ru_maxrss / 1024.0 : 0.0;
+}
+
+/// "\nspool: ..." with a keyframe spool, else "".
+std::string spoolSummary(const RobotLinkStats& l) {
+  if (l.keyframes_spooled + l.spool_recovered + l.keyframes_live_only == 0) return "";
+  return "\nspool: " + std::to_string(l.spool_depth) + " keyframes left for the next start, " +
+         std::to_string(l.spool_recovered) + " found at start (" + std::to_string(l.recovered_acked) +
+         " acked since), " + std::to_string(l.keyframes_live_only) + " sent live only, " +
+         std::to_string(l.spool_damaged) + " damaged";
+}
 
 /// [[keyframe id, wall-clock us of its accepting ack], ...]: deploy/bench_viewer.sh times ack -> voxels.
 Json ackTimesJson(const std::map<int, int64_t>& ack_utime) {
@@ -49,6 +66,17 @@ Json clientJson(const ClientRunInfo& info, const RobotRunResult& r) {
           {"ack_latency_ms_max", jsonNumber(l.ack_latency_ms_max)},
           {"all_acked", r.all_acked},
           {"keyframes_not_accepted", deliveryReport(r).unaccepted},
+          {"keyframes_lost", deliveryReport(r).lost},
+          {"keyframes_spooled", l.keyframes_spooled},
+          {"keyframes_live_only", l.keyframes_live_only},
+          {"keyframes_requeued", l.keyframes_requeued},
+          {"spool_depth", l.spool_depth},
+          {"spool_bytes", l.spool_bytes},
+          {"spool_recovered", l.spool_recovered},
+          {"spool_recovered_acked", l.recovered_acked},
+          {"spool_recovered_refused", l.recovered_refused},
+          {"spool_damaged", l.spool_damaged},
+          {"spool_oldest_utime", l.spool_oldest_utime},
           {"server_heard", l.server_heard},
           {"refused_by_reason", l.refused_by_reason},
           {"corrections_received", l.corrections_received},
@@ -59,18 +87,19 @@ Json clientJson(const ClientRunInfo& info, const RobotRunResult& r) {
           {"messages_rejected", l.messages_rejected},
           {"bytes_sent", l.bytes_sent},
           {"bytes_received", l.bytes_received},
+          {"rss_peak_mb", jsonNumber(peakRssMb())},
           {"keyframe_ack_utime", ackTimesJson(r.keyframe_ack_utime)}};
 }
 
 std::string clientSummary(const RobotRunResult& r) {
   const RobotLinkStats& l = r.link;
-  char buf[768];
+  char buf[1024];
   std::snprintf(buf, sizeof buf,
                 "frames %d, keyframes %d (sent %llu, acked %llu, refused %llu, given up %llu, not sent %d), "
                 "retransmissions %llu\ntracking losses %d, segments %d, unreadable %d, dropped %d, ms/frame "
                 "median %.2f, "
                 "wall %.1f s%s\ncorrections %llu (graph revision %lld, covering the last keyframe: %s), "
-                "rejected %llu, sent %.1f KB, received %.1f KB",
+                "rejected %llu, sent %.1f KB, received %.1f KB%s",
                 r.frames, r.keyframes, static_cast<unsigned long long>(l.keyframes_sent),
                 static_cast<unsigned long long>(l.keyframes_acked),
                 static_cast<unsigned long long>(l.keyframes_refused),
@@ -80,7 +109,7 @@ std::string clientSummary(const RobotRunResult& r) {
                 static_cast<unsigned long long>(l.corrections_received),
                 static_cast<long long>(l.graph_revision), r.final_correction_received ? "yes" : "no",
                 static_cast<unsigned long long>(l.messages_rejected), l.bytes_sent / 1e3,
-                l.bytes_received / 1e3);
+                l.bytes_received / 1e3, spoolSummary(l).c_str());
   return buf;
 }
 

@@ -17,6 +17,7 @@
 #include "rgbdmap/cli/source_setup.hpp"
 #include "rgbdmap/common/logging.hpp"
 #include "rgbdmap/link/delivery_report.hpp"
+#include "rgbdmap/link/keyframe_spool.hpp"
 #include "rgbdmap/link/keyframe_stream.hpp"
 #include "rgbdmap/link/robot_client_config.hpp"
 #include "rgbdmap/source/frame_recorder.hpp"
@@ -50,17 +51,23 @@ const char* kUsage =
     "                          rgbdmap-replay; written at the end)\n"
     "  --frames A:B            frames A (inclusive) to B (exclusive); A: or :B leave one end open\n"
     "  --out DIR               output folder (default: out)\n"
+    "  --spool DIR             keyframe spool folder (overrides robot.spool_dir; default <--out>/spool): "
+    "every\n"
+    "                          keyframe stays in DIR/R until the server acknowledges it; the next start "
+    "sends\n"
+    "                          what is left\n"
     "  --threads N             OpenCV threads (default 1)\n"
-    "Exit status: 0 every keyframe accepted by the server; 1 run-time error (dataset, transport); 2 usage "
-    "or\n"
-    "configuration error; 3 keyframes not accepted (how many and why is printed: no server heard at all, or\n"
-    "refused / unanswered by the server heard).\n";
+    "On SIGINT or SIGTERM the robot stops reading frames, waits up to link.final_wait_s for the server's\n"
+    "answers and exits with the rest spooled (a second signal exits at once; the spool keeps them too).\n"
+    "Exit status: 0 every keyframe accepted by the server or spooled for the next start; 1 run-time error\n"
+    "(dataset, transport, spool); 2 usage or configuration error; 3 keyframes lost (refused by the server,\n"
+    "or unanswered and not spooled) or no server heard at all (how many and why is printed).\n";
 
 constexpr int kExitKeyframesNotAccepted = 3;
 
 struct ClientArgs {
   std::optional<SourceUrl> source;
-  std::string out = "out", record, record_keyframes;
+  std::string out = "out", record, record_keyframes, spool;
   int first_frame = 0, end_frame = -1, threads = 1;
   bool fast = false;
 };
@@ -85,6 +92,7 @@ ClientArgs parseArgs(cli::Args& args, std::vector<std::string>* errors) {
   a.out = args.getOr("out", a.out);
   a.record = args.getOr("record", "");
   a.record_keyframes = args.getOr("record-keyframes", "");
+  a.spool = args.getOr("spool", "");
   a.fast = args.has("fast");
   const long long threads = args.getInt("threads").value_or(1);
   if (threads < 1 || threads > 256) errors->push_back("--threads must be in [1, 256]");
@@ -111,6 +119,13 @@ Result<OpenedSource> loadClientConfig(cli::Args& args, const ClientArgs& a, Robo
                    errors, read_more);
   if (!opened && errors->empty()) return opened;  // the source cannot be opened (exit 1)
   c.robot_id = args.getOr("robot-id", c.robot_id);
+  const std::string config_folder = std::filesystem::path(args.getOr("config", "")).parent_path().string();
+  if (!a.spool.empty())
+    c.spool_dir = a.spool;
+  else if (c.spool_dir.empty())
+    c.spool_dir = (std::filesystem::path(a.out) / "spool").string();
+  else if (std::filesystem::path(c.spool_dir).is_relative() && !config_folder.empty())
+    c.spool_dir = (std::filesystem::path(config_folder) / c.spool_dir).string();
   c.transport_url = args.getOr("transport", c.transport_url);
   if (const Status s = transport::checkTransportUrl(c.transport_url); !s) errors->push_back(s.error());
   // robot.key_file is relative to the configuration file's folder, --key-file to the current folder.
@@ -129,9 +144,28 @@ Result<OpenedSource> loadClientConfig(cli::Args& args, const ClientArgs& a, Robo
   return opened;
 }
 
+/// The robot's keyframe spool (<spool_dir>/<robot id>), unless robot.spool_max_mb is 0.
+Status openSpool(RobotClientConfig* config) {
+  if (config->spool_max_mb == 0) return Status::success();
+  KeyframeSpoolOptions options;
+  options.directory = (std::filesystem::path(config->spool_dir) / config->robot_id).string();
+  options.max_bytes = uint64_t(config->spool_max_mb) << 20;
+  auto spool = KeyframeSpool::open(options, config->robot_id);
+  if (!spool) return Status::failure(spool.error());
+  const KeyframeSpoolStats s = (*spool)->stats();
+  log::info("robot ", config->robot_id, ": keyframe spool ", options.directory, ": ", s.depth,
+            " keyframes left by an earlier run",
+            s.damaged ? ", " + std::to_string(s.damaged) + " damaged" : "",
+            (*spool)->resumed() ? ", resuming session " + std::to_string((*spool)->session()) +
+                                      " at keyframe id " + std::to_string((*spool)->firstKeyframeId())
+                                : "");
+  config->link.spool = std::move(*spool);
+  return Status::success();
+}
+
 /// --record DIR: the frames the robot reads are also written as a TUM folder.
-Status recordInto(const std::string& dir, const CameraIntrinsics& camera, std::unique_ptr<FrameSource>* source,
-                  RecordingSource** recording) {
+Status recordInto(const std::string& dir, const CameraIntrinsics& camera,
+                  std::unique_ptr<FrameSource>* source, RecordingSource** recording) {
   if (dir.empty()) return Status::success();
   auto recorder = TumRecorder::create(dir, camera);
   if (!recorder) return Status::failure(recorder.error());
@@ -169,9 +203,27 @@ int writeOutputs(const ClientArgs& a, const RobotClientConfig& config, const std
   if (result.frames == 0 && result.unreadable_frames > 0)
     return log::error(source_name, ": none of the ", result.unreadable_frames, " frames could be read"), 1;
   if (!result.source_error.empty()) return 1;
-  if (const DeliveryReport d = deliveryReport(result, config.robot_id); d.unaccepted > 0)
-    return log::error("robot ", config.robot_id, ": ", d.message), kExitKeyframesNotAccepted;
+  const DeliveryReport d = deliveryReport(result, config.robot_id);
+  if (d.failed()) return log::error("robot ", config.robot_id, ": ", d.message), kExitKeyframesNotAccepted;
+  if (d.spooled > 0)
+    log::warn("robot ", config.robot_id, ": ", d.spooled,
+              " keyframes not yet acknowledged stay in the spool ", config.spool_dir, "/", config.robot_id,
+              ": the next start of robot ", config.robot_id, " sends them first");
   return 0;
+}
+
+/// Pacing, final wait, stop, and with a spool: the odometry's numbering and the wait after a signal.
+RobotRunOptions runOptions(const ClientArgs& a, const RobotClientConfig& config, const StopRequest* stop) {
+  RobotRunOptions ro;
+  ro.realtime = !a.fast;
+  ro.final_wait_s = config.final_wait_s;
+  ro.stop = stop;
+  if (const KeyframeSpool* spool = config.link.spool.get()) {
+    ro.first_keyframe_id = spool->firstKeyframeId();
+    ro.first_segment = spool->firstSegment();
+    ro.final_wait_when_stopped = true;
+  }
+  return ro;
 }
 
 int run(int argc, char** argv) {
@@ -182,8 +234,8 @@ int run(int argc, char** argv) {
   }
   cli::SignalThread signals;
   auto allowed = datasetOptionNames();
-  allowed.insert(allowed.end(), {"dataset", "source", "record", "record-keyframes", "robot-id", "key-file", "transport",
-                                 "fast", "frames", "out", "threads"});
+  allowed.insert(allowed.end(), {"dataset", "source", "record", "record-keyframes", "robot-id", "key-file",
+                                 "transport", "fast", "frames", "out", "threads", "spool"});
   args.checkAllowed(allowed);
   std::vector<std::string> errors;
   cli::applyLogLevel(args, &errors);
@@ -211,6 +263,8 @@ int run(int argc, char** argv) {
                    concatConfigValues(robotClientConfigValues(config), setup.effective),
                    concatConfigValues(robotClientConfigValues({}), defaultOdometryFileValues()));
 
+  if (Status s = openSpool(&config); !s) return log::error(s.error()), 1;
+  KeyframeSpool* const spool = config.link.spool.get();
   std::unique_ptr<KeyframeStreamWriter> keyframe_recording;
   if (!a.record_keyframes.empty()) {
     keyframe_recording = std::make_unique<KeyframeStreamWriter>(a.record_keyframes, makeHello(config.link));
@@ -221,28 +275,30 @@ int run(int argc, char** argv) {
   if (Status s = link.start(); !s) return log::error(s.error()), 1;
   // After the link started: a signal that came earlier waits (blocked) and then stops the run, whose outputs
   // are still written (taken during start, it made the start fail: exit 1 and no outputs).
-  signals.start([&stop, &link, src = source.get()](int sig) {
-    log::warn("signal ", sig, ": stopping (again to quit at once); outputs will still be written");
+  signals.start([&stop, &link, spool, src = source.get(), wait = config.final_wait_s](int sig) {
+    log::warn(
+        "signal ", sig, ": stopping (again to quit at once); outputs will still be written",
+        spool ? "; waiting up to " + std::to_string(wait) + " s for acknowledgements, the rest stays spooled"
+              : std::string());
     stop.request();
     src->close();  // a live source's blocking read ends at once
-    link.stop();
+    if (!spool) link.stop();
   });
-  RobotRunOptions ro;
-  ro.realtime = !a.fast;
-  ro.final_wait_s = config.final_wait_s;
-  ro.stop = &stop;
+  RobotRunOptions ro = runOptions(a, config, &stop);
   Progress progress("robot " + config.robot_id, source->sizeHint());
   progress.setNote([&link] {
     const RobotLinkStats s = link.stats();
     return (s.diagnosis.empty() ? "" : s.diagnosis + ", ") + std::to_string(s.keyframes_acked) +
-           " keyframes acknowledged";
+           " keyframes acknowledged" +
+           (s.spool_depth > 0 ? ", " + std::to_string(s.spool_depth) + " spooled" : "");
   });
   ro.progress = [&progress](int done, int) { progress.update(static_cast<size_t>(done)); };
   const RobotRunResult result = runRobot(*source, setup.camera, setup.odometry, link, ro);
   progress.finish();
   link.stop();
   (*transport)->stop();
-  if (Status s = finishRecordings(a, recording, keyframe_recording.get()); !s) return log::error(s.error()), 1;
+  if (Status s = finishRecordings(a, recording, keyframe_recording.get()); !s)
+    return log::error(s.error()), 1;
   if (!result.source_error.empty()) log::error(result.source_error);
   const std::string source_name = a.source->scheme == "tum" ? a.source->path : source->describe();
   return writeOutputs(a, config, source_name, result);

@@ -74,9 +74,14 @@ DeliveryReport deliveryReport(const RobotRunResult& r, const std::string& robot_
   const RobotLinkStats& l = r.link;
   DeliveryReport d;
   d.keyframes = r.keyframes;
-  d.unaccepted = std::max(0, r.keyframes - static_cast<int>(l.keyframes_acked));
+  d.unaccepted = std::max(0, r.keyframes - static_cast<int>(l.keyframes_acked - l.recovered_acked));
+  d.spooled = static_cast<int>(l.spool_depth);
+  const int recovered_pending =
+      static_cast<int>(l.spool_recovered) - static_cast<int>(l.recovered_acked + l.recovered_refused);
+  const int spooled_now = std::max(0, d.spooled - std::max(0, recovered_pending));
+  d.lost = std::max(0, d.unaccepted - spooled_now) + static_cast<int>(l.recovered_refused);
   d.server_heard = l.server_heard;
-  if (d.unaccepted == 0) return d;
+  if (d.unaccepted == 0 && d.lost == 0) return d;
   const std::string who = robot_id.empty() ? "this robot" : robot_id;
   const std::string count =
       std::to_string(d.unaccepted) + " of " + std::to_string(d.keyframes) + " keyframes not accepted";
@@ -98,6 +103,8 @@ DeliveryReport deliveryReport(const RobotRunResult& r, const std::string& robot_
   }
   if (const std::string other = otherServerRejects(l); !other.empty())
     d.message += "; the server reports rejected messages from " + who + ": " + other;
+  if (d.spooled > 0)
+    d.message += "; " + std::to_string(d.spooled) + " keyframes are in the spool: the next start sends them";
   return d;
 }
 

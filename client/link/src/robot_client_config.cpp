@@ -28,6 +28,13 @@ const ConfigTable<RobotClientConfig>& robotClientConfigTable() {
                    "frame (REP-103: x forward, y left, z up) of the first robot's first keyframe, so maps, "
                    "slices and exports are z-up")
           .nest("robot.camera_mount.", &C::camera_mount, cameraMountConfigTable())
+          .add("robot.spool_dir", &C::spool_dir,
+               "keyframe spool: every keyframe is kept in <spool_dir>/<robot id> until the server "
+               "acknowledges it, and a new start sends what an earlier one left. Relative to this file's "
+               "folder; empty: <--out>/spool. --spool overrides")
+          .add("robot.spool_max_mb", &C::spool_max_mb, ConfigRange::closed(0, 1 << 20),
+               "the spool's disk budget; a keyframe beyond it (or on a full disk) is sent live only; 0: no "
+               "spool")
           .add("transport.url", &C::transport_url,
                "memq:// (in-process) | udpm://239.255.76.67:7667?ttl=0 (LCM, see deploy/lcm.md) | "
                "dds://?domain=0 (Cyclone DDS; needs CYCLONEDDS_URI, e.g. "

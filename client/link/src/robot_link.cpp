@@ -53,10 +53,14 @@ std::string RobotLinkOptions::validate() const {
 RobotLink::Impl::Impl(transport::Transport& transport, RobotLinkOptions options)
     : transport_(transport),
       options_(std::move(options)),
+      spool_(options_.spool.get()),
       keys_(makeKeyStore(options_)),
-      signer_(options_.robot_id, options_.key, session_),
-      keyframe_signer_(options_.robot_id, options_.key, session_),
-      reliable_(options_.reliable, [this](uint64_t id) { return transmitKeyframe(id); }) {}
+      session_(spool_ ? spool_->session() : msg::newSessionId()),
+      signer_(options_.robot_id, options_.key, session_, spool_ ? spool_->firstSeq() : 0),
+      keyframe_signer_(options_.robot_id, options_.key, session_, spool_ ? spool_->firstSeq() : 0),
+      reliable_(
+          options_.reliable, [this](uint64_t id) { return transmitKeyframe(id); },
+          [this](uint64_t id) { onGivenUp(id); }) {}
 
 RobotLink::Impl::~Impl() { stop(); }
 
@@ -79,6 +83,7 @@ Status RobotLink::Impl::start() {
   reliable_.start();
   if (Status s = sendHello(); !s) log::warn("robot ", options_.robot_id, ": first Hello failed: ", s.error());
   periodic_ = std::thread([this] { runPeriodic(); });
+  if (spool_) startSpool();
   log::info("robot ", options_.robot_id, ": link started (", options_.key.empty() ? "unsigned" : "signed",
             ", heartbeat ", options_.heartbeat_period_s, " s, send window ", options_.reliable.max_pending,
             chunking() ? ", keyframes in chunks of " + std::to_string(options_.chunk_bytes) + " bytes" : "",
@@ -94,6 +99,7 @@ void RobotLink::Impl::stop() {
   }
   changed_.notify_all();
   if (periodic_.joinable()) periodic_.join();
+  if (feeder_.joinable()) feeder_.join();
   reliable_.stop();
 }
 
@@ -212,17 +218,28 @@ Status RobotLink::Impl::sendKeyframeMessage(msg::Keyframe message) {
   const int id = message.keyframe_id;
   const std::string what = "keyframe " + std::to_string(id);
   if (id < 0) return Status::failure(what + ": negative id");
-  const size_t depth_bytes = message.images.depth.size(), color_bytes = message.images.color.size();
   constexpr size_t kLcmKeypointBytes = 21;  // keypoint_t: 5 floats and an int8
-  const size_t feature_bytes = message.keypoints.size() * kLcmKeypointBytes + message.descriptors.size();
+  KeyframeBytes bytes{message.images.depth.size(), message.images.color.size(),
+                      message.keypoints.size() * kLcmKeypointBytes + message.descriptors.size(), 0};
   message.robot_id = options_.robot_id;
   message.header.sender = options_.robot_id;  // seal() stamps the rest of the header
   const Result<msg::Bytes> encoded = msg::encodePayload(message);
   if (!encoded) return Status::failure(what + ": " + encoded.error());
-  const size_t message_bytes = encoded->size();
+  bytes.message = encoded->size();
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (!started_ || stopping_) return Status::failure(what + ": link not running");
+    if (sent_.count(id)) return Status::failure(what + ": already sent");
+  }
+  if (spool_) {
+    const Status spooled = spool_->append(message);
+    noteSpooled(spooled);
+    if (spooled) {
+      if (options_.keyframe_tap) options_.keyframe_tap(*encoded);
+      return enqueueSpooled(std::move(message), bytes);
+    }
+  }
   std::unique_lock<std::mutex> lock(mutex_);
-  if (!started_ || stopping_) return Status::failure(what + ": link not running");
-  if (sent_.count(id)) return Status::failure(what + ": already sent");
   const bool room = changed_.wait_for(lock, seconds(options_.send_timeout_s), [this] {
     return stopping_ || reliable_.pending() < options_.reliable.max_pending;
   });
@@ -235,6 +252,7 @@ Status RobotLink::Impl::sendKeyframeMessage(msg::Keyframe message) {
   entry.T_odom_cam = message.T_odom_cam;
   entry.message = std::make_unique<msg::Keyframe>(std::move(message));
   entry.first_sent = Clock::now();
+  entry.fed = true;
   lock.unlock();  // submit() transmits on this thread (transmitKeyframe takes mutex_)
   if (Status s = reliable_.submit(static_cast<uint64_t>(id)); !s) {
     lock.lock();
@@ -243,12 +261,16 @@ Status RobotLink::Impl::sendKeyframeMessage(msg::Keyframe message) {
   }
   if (options_.keyframe_tap) options_.keyframe_tap(*encoded);
   lock.lock();
-  ++counts_.keyframes_sent;
-  counts_.keyframe_depth_bytes += depth_bytes;
-  counts_.keyframe_color_bytes += color_bytes;
-  counts_.keyframe_feature_bytes += feature_bytes;
-  counts_.keyframe_message_bytes += message_bytes;
+  countSubmitted(bytes);
   return Status::success();
+}
+
+void RobotLink::Impl::countSubmitted(const KeyframeBytes& bytes) {
+  ++counts_.keyframes_sent;
+  counts_.keyframe_depth_bytes += bytes.depth;
+  counts_.keyframe_color_bytes += bytes.color;
+  counts_.keyframe_feature_bytes += bytes.features;
+  counts_.keyframe_message_bytes += bytes.message;
 }
 
 Status RobotLink::Impl::transmitKeyframe(uint64_t id) {
@@ -280,8 +302,9 @@ bool RobotLink::Impl::allAnswered() const {
 
 bool RobotLink::Impl::waitAllAcked(double timeout_s) {
   std::unique_lock<std::mutex> lock(mutex_);
-  changed_.wait_for(lock, seconds(timeout_s),
-                    [this] { return stopping_ || allAnswered() || reliable_.pending() == 0; });
+  changed_.wait_for(lock, seconds(timeout_s), [this] {
+    return stopping_ || allAnswered() || (reliable_.pending() == 0 && queue_.empty());
+  });
   return allAnswered();
 }
 
@@ -336,9 +359,10 @@ RobotLinkStats RobotLink::Impl::stats() const {
   s.srtt_ms = r.srtt_ms;
   s.rttvar_ms = r.rttvar_ms;
   s.rto_ms = r.rto_ms;
-  s.keyframes_given_up = r.given_up;
-  s.keyframes_pending = static_cast<uint64_t>(std::count_if(
-      sent_.begin(), sent_.end(), [](const auto& kv) { return kv.second.answer == Answer::kPending; }));
+  s.keyframes_given_up = r.given_up - std::min(r.given_up, counts_.keyframes_requeued);
+  for (const auto& [id, entry] : sent_)
+    if (entry.answer == Answer::kPending) ++(entry.spooled ? s.keyframes_pending : s.keyframes_pending_live);
+  s.keyframes_pending += s.keyframes_pending_live;
   s.messages_rejected += rejects_.total();
   s.bytes_sent = bytes_sent_.load();
   s.bytes_received = bytes_received_.load();
@@ -349,51 +373,8 @@ RobotLinkStats RobotLink::Impl::stats() const {
   s.ack_latency_ms_median = ack_latency_ms_.median();
   s.ack_latency_ms_p90 = ack_latency_ms_.quantile(0.9);
   s.ack_latency_ms_max = ack_latency_ms_.max();
+  if (spool_) addSpoolStats(&s);
   return s;
 }
-
-// ---- RobotLink: forwards to Impl ----
-
-RobotLink::RobotLink(transport::Transport& transport, RobotLinkOptions options)
-    : impl_(std::make_shared<Impl>(transport, std::move(options))) {}
-RobotLink::~RobotLink() { impl_->stop(); }
-Status RobotLink::start() { return impl_->start(); }
-void RobotLink::stop() { impl_->stop(); }
-Status RobotLink::sendKeyframe(const Keyframe& keyframe, const RgbdFrame& frame) {
-  return impl_->sendKeyframe(keyframe, frame);
-}
-Status RobotLink::sendKeyframeMessage(msg::Keyframe message) {
-  return impl_->sendKeyframeMessage(std::move(message));
-}
-void RobotLink::setTrackingState(int last_keyframe_id, int segment, TrackingState state) {
-  impl_->setTrackingState(last_keyframe_id, segment, state);
-}
-SE3 RobotLink::mapFromOdom(int segment) const { return impl_->mapFromOdom(segment); }
-std::optional<SE3> RobotLink::correctedKeyframe(int keyframe_id) const {
-  return impl_->correctedKeyframe(keyframe_id);
-}
-Status RobotLink::publishPose(double timestamp, int segment, int reference_keyframe, TrackingState state,
-                              const SE3& T_odom_cam) {
-  return impl_->publishPose(timestamp, segment, reference_keyframe, state, T_odom_cam);
-}
-std::optional<msg::OccupancySlice> RobotLink::latestSlice() const { return impl_->latest(&Impl::slice_); }
-Status RobotLink::publishCommand(const msg::VelocityCommand& command) {
-  return impl_->publishCommand(command);
-}
-std::optional<msg::VelocityCommand> RobotLink::latestCommand() const {
-  return impl_->latest(&Impl::command_);
-}
-std::optional<msg::ServerStatus> RobotLink::latestServerStatus() const {
-  return impl_->latest(&Impl::status_);
-}
-bool RobotLink::waitAllAcked(double timeout_s) { return impl_->waitAllAcked(timeout_s); }
-bool RobotLink::waitForCorrection(int keyframe_id, double timeout_s) {
-  return impl_->waitForCorrection(keyframe_id, timeout_s);
-}
-bool RobotLink::waitForGraphRevision(int64_t revision, double timeout_s) {
-  return impl_->waitForGraphRevision(revision, timeout_s);
-}
-RobotLinkStats RobotLink::stats() const { return impl_->stats(); }
-std::map<int, int64_t> RobotLink::keyframeAckTimes() const { return impl_->keyframeAckTimes(); }
 
 }  // namespace rgbdmap

@@ -130,6 +130,7 @@ void RobotLink::Impl::handle(const msg::ChunkAck& ack) {
   {
     std::lock_guard<std::mutex> lock(mutex_);
     ++counts_.chunk_acks;
+    last_answer_ = Clock::now();
     auto it = sent_.find(ack.keyframe_id);
     if (it == sent_.end() || it->second.answer != Answer::kPending) return;
     ChunkTransfer& transfer = it->second.transfer;

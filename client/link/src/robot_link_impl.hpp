@@ -9,6 +9,7 @@
 #include <memory>
 #include <mutex>
 #include <optional>
+#include <set>
 #include <string>
 #include <thread>
 #include <vector>
@@ -73,6 +74,13 @@ class RobotLink::Impl : public std::enable_shared_from_this<RobotLink::Impl> {
     Clock::time_point first_sent{};  ///< submitted (its first transmission follows at once)
     int64_t accepted_utime = 0;      ///< wall clock (us) of its accepting ack; 0 before
     ChunkTransfer transfer;          ///< chunk_bytes > 0 only
+    bool spooled = false;    ///< in the keyframe spool: requeued when given up, removed from it when answered
+    bool recovered = false;  ///< left in the spool by an earlier process
+    bool fed = false;        ///< submitted to the ReliableSender at least once
+  };
+  /// What one keyframe adds to the byte counters (RobotLinkStats::keyframe_*_bytes).
+  struct KeyframeBytes {
+    size_t depth = 0, color = 0, features = 0, message = 0;
   };
 
   // Sending (robot_link.cpp).
@@ -87,7 +95,20 @@ class RobotLink::Impl : public std::enable_shared_from_this<RobotLink::Impl> {
   void diagnoseLink(Clock::time_point now);  ///< caller holds mutex_
   Status sendHello();
   Status sendHeartbeat();
-  bool allAnswered() const;  ///< caller holds mutex_
+  bool allAnswered() const;                         ///< caller holds mutex_
+  void countSubmitted(const KeyframeBytes& bytes);  ///< caller holds mutex_
+
+  // The keyframe spool (robot_link_spool.cpp); everything here needs options_.spool.
+  void startSpool();  ///< queues what an earlier process left, starts the feeder
+  /// A keyframe written to the spool: queued for the send window (the feeder submits it).
+  Status enqueueSpooled(msg::Keyframe message, const KeyframeBytes& bytes);
+  void noteSpooled(const Status& spooled);  ///< counts a keyframe the spool refused; logs live-only changes
+  void runFeeder();  ///< moves queued keyframes into the send window while it has room
+  /// The send window now: max_pending, or kOutageWindow while unanswered keyframes get no answer at all.
+  size_t windowLimit(Clock::time_point now) const;  ///< caller holds mutex_
+  void onGivenUp(uint64_t id);         ///< the ReliableSender gave a keyframe up: a spooled one is requeued
+  void noteAnswered(int keyframe_id);  ///< a spooled keyframe was answered: its record goes (no lock held)
+  void addSpoolStats(RobotLinkStats* s) const;  ///< caller holds mutex_
 
   // Chunked keyframes (robot_link_chunks.cpp).
   bool chunking() const { return options_.chunk_bytes > 0; }
@@ -122,6 +143,7 @@ class RobotLink::Impl : public std::enable_shared_from_this<RobotLink::Impl> {
 
   transport::Transport& transport_;
   const RobotLinkOptions options_;
+  KeyframeSpool* const spool_;  ///< options_.spool.get()
   std::string hello_channel_, heartbeat_channel_, keyframe_channel_;
   msg::KeyStore keys_;
   msg::ReplayGuard replay_guard_;
@@ -131,7 +153,7 @@ class RobotLink::Impl : public std::enable_shared_from_this<RobotLink::Impl> {
   std::mutex signer_mutex_;
   /// One session for both signers: the server sends PoseCorrections only for keyframes of the session the
   /// robot's Hello announced.
-  const int64_t session_ = msg::newSessionId();
+  const int64_t session_;  ///< the spool's (maybe resumed) session, else a new one
   msg::Signer signer_;
   /// Keyframe envelopes sent in chunks: their own seq stream, so the server's replay window (64 per message
   /// type) is not pushed past a keyframe by the hundred chunk envelopes of the next ones.
@@ -149,6 +171,10 @@ class RobotLink::Impl : public std::enable_shared_from_this<RobotLink::Impl> {
   /// and keyframes wait unacknowledged for the robot's Hello.
   bool server_knows_me_ = false;
   std::map<int, SentKeyframe> sent_;
+  std::set<int> queue_;  ///< spooled keyframes waiting for room in the send window, in id (chain) order
+  Clock::time_point last_answer_ = Clock::now();  ///< the latest KeyframeAck or ChunkAck
+  bool live_only_ = false;  ///< the spool's last append failed (logged when this changes)
+  std::thread feeder_;
   std::map<int, SE3> T_map_cam_;   ///< corrected keyframes
   std::map<int, SE3> T_map_odom_;  ///< per segment
   int64_t graph_revision_ = -1, corrections_session_ = 0;

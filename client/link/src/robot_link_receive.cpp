@@ -93,8 +93,10 @@ bool RobotLink::Impl::isForMe(const std::string& robot_id) {
 }
 
 void RobotLink::Impl::handle(const msg::KeyframeAck& ack) {
+  bool spooled = false;
   {
     std::lock_guard<std::mutex> lock(mutex_);
+    last_answer_ = Clock::now();
     auto it = sent_.find(ack.keyframe_id);
     if (it == sent_.end()) {
       ++counts_.unknown_acks;
@@ -113,6 +115,9 @@ void RobotLink::Impl::handle(const msg::KeyframeAck& ack) {
       }
       entry.transfer = ChunkTransfer{};
       ++(ack.accepted ? counts_.keyframes_acked : counts_.keyframes_refused);
+      if (entry.recovered) ++(ack.accepted ? counts_.recovered_acked : counts_.recovered_refused);
+      spooled = entry.spooled;
+      queue_.erase(ack.keyframe_id);
       if (ack.accepted) entry.accepted_utime = nowUtime();
       if (ack.accepted)
         ack_latency_ms_.add(
@@ -125,6 +130,7 @@ void RobotLink::Impl::handle(const msg::KeyframeAck& ack) {
     }
   }
   reliable_.acknowledge(static_cast<uint64_t>(ack.keyframe_id));  // no resend, whatever the answer
+  if (spooled) noteAnswered(ack.keyframe_id);
   changed_.notify_all();
 }
 

@@ -133,7 +133,7 @@ void trackFrame(const RgbdFrame& frame, VisualOdometry& vo, RobotLink& link, con
   if (controller) avoid(*controller, link, out->live.back(), &*out->avoidance);
   out->odometry.push_back({r.timestamp, r.T_odom_cam});
   out->times.push_back(r.times);
-  out->segments = std::max(out->segments, r.segment + 1);
+  out->segments = std::max(out->segments, r.segment - options.first_segment + 1);
 }
 
 /// Pulls frames until the source ends. A recording is paced by its timestamps when options.realtime; a
@@ -211,12 +211,14 @@ SE3 finalMapFromOdom(const FrameRecord& f, const Corrections& corrections, const
 
 void finish(const RunState& state, RobotLink& link, const RobotRunOptions& options, RobotRunResult* out) {
   const bool any_sent = state.last_sent_keyframe >= 0;
-  const bool wait = any_sent && !out->interrupted && !stopRequested(options);
+  const bool any_pending = any_sent || link.stats().keyframes_pending > 0;  // also an earlier run's spooled
+  const bool wait =
+      any_pending && (options.final_wait_when_stopped || (!out->interrupted && !stopRequested(options)));
   const Clock::time_point deadline =
       Clock::now() + std::chrono::duration_cast<Clock::duration>(
                          std::chrono::duration<double>(wait ? std::max(0.0, options.final_wait_s) : 0.0));
   auto remaining = [&] { return std::chrono::duration<double>(deadline - Clock::now()).count(); };
-  out->all_acked = !any_sent || link.waitAllAcked(std::max(0.0, remaining()));
+  out->all_acked = !any_pending || link.waitAllAcked(std::max(0.0, remaining()));
   out->final_correction_received =
       any_sent && link.waitForCorrection(state.last_sent_keyframe, std::max(0.0, remaining()));
   // A stop during the final wait (Ctrl-C once the frames ran out) also cut the run short.
@@ -256,7 +258,7 @@ RobotRunResult runRobot(FrameSource& source, const CameraIntrinsics& camera, con
   const Clock::time_point start = Clock::now();
   RunState state;
   try {
-    VisualOdometry vo(camera, odometry);
+    VisualOdometry vo(camera, odometry, options.first_keyframe_id, options.first_segment);
     trackFrames(source, vo, link, options, &state, &out);
     out.losses = vo.trackingLosses();
   } catch (const std::exception& e) {

@@ -10,11 +10,19 @@ namespace rgbdmap {
 struct DeliveryReport {
   int keyframes = 0;   ///< made by the odometry
   int unaccepted = 0;  ///< not accepted by a server: refused, given up, unanswered at the end, or not sent
+  /// In the robot's keyframe spool at the end (this run's and an earlier run's): the next start sends them.
+  int spooled = 0;
+  /// Refused, or unanswered and not spooled (sent live only, or not sent): the map never gets them.
+  int lost = 0;
   bool server_heard = false;
+  /// The run failed its job (rgbdmap-client exit 3): keyframes lost, or not accepted with no server heard at
+  /// all (a configuration mistake: transport, robot id, key; the spooled ones wait for it to be fixed).
+  bool failed() const { return lost > 0 || (unaccepted > 0 && !server_heard); }
   /// "" when every keyframe was accepted; else the count and why: the server says it does not serve this
   /// robot (an unsigned notice), the server reports bad signatures from
   /// this robot (wrong key?), no server heard at all (transport, robot id or key), or a server heard that
-  /// refused keyframes ("refused: <reasons>") or did not answer them ("server heard but no ack (loss?)").
+  /// refused keyframes ("refused: <reasons>") or did not answer them ("server heard but no ack (loss?)"),
+  /// and how many of them are spooled for the next start.
   std::string message;
 };
 

@@ -20,6 +20,10 @@ struct RobotClientConfig {
   CameraMount camera_mount;  ///< where the camera sits on the robot: link.T_base_camera (the map is z-up)
   std::string transport_url = "memq://";  ///< memq:// | udpm://... | dds://?domain=N
   double final_wait_s = 20.0;             ///< at the end, wait this long for acks and the last correction
+  /// The keyframe spool's parent folder (the robot's spool is <spool_dir>/<robot id>); empty: <--out>/spool.
+  /// Relative to the configuration file's folder. spool_max_mb 0: no spool (keyframes in memory only).
+  std::string spool_dir;
+  int spool_max_mb = 2048;
   /// heartbeat/hello periods, send timeout, reliable and codec settings; robot_id, key and camera are filled
   /// in by the program.
   RobotLinkOptions link;

@@ -31,6 +31,7 @@
 #include "rgbdmap/common/result.hpp"
 #include "rgbdmap/common/rgbd_frame.hpp"
 #include "rgbdmap/common/se3.hpp"
+#include "rgbdmap/link/keyframe_spool.hpp"
 #include "rgbdmap/proto/messages.hpp"
 #include "rgbdmap/transport/reliable.hpp"
 #include "rgbdmap/transport/transport.hpp"
@@ -63,6 +64,12 @@ struct RobotLinkOptions {
   /// Set: called with each keyframe's encoded (unsealed) msg::Keyframe payload once it is in the send
   /// window, on the sending thread (rgbdmap-client --record-keyframes: KeyframeStreamWriter::append).
   std::function<void(const msg::Bytes& payload)> keyframe_tap;
+  /// Set: every keyframe is written to this spool before it is offered to the server and leaves it when
+  /// answered. sendKeyframe returns once it is spooled: the send window draws from the spool, so an outage
+  /// of any length blocks nothing and keeps only the window in memory. The keyframes an earlier process
+  /// left are sent first, and the link signs with the spool's session. A keyframe the spool cannot take
+  /// (budget, full disk) is sent live only, as without a spool. Null: keyframes live in memory only.
+  std::shared_ptr<KeyframeSpool> spool;
 
   /// Empty when valid, else every reason ("; "-separated).
   std::string validate() const;
@@ -126,6 +133,21 @@ struct RobotLinkStats {
   /// (bounded reservoir, common/sample_reservoir.hpp); 0 before any.
   uint64_t ack_latency_samples = 0;
   double ack_latency_ms_median = 0.0, ack_latency_ms_p90 = 0.0, ack_latency_ms_max = 0.0;
+  /// With a keyframe spool (all 0 without): keyframes in it and not answered (spool_depth, their records'
+  /// bytes, the wall clock in us when the oldest was spooled, 0 for none), left by an earlier process at
+  /// start (spool_recovered; answered since: recovered_acked, recovered_refused, also counted in
+  /// keyframes_acked / keyframes_refused), waiting for room in the send window (keyframes_queued), written
+  /// by this process (keyframes_spooled) or sent live only because the spool could not take them
+  /// (keyframes_live_only: budget or disk full), records found damaged at start (spool_damaged).
+  uint64_t spool_depth = 0, spool_bytes = 0, spool_recovered = 0, spool_damaged = 0;
+  int64_t spool_oldest_utime = 0;
+  uint64_t recovered_acked = 0, recovered_refused = 0;
+  uint64_t keyframes_queued = 0, keyframes_spooled = 0, keyframes_live_only = 0;
+  /// Spooled keyframes the sender gave up after link.reliable.max_attempts sends and that went back to the
+  /// queue (not in keyframes_given_up, which counts the live-only ones lost that way).
+  uint64_t keyframes_requeued = 0;
+  /// Of keyframes_pending: sent live only (not in a spool), lost if the process ends now.
+  uint64_t keyframes_pending_live = 0;
 };
 
 class RobotLink {  // thread-safe; handlers never block the transport's receive thread

@@ -50,6 +50,12 @@ struct RobotRunOptions {
   /// Set: every frame, the reactive avoidance rule (Lin et al. 2017, section 3) runs on the link's latest
   /// slice at the live pose and its VelocityCommand is published through the link (cmd_vel). Off by default.
   std::optional<AvoidanceConfig> avoidance;
+  /// The odometry's first keyframe id and segment (KeyframeSpool::firstKeyframeId/firstSegment: a robot
+  /// resuming its spooled session continues above the numbers it used).
+  int first_keyframe_id = 0, first_segment = 0;
+  /// A stop (signal) still waits up to final_wait_s for the answers (a robot with a keyframe spool: what is
+  /// not answered then stays spooled for the next start). false: a stop ends the run at once.
+  bool final_wait_when_stopped = false;
 };
 
 /// One avoidance decision of runRobot (one per frame).
@@ -92,9 +98,9 @@ struct RobotRunResult {
   Trajectory keyframes_final;  ///< keyframe poses, final corrected (map frame)
   std::vector<StageTimes> times;
   int frames = 0, keyframes = 0, losses = 0, segments = 0, unreadable_frames = 0;
-  int dropped_frames = 0;      ///< a live source's frames the odometry was too slow for (newest wins)
-  std::string source_error;    ///< set: the source failed (device lost, truncated bag) and the run ended
-  int keyframes_not_sent = 0;  ///< sendKeyframe failed (encoding, window full past the timeout, stopped)
+  int dropped_frames = 0;          ///< a live source's frames the odometry was too slow for (newest wins)
+  std::string source_error;        ///< set: the source failed (device lost, truncated bag) and the run ended
+  int keyframes_not_sent = 0;      ///< sendKeyframe failed (encoding, window full past the timeout, stopped)
   bool waited_for_server = false;  ///< lockstep_s > 0 and every correction came within it
   bool all_acked = false, final_correction_received = false;
   bool interrupted = false;  ///< options.stop ended the run
