@@ -1,10 +1,11 @@
 #!/usr/bin/env bash
 # Fault benchmark: every fault of tests/integration/faults.sh (clean, 30 % and 60 % message loss,
-# 5 % datagram loss, 30 % datagram loss with the default link settings (LCM only), server kill -9 x5)
-# over LCM and over Cyclone DDS, two robots on a synthetic 200-frame loop, each run inside a private
-# loopback-only network namespace. Prints one row per run: keyframes sent / acknowledged / stored (both
-# robots), retransmissions, ack latency median and p90 (the worse robot), merged maps and the final ATE of
-# the server's keyframes. Then the two faults that do not run over processes here: a flooding robot
+# 5 % datagram loss, 30 % datagram loss with the default link settings (LCM only), server kill -9 x5, a
+# robot killed with unacknowledged keyframes and started again, a 20 s server outage) over LCM and over
+# Cyclone DDS, two robots on a synthetic 200-frame loop, each run inside a private loopback-only network
+# namespace. Prints one row per run: keyframes sent / acknowledged / stored (both robots), left in the
+# robots' spools at the end / found in a spool at a start, retransmissions, ack latency median and p90
+# (the worse robot), the robots' peak RSS, merged maps and the final ATE of the server's keyframes. Then the two faults that do not run over processes here: a flooding robot
 # (in-process against the real MapServer, MapServerFair.*) and a full disk
 # (tests/integration/disk_full.sh, a private tmpfs), with what they measured. Needs root; jq.
 #
@@ -14,7 +15,7 @@
 set -u
 repo="$(cd "$(dirname "$0")/.." && pwd)"
 bin="${RGBDMAP_BIN:-$repo/build/bin}"
-out="out/bench_faults" faults="clean loss30 loss60 dgram5 dgram30 kill9" transports="lcm dds" seed=7
+out="out/bench_faults" faults="clean loss30 loss60 dgram5 dgram30 kill9 robotkill9 outage" transports="lcm dds" seed=7
 while [ $# -gt 0 ]; do
   case "$1" in
     --out) out="$2"; shift 2 ;;
@@ -45,14 +46,15 @@ row() {  # row FAULT TRANSPORT RESULT_JSON SECONDS
     def sum(k): [.robots[] | k] | add;
     def ms(k): ([.robots[] | k] | max | . * 10 | round / 10 | tostring);
     [$f, $t, (sum(.keyframes_sent) | tostring), (sum(.acked) | tostring), (sum(.stored) | tostring),
-     (sum(.retransmissions) | tostring), ms(.ack_ms_median), ms(.ack_ms_p90), (.maps | tostring),
+     (sum(.spool_depth) | tostring), (sum(.spool_recovered) | tostring),
+     (sum(.retransmissions) | tostring), ms(.ack_ms_median), ms(.ack_ms_p90), ms(.rss_peak_mb), (.maps | tostring),
      (.ate_m | tonumber? // "nan" | if type == "number" then (. * 1e4 | round / 1e4 | tostring) else . end),
      $s] | @tsv' "$3"
 }
 
 table="$out/table.txt"
-printf '%s\t%s\t%s\t%s\t%s\t%s\t%s\t%s\t%s\t%s\t%s\n' fault transport sent acked stored retx \
-  ack_ms_med ack_ms_p90 maps ATE_m wall_s >"$table"
+printf '%s\t%s\t%s\t%s\t%s\t%s\t%s\t%s\t%s\t%s\t%s\t%s\t%s\t%s\n' fault transport sent acked stored spooled \
+  recovered retx ack_ms_med ack_ms_p90 rss_mb maps ATE_m wall_s >"$table"
 for fault in $faults; do
   for transport in $transports; do
     d="$out/${fault}_$transport"
@@ -61,7 +63,7 @@ for fault in $faults; do
       --dataset "$ds" --out "$d" --seed "$seed" >"$out/${fault}_$transport.log" 2>&1
     rc=$? secs=$(( $(date +%s) - start ))
     if [ "$rc" = 77 ]; then
-      printf '%s\t%s\tskipped\t-\t-\t-\t-\t-\t-\t-\t-\n' "$fault" "$transport" >>"$table"
+      printf '%s\t%s\tskipped\t-\t-\t-\t-\t-\t-\t-\t-\t-\t-\t-\n' "$fault" "$transport" >>"$table"
     elif [ "$rc" = 0 ] && [ -s "$d/result.json" ]; then
       row "$fault" "$transport" "$d/result.json" "$secs" >>"$table"
     else

@@ -18,6 +18,12 @@
 #   dgram30   30 % of the datagrams through the relay (LCM only), the robots' link at its defaults
 #   kill9     the server is killed (SIGKILL) at five random moments of the run and restarted on the same
 #             map directory each time (the robots at 30 Hz here, not --fast: the run must last the kills)
+#   robotkill9  robot0 is killed (SIGKILL) while the server hangs (SIGSTOP) and keyframes are unacknowledged,
+#             and started again on the rest of its frames with the same output folder: its keyframe spool
+#             there holds what was not acknowledged, and the new start must deliver it, each exactly once
+#   outage    the server is killed 3 s into the run and started again 20 s later; the robots map on (the
+#             dataset slowed 8 x, ~1 keyframe/s each) with the shipped link defaults: every keyframe made
+#             during the outage must be stored
 #   flood, diskfull: exit 77 here, see fault_flood and fault_diskfull below
 # An acknowledged keyframe is never sent again, so "every keyframe sent is stored at the end" also shows
 # that no kill -9 lost a keyframe the server had acknowledged before it.
@@ -143,6 +149,50 @@ fault_kill9() {
   done
   wait_clients; stop_server
 }
+# The dataset with its timestamps stretched FACTOR times (the same images: a robot at 30/FACTOR Hz).
+slow_dataset() {
+  local f=$1 d="$out/ds_slow" n
+  mkdir -p "$d"; ln -sfn "$(cd "$ds" && pwd)/rgb" "$d/rgb"; ln -sfn "$(cd "$ds" && pwd)/depth" "$d/depth"
+  [ -f "$ds/camera.yaml" ] && cp "$ds/camera.yaml" "$d/"
+  for n in rgb.txt depth.txt groundtruth.txt; do
+    awk -v f="$f" '/^#/ {print; next} {t0 = (t0 == "" ? $1 : t0); $1 = sprintf("%.6f", t0 + ($1 - t0) * f); print}' \
+      "$ds/$n" >"$d/$n"
+  done
+  ds="$d"
+}
+# robot0 at 7.5 Hz (the dataset slowed 4 x: its 113 frames in 15 s) is killed 5..9 s into its run, after
+# the server hung (SIGSTOP) for 3..7 s so that keyframes are unacknowledged, and started again 0.2 s later
+# (the server resumed) on the frames it had not reached (by the time it ran), same --out: its spool.
+fault_robotkill9() {
+  pace=""; write_configs; slow_dataset 4; start_server; wait_ready; start_clients
+  local t0 kill_after elapsed first
+  t0=$(date +%s.%N)
+  kill_after=$(awk -v r=$RANDOM 'BEGIN {printf "%.2f", 3 + 4 * r / 32767}')
+  sleep 2; kill -STOP "$server_pid"  # the server hangs: the keyframes from here on stay unacknowledged
+  sleep "$kill_after"
+  kill -9 "${client_pids[0]}"; wait "${client_pids[0]}" 2>/dev/null
+  kill -CONT "$server_pid"
+  elapsed=$(awk -v a="$t0" -v b="$(date +%s.%N)" 'BEGIN {print b - a}')
+  ls "$out/robots/robot0/spool/robot0" | grep -c '^kf-' >"$out/spooled_at_kill.txt"
+  first=$(awk -v e="$elapsed" 'BEGIN {f = int(e * 7.5); print (f > 112 ? 112 : f)}')
+  echo "robot0 killed at $elapsed s ($(cat "$out/spooled_at_kill.txt") keyframes spooled); restarted on $first:113" \
+    >>"$out/logs/kills.txt"
+  sleep 0.2
+  "$bin/rgbdmap-client" --config "$out/client_robot0.yaml" --dataset "$ds" --frames "$first:113" \
+    --out "$out/robots/robot0" >"$out/logs/client_robot0_restart.log" 2>&1 &
+  client_pids[0]=$!
+  wait_clients; stop_server
+}
+# The server down for 20 s from 3 s into the run; the robots (the dataset slowed 8 x: ~30 s each, about a
+# keyframe a second) with the shipped link defaults map through it.
+fault_outage() {
+  pace="" final_wait="" max_attempts=""; write_configs; slow_dataset 8; start_server; wait_ready; start_clients
+  sleep 3
+  kill -9 "$server_pid"; wait "$server_pid" 2>/dev/null
+  echo "server killed at $(date +%T.%N) for 20 s" >>"$out/logs/kills.txt"
+  sleep 20; start_server
+  wait_clients; stop_server
+}
 fault_dgram5() { if [ "$transport" = dds ]; then fault_dgram5_dds; else fault_dgram5_lcm; fi; }
 fault_dgram5_dds() {  # 50 per mille of Cyclone's outgoing datagrams dropped, in every process
   write_configs
@@ -189,14 +239,18 @@ collect() {
     j="$out/robots/$r/client_$r.json"
     [ -s "$j" ] || { echo "FAIL: $r wrote no client_$r.json"; tail -n 5 "$out/logs/client_$r.log"; return 1; }
     stamps "$out/robots/$r/keyframes_$r.txt" >"$out/sent_$r.txt"
+    [ -s "$out/map/keyframes_$r.txt" ] && grep -v '^#' "$out/map/keyframes_$r.txt" | awk '{print $1}' | sort \
+      >"$out/stored_all_$r.txt"
     stamps "$out/map/keyframes_$r.txt" >"$out/stored_$r.txt"
     sent=$(wc -l <"$out/sent_$r.txt"); stored=$(comm -12 "$out/sent_$r.txt" "$out/stored_$r.txt" | wc -l)
     missing=$(comm -23 "$out/sent_$r.txt" "$out/stored_$r.txt" | head -n 5 | tr '\n' ' ')
-    rows+=("$(jq -c --arg r "$r" --argjson sent "$sent" --argjson stored "$stored" --arg missing "$missing" \
+    rows+=("$(jq -c --arg r "$r" --arg dups "$(uniq -d <"$out/stored_all_$r.txt" 2>/dev/null | wc -l)" --argjson sent "$sent" --argjson stored "$stored" --arg missing "$missing" \
       '{robot: $r, sent: $sent, keyframes_sent: .keyframes_sent, acked: .keyframes_acked, stored: $stored,
         missing: $missing, given_up: .keyframes_given_up, retransmissions: .retransmissions,
         ack_ms_median: .ack_latency_ms_median, ack_ms_p90: .ack_latency_ms_p90, all_acked: .all_acked,
-        corrections: .corrections_received, final_correction: .final_correction_received}' "$j")")
+        corrections: .corrections_received, final_correction: .final_correction_received,
+        spool_recovered, spool_recovered_acked, spool_depth, spool_damaged, rss_peak_mb,
+        duplicates: ($dups | tonumber)}' "$j")")
   done
   [ -s "$out/map/server_summary.json" ] || { echo "FAIL: no server_summary.json (the last server did not stop cleanly)"
     cat "$out/logs/exits.txt"; return 1; }
@@ -215,11 +269,12 @@ collect() {
 check_result() {
   local res="$out/result.json" ok=1 need_acked=1
   [ "$fault" = loss60 ] && need_acked=0
-  jq -e 'all(.robots[]; .stored == .sent and .sent > 0 and .sent == .keyframes_sent)' "$res" >/dev/null \
+  jq -e 'all(.robots[]; .stored == .sent and .sent > 0 and .sent + .spool_recovered == .keyframes_sent)' "$res" >/dev/null \
     && echo "ok: every keyframe sent is stored" \
     || { echo "FAIL: keyframes not stored: $(jq -c '[.robots[] | {robot, sent, stored, missing}]' "$res")"; ok=0; }
   if [ "$need_acked" = 1 ]; then
-    jq -e 'all(.robots[]; .acked == .sent and .all_acked)' "$res" >/dev/null && echo "ok: every keyframe acknowledged" \
+    jq -e 'all(.robots[]; .acked == .sent + .spool_recovered and .all_acked and .spool_depth == 0)' "$res" \
+      >/dev/null && echo "ok: every keyframe acknowledged, the spools empty" \
       || { echo "FAIL: not all acknowledged: $(jq -c '[.robots[] | {robot, sent, acked}]' "$res")"; ok=0; }
   fi
   jq -e '.maps == 1 and (.merged_maps | length == 1 and (.[0] | sort) == ["robot0", "robot1"])' "$res" >/dev/null \
@@ -236,6 +291,14 @@ check_result() {
       && echo "ok: the robots got corrections" \
       || { echo "FAIL: corrections after the restarts: $(jq -c '[.robots[] | {robot, corrections}]' "$res")"; ok=0; }
   fi
+  if [ "$fault" = robotkill9 ]; then
+    local n; n=$(cat "$out/spooled_at_kill.txt")
+    jq -e --argjson n "$n" '.robots[0] | .spool_recovered == $n and .spool_recovered_acked == $n and $n > 0' \
+      "$res" >/dev/null && echo "ok: the $n keyframes spooled at the kill were delivered by the next start" \
+      || { echo "FAIL: spooled at the kill $n: $(jq -c '.robots[0] | {spool_recovered, spool_recovered_acked}' "$res")"; ok=0; }
+  fi
+  jq -e 'all(.robots[]; .duplicates == 0)' "$res" >/dev/null && echo "ok: every keyframe stored once" \
+    || { echo "FAIL: keyframes stored twice: $(jq -c '[.robots[] | {robot, duplicates}]' "$res")"; ok=0; }
   grep -q 'server exit 0' "$out/logs/exits.txt" || { echo "FAIL: the last server did not exit 0"; ok=0; }
   [ "$ok" = 1 ]
 }
