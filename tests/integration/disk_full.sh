@@ -12,7 +12,10 @@
 #   phase 2 (full at shutdown): the server restarted on the same directory, the disk filled completely, then
 #     SIGINT: writing the outputs fails (reported in the log, exit 1), and every earlier output is still there, byte
 #     for byte (no truncated map.bt in place of a good one), and no temporary file is left;
-#   after both: the store reopens with no corrupt record and no truncated tail.
+#   phase 3 (the robot's disk full): the client's keyframe spool on a tmpfs with room for a few keyframes,
+#     the server hanging (SIGSTOP) for 2.5 s of the run so that they pile up: the robot says it sends live
+#     only, keeps running, and every keyframe is acknowledged (client exit 0);
+#   after all: the store reopens with no corrupt record and no truncated tail.
 # Exit 77 (skip) where the namespaces or the tmpfs mount are not permitted (needs root).
 # Usage: disk_full.sh BIN_DIR
 set -u
@@ -29,13 +32,13 @@ if [ -z "${RGBDMAP_DISK_FULL_NS:-}" ]; then
 fi
 ip link set lo up && ip link set lo multicast on && ip route add 224.0.0.0/4 dev lo || exit 1
 
-frames=120 hold_s=4 retry_s=1 room_kb=600 tmpfs_mb=48
+frames=120 hold_s=4 retry_s=1 room_kb=600 tmpfs_mb=48 spool_room_kb=400
 tmp=$(mktemp -d)
 map="$tmp/map"
 server=""
 cleanup() {
   [ -n "$server" ] && kill "$server" 2>/dev/null
-  umount "$map" 2>/dev/null
+  umount "$map" "$tmp/spool" 2>/dev/null
   rm -rf "$tmp"
 }
 trap cleanup EXIT
@@ -165,6 +168,30 @@ done
 ls "$map" | grep -q '\.tmp' && bad "a temporary file is left: $(ls "$map")" || ok "no temporary file left"
 check_outputs "after the failed writes"
 rm -f "$map/filler"
+
+# --- phase 3: the robot's disk is full ----------------------------------------------------------------------
+echo "== phase 3: the robot's keyframe spool on a 4 MB tmpfs with ${spool_room_kb} KB free"
+start_server "$tmp/server4.log"
+mkdir -p "$tmp/spool" "$tmp/robot0b"
+mount -t tmpfs -o size=4m tmpfs "$tmp/spool" || { echo "FAIL: cannot mount the spool's tmpfs"; exit 1; }
+head -c $(( $(df --output=avail -B1 "$tmp/spool" | tail -n 1) - spool_room_kb * 1024 )) /dev/zero >"$tmp/spool/filler"
+# At 30 Hz; the server hangs (SIGSTOP) from 1 s to 3.5 s, so that keyframes pile up in the spool.
+"$bin/rgbdmap-client" --config "$tmp/client.yaml" --dataset "$tmp/seq" --out "$tmp/robot0b" \
+  --spool "$tmp/spool" >"$tmp/client_spool_full.log" 2>&1 &
+client=$!
+sleep 1; kill -STOP "$server"; sleep 2.5; kill -CONT "$server"
+wait "$client"; client_rc=$?
+stop_server >/dev/null
+cj="$tmp/robot0b/client_robot0.json"
+[ "$client_rc" -eq 0 ] && ok "client exit 0 with its spool's disk full" || bad "client exit $client_rc"
+grep -q "keyframes are sent live only" "$tmp/client_spool_full.log" \
+  && ok "the robot said it runs live only: $(grep -o 'keyframe spool: [^:]*: [^:]*' "$tmp/client_spool_full.log" | head -n 1)" \
+  || bad "no 'live only' in the client's log"
+jq -e '.keyframes_live_only > 0 and .keyframes_spooled > 0 and .all_acked and .keyframes_acked == .keyframes
+    and .spool_depth == 0' "$cj" >/dev/null \
+  && ok "spooled while there was room, live only after, all acknowledged: $(jq -c '{keyframes, keyframes_spooled, keyframes_live_only, keyframes_acked}' "$cj")" \
+  || bad "client: $(jq -c '{keyframes, keyframes_spooled, keyframes_live_only, keyframes_acked, all_acked, spool_depth}' "$cj" 2>&1)"
+umount "$tmp/spool"
 
 # --- the store itself ---------------------------------------------------------------------------------------
 start_server "$tmp/server3.log"
