@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # Fault harness: one rgbdmap-server and two rgbdmap-client processes (robot0 frames 0:113, robot1
-# 87:200 of a synthetic 200-frame loop, --fast but for kill9) over LCM or Cyclone DDS, inside a private loopback-only
+# 87:200 of a synthetic 200-frame loop, the same shares of a longer one; --fast but for kill9, robotkill9
+# and outage) over LCM or Cyclone DDS, inside a private loopback-only
 # network namespace, under one fault; then it compares what the robots sent and had acknowledged
 # (client_<R>.json, keyframes_<R>.txt) with what the server stored (map/keyframes_<R>.txt, written from the
 # map store at the end) and writes OUT/result.json. Used by the ctest entries faults.* (with --check) and by
@@ -15,7 +16,8 @@
 #   dgram5    5 % of the UDP datagrams: DDS via Cyclone's Internal/Test/XmitLossiness (a test config
 #             derived from deploy/dds/cyclonedds-loopback.xml); LCM: 5 % of the IP packets (MTU 1500)
 #             through rgbdmap-lossy-relay between the robots' and the server's multicast groups
-#   dgram30   30 % of the datagrams through the relay (LCM only), the robots' link at its defaults
+#   dgram30   30 % of the datagrams through the relay (LCM only), the robots' link at its defaults; a robot
+#             that ends with keyframes spooled starts again on its last frame to deliver them
 #   kill9     the server is killed (SIGKILL) at five random moments of the run and restarted on the same
 #             map directory each time (the robots at 30 Hz here, not --fast: the run must last the kills)
 #   robotkill9  while the server hangs (SIGSTOP) and keyframes are unacknowledged, robot0 is killed (SIGKILL)
@@ -55,7 +57,12 @@ if [ -z "${RGBDMAP_TRANSPORT_NETNS:-}" ]; then  # re-run inside the namespace (e
     --bin "$bin" --dataset "$ds" --out "$out" ${check:+--check "$check"} --seed "$seed"
 fi
 RANDOM=$seed
-robots=(robot0 robot1) ranges=(0:113 87:200)
+robots=(robot0 robot1)
+# robot0 the first 56.5 % of the frames, robot1 the last 56.5 % (0:113 and 87:200 of the 200-frame loop).
+nframes=$(grep -vc '^#' "$ds/rgb.txt")
+ranges=("0:$(( (nframes * 565 + 500) / 1000 ))" "$(( nframes - (nframes * 565 + 500) / 1000 )):$nframes")
+# outage: how long the server is down, and how many times slower than recorded the robots run.
+outage_s=${RGBDMAP_OUTAGE_S:-20} outage_slow=${RGBDMAP_OUTAGE_SLOW:-8}
 drop="" final_wait=20 max_attempts=20 chunk_bytes=-1 server_pid="" ready_before=0 pace=--fast server_url="" client_pids=()
 lcm_url='udpm://239.255.76.67:7667?ttl=0&recv_buf_size=8388608'
 dds_url='dds://?domain=0'
@@ -115,7 +122,24 @@ stop_server() {
   wait_ready  # a server stopped while it restores the map store still stops cleanly; this keeps the log readable
   kill -INT "$server_pid"; wait "$server_pid"; echo "server exit $?" >>"$out/logs/exits.txt"
 }
-run_plain() { start_server; wait_ready; start_clients; wait_clients; stop_server; }
+run_plain() { start_server; wait_ready; start_clients; wait_clients; ${after_clients:-true}; stop_server; }
+# A robot whose run ended with keyframes left in its spool starts again (on its last frame, same --out):
+# the new start must deliver them. The first run's keyframes_R.txt and client_R.json are kept as *.run1.*.
+restart_spooled() {
+  local i r d end
+  for i in "${!robots[@]}"; do
+    r=${robots[$i]} d="$out/robots/${robots[$i]}"
+    [ "$(jq .spool_depth "$d/client_$r.json" 2>/dev/null)" = 0 ] && continue
+    cp "$d/keyframes_$r.txt" "$d/keyframes_$r.run1.txt"; cp "$d/client_$r.json" "$d/client_$r.run1.json"
+    end=${ranges[$i]#*:}
+    grep -v '^#' "$ds/rgb.txt" | awk -v n="$((end - 1))" 'NR == n + 1 {print $1}' >"$out/restart_t_$r.txt"
+    echo "$r restarted on $((end - 1)):$end with $(jq .spool_depth "$d/client_$r.json") keyframes spooled" \
+      >>"$out/logs/kills.txt"
+    "$bin/rgbdmap-client" --config "$out/client_$r.yaml" --dataset "$ds" --frames "$((end - 1)):$end" \
+      --out "$d" >"$out/logs/client_${r}_restart.log" 2>&1
+    echo "client $r restart exit $?" >>"$out/logs/exits.txt"
+  done
+}
 
 # --- faults --------------------------------------------------------------------------------------------------
 fault_clean() { write_configs; run_plain; }
@@ -195,14 +219,16 @@ fault_robotkill9() {
   client_pids=(); start_clients
   wait_clients; stop_server
 }
-# The server down for 20 s from 3 s into the run; the robots (the dataset slowed 8 x: ~30 s each, about a
-# keyframe a second) with the shipped link defaults map through it.
+# The server down for 20 s (RGBDMAP_OUTAGE_S) from 3 s into the run; the robots (the dataset slowed 8 x,
+# RGBDMAP_OUTAGE_SLOW: ~30 s each on the 200-frame loop, about a keyframe a second) with the shipped link
+# defaults map through it.
 fault_outage() {
-  pace="" final_wait="" max_attempts=""; write_configs; slow_dataset 8; start_server; wait_ready; start_clients
+  pace="" final_wait="" max_attempts=""; write_configs; slow_dataset "$outage_slow"; start_server; wait_ready
+  start_clients
   sleep 3
   kill -9 "$server_pid"; wait "$server_pid" 2>/dev/null
-  echo "server killed at $(date +%T.%N) for 20 s" >>"$out/logs/kills.txt"
-  sleep 20; start_server
+  echo "server killed at $(date +%T.%N) for $outage_s s" >>"$out/logs/kills.txt"
+  sleep "$outage_s"; start_server
   wait_clients; stop_server
 }
 fault_dgram5() { if [ "$transport" = dds ]; then fault_dgram5_dds; else fault_dgram5_lcm; fi; }
@@ -222,7 +248,7 @@ fault_dgram5_lcm() { relay_loss 0.05; }
 # (final wait, attempts): what a robot on a bad Wi-Fi link meets.
 fault_dgram30() {
   [ "$transport" = lcm ] || { echo "SKIP: dgram30 runs over LCM (the relay)"; exit 77; }
-  final_wait="" max_attempts=""
+  final_wait="" max_attempts="" after_clients=restart_spooled
   relay_loss 0.3
 }
 relay_loss() {
@@ -246,11 +272,12 @@ fault_diskfull() { echo "SKIP: disk full runs in tests/integration/disk_full.sh 
 # --- what was sent, acknowledged, stored ---------------------------------------------------------------------
 stamps() { [ -s "$1" ] && grep -v '^#' "$1" | awk '{print $1}' | sort -u; }
 collect() {
-  local r j sent acked stored missing acked_missing dups rows=()
+  local r j sent acked stored missing acked_missing dups run1 rows=()
   for r in "${robots[@]}"; do
     j="$out/robots/$r/client_$r.json"
     [ -s "$j" ] || { echo "FAIL: $r wrote no client_$r.json"; tail -n 5 "$out/logs/client_$r.log"; return 1; }
-    stamps "$out/robots/$r/keyframes_$r.txt" >"$out/sent_$r.txt"
+    cat "$out/robots/$r/keyframes_$r.txt" "$out/robots/$r/keyframes_$r.run1.txt" 2>/dev/null >"$out/made_$r.txt"
+    stamps "$out/made_$r.txt" >"$out/sent_$r.txt"
     [ -s "$out/map/keyframes_$r.txt" ] && grep -v '^#' "$out/map/keyframes_$r.txt" | awk '{print $1}' | sort \
       >"$out/stored_all_$r.txt"
     stamps "$out/map/keyframes_$r.txt" >"$out/stored_$r.txt"
@@ -260,13 +287,17 @@ collect() {
     # start may make a keyframe of a frame its killed predecessor made one of too).
     dups=$(awk -v t="$(cat "$out/restart_t_$r.txt" 2>/dev/null)" 't == "" || $1 < t' "$out/stored_all_$r.txt" \
       2>/dev/null | uniq -d | wc -l)
-    rows+=("$(jq -c --arg r "$r" --arg dups "$dups" --argjson sent "$sent" --argjson stored "$stored" --arg missing "$missing" \
+    run1=null
+    [ -s "$out/robots/$r/client_$r.run1.json" ] && run1=$(jq -c '{keyframes_sent, acked: .keyframes_acked,
+      spool_depth, lost: .keyframes_lost, ack_ms_median: .ack_latency_ms_median, ack_ms_p90: .ack_latency_ms_p90}' \
+      "$out/robots/$r/client_$r.run1.json")
+    rows+=("$(jq -c --arg r "$r" --arg dups "$dups" --argjson run1 "$run1" --argjson sent "$sent" --argjson stored "$stored" --arg missing "$missing" \
       '{robot: $r, sent: $sent, keyframes_sent: .keyframes_sent, acked: .keyframes_acked, stored: $stored,
         missing: $missing, given_up: .keyframes_given_up, retransmissions: .retransmissions,
         ack_ms_median: .ack_latency_ms_median, ack_ms_p90: .ack_latency_ms_p90, all_acked: .all_acked,
         corrections: .corrections_received, final_correction: .final_correction_received,
         spool_recovered, spool_recovered_acked, spool_depth, spool_damaged, rss_peak_mb,
-        duplicates: ($dups | tonumber)}' "$j")")
+        duplicates: ($dups | tonumber), run1: $run1}' "$j")")
   done
   [ -s "$out/map/server_summary.json" ] || { echo "FAIL: no server_summary.json (the last server did not stop cleanly)"
     cat "$out/logs/exits.txt"; return 1; }
@@ -285,12 +316,16 @@ collect() {
 check_result() {
   local res="$out/result.json" ok=1 need_acked=1
   [ "$fault" = loss60 ] && need_acked=0
-  jq -e 'all(.robots[]; .stored == .sent and .sent > 0 and .sent + .spool_recovered == .keyframes_sent)' "$res" >/dev/null \
+  # A robot started again to deliver its spool (dgram30): its two runs' keyframes are "sent".
+  jq -e 'all(.robots[]; .stored == .sent and .sent > 0 and (.run1 != null or .sent + .spool_recovered == .keyframes_sent))' \
+    "$res" >/dev/null \
     && echo "ok: every keyframe sent is stored" \
     || { echo "FAIL: keyframes not stored: $(jq -c '[.robots[] | {robot, sent, stored, missing}]' "$res")"; ok=0; }
   if [ "$need_acked" = 1 ]; then
-    jq -e 'all(.robots[]; .acked == .sent + .spool_recovered and .all_acked and .spool_depth == 0)' "$res" \
-      >/dev/null && echo "ok: every keyframe acknowledged, the spools empty" \
+    jq -e 'all(.robots[]; (.acked == .sent + .spool_recovered or (.run1 != null and .run1.lost == 0
+        and .spool_recovered == .run1.spool_depth and .spool_recovered_acked == .spool_recovered))
+        and .all_acked and .spool_depth == 0)' "$res" \
+      >/dev/null && echo "ok: every keyframe acknowledged (by the end, or by the next start), the spools empty" \
       || { echo "FAIL: not all acknowledged: $(jq -c '[.robots[] | {robot, sent, acked}]' "$res")"; ok=0; }
   fi
   if [ "$fault" = robotkill9 ]; then
