@@ -33,6 +33,8 @@ const char* channelSuffix(MessageType type) {
       return "loops";
     case MessageType::kRobotPose:
       return "pose";
+    case MessageType::kLinkStatus:
+      return "link";
   }
   return "unknown";
 }
@@ -43,7 +45,8 @@ Direction directionOf(MessageType type) {
     case MessageType::kHeartbeat:
     case MessageType::kKeyframe:
     case MessageType::kKeyframeChunk:
-    case MessageType::kRobotPose:  // robot -> visualisers (the server does not subscribe)
+    case MessageType::kRobotPose:   // robot -> visualisers (the server does not subscribe)
+    case MessageType::kLinkStatus:  // robot -> monitor, visualisers (likewise)
       return Direction::kRobotToServer;
     default:  // everything the server sends goes to one robot's channel, signed with that robot's key
       return Direction::kServerToRobot;

@@ -1,4 +1,4 @@
-// Wire <-> internal for the robot's messages: Hello, Heartbeat, RobotPose, Keyframe.
+// Wire <-> internal for the robot's messages: Hello, Heartbeat, RobotPose, LinkStatus, Keyframe.
 #include <cmath>
 
 #include "convert_common.hpp"
@@ -6,6 +6,7 @@
 #include "rgbdmap_lcm/heartbeat_t.hpp"
 #include "rgbdmap_lcm/hello_t.hpp"
 #include "rgbdmap_lcm/keyframe_t.hpp"
+#include "rgbdmap_lcm/link_status_t.hpp"
 #include "rgbdmap_lcm/robot_pose_t.hpp"
 
 namespace rgbdmap::msg {
@@ -90,6 +91,29 @@ Result<RobotPose> fromWireRobotPose(const rgbdmap_lcm::robot_pose_t& w) {
   return m;
 }
 
+rgbdmap_lcm::link_status_t toWireLinkStatus(const LinkStatus& m) {
+  rgbdmap_lcm::link_status_t w;
+  w.header = toWire(m.header);
+  w.robot_id = m.robot_id;
+  w.keyframes_made = m.keyframes_made;
+  w.keyframes_acked = m.keyframes_acked;
+  w.in_flight = m.in_flight;
+  w.queued = m.queued;
+  w.spool_depth = m.spool_depth;
+  w.spool_bytes = m.spool_bytes;
+  w.oldest_unanswered_s = m.oldest_unanswered_s;
+  w.live_only = m.live_only ? 1 : 0;
+  w.diagnosis = m.diagnosis;
+  return w;
+}
+
+Result<LinkStatus> fromWireLinkStatus(const rgbdmap_lcm::link_status_t& w) {
+  if (w.live_only != 0 && w.live_only != 1) return Result<LinkStatus>::failure("live_only is not 0 or 1");
+  return LinkStatus{fromWire(w.header),    w.robot_id,       w.keyframes_made, w.keyframes_acked,
+                    w.in_flight,           w.queued,         w.spool_depth,    w.spool_bytes,
+                    w.oldest_unanswered_s, w.live_only == 1, w.diagnosis};
+}
+
 void informationToWire(const Mat6& info, double* out) {
   int n = 0;
   for (int r = 0; r < 6; ++r)
@@ -171,6 +195,7 @@ Result<Keyframe> fromWireKeyframe(const rgbdmap_lcm::keyframe_t& w) {
 RGBDMAP_PROTO_CODEC(Hello, toWireHello, fromWireHello)
 RGBDMAP_PROTO_CODEC(Heartbeat, toWireHeartbeat, fromWireHeartbeat)
 RGBDMAP_PROTO_CODEC(RobotPose, toWireRobotPose, fromWireRobotPose)
+RGBDMAP_PROTO_CODEC(LinkStatus, toWireLinkStatus, fromWireLinkStatus)
 RGBDMAP_PROTO_CODEC(Keyframe, toWireKeyframe, fromWireKeyframe)
 
 Result<DecodedImages> decodeKeyframeImages(const Keyframe& keyframe) { return decodeImages(keyframe.images); }

@@ -33,6 +33,8 @@ const char* toString(MessageType type) {
       return "LoopEdges";
     case MessageType::kRobotPose:
       return "RobotPose";
+    case MessageType::kLinkStatus:
+      return "LinkStatus";
   }
   return "unknown";
 }

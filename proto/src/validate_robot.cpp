@@ -1,4 +1,4 @@
-// Validation of the robot's messages: Hello, Heartbeat, RobotPose, Keyframe.
+// Validation of the robot's messages: Hello, Heartbeat, RobotPose, LinkStatus, Keyframe.
 #include <cmath>
 #include <cstring>
 
@@ -36,7 +36,8 @@ Status validateInformation(const Mat6& info) {
   return Status::success();
 }
 
-/// The blob header of rgbdmap/codec/image_codec.hpp (magic at 0, width/height LE at 6 and 8) must match the keyframe.
+/// The blob header of rgbdmap/codec/image_codec.hpp (magic at 0, width/height LE at 6 and 8) must match the
+/// keyframe.
 bool blobMatches(const Bytes& blob, const char* magic, int width, int height) {
   if (blob.size() < kImageBlobHeaderSize || std::memcmp(blob.data(), magic, 4) != 0) return false;
   return (blob[6] | blob[7] << 8) == width && (blob[8] | blob[9] << 8) == height;
@@ -91,6 +92,18 @@ Status validate(const RobotPose& m) {
   if (m.tracking_state < 0 || m.tracking_state > 3) return fail("tracking state out of range");
   if (!(std::isfinite(m.timestamp) && m.timestamp >= 0.0)) return fail("invalid timestamp");
   if (!isValidPose(m.T_map_cam)) return fail("invalid pose");
+  return Status::success();
+}
+
+Status validate(const LinkStatus& m) {
+  if (Status s = validate(m.header); !s) return s;
+  if (!isRobotId(m.robot_id)) return fail("invalid robot id");
+  if (m.header.sender != m.robot_id) return fail("sender is not the robot");
+  if (m.keyframes_made < 0 || m.keyframes_acked < 0 || m.in_flight < 0 || m.queued < 0 ||
+      m.spool_depth < -1 || m.spool_bytes < 0)
+    return fail("negative count");
+  if (!(std::isfinite(m.oldest_unanswered_s) && m.oldest_unanswered_s >= 0.0)) return fail("invalid age");
+  if (!isValidText(m.diagnosis)) return fail("invalid diagnosis text");
   return Status::success();
 }
 

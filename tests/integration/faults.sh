@@ -224,12 +224,17 @@ fault_robotkill9() {
 # defaults map through it.
 fault_outage() {
   pace="" final_wait="" max_attempts=""; write_configs; slow_dataset "$outage_slow"; start_server; wait_ready
+  # rgbdmap-monitor throughout: the robots' LinkStatus shows their spools fill and drain.
+  "$bin/rgbdmap-monitor" --transport "$(url_for 0)" --robots robot0,robot1 --keys-file "$out/keys/server_keys.txt" \
+    --period 1 >"$out/logs/monitor.log" 2>&1 &
+  local monitor=$!
   start_clients
   sleep 3
   kill -9 "$server_pid"; wait "$server_pid" 2>/dev/null
   echo "server killed at $(date +%T.%N) for $outage_s s" >>"$out/logs/kills.txt"
   sleep "$outage_s"; start_server
   wait_clients; stop_server
+  kill -INT "$monitor"; wait "$monitor"
 }
 fault_dgram5() { if [ "$transport" = dds ]; then fault_dgram5_dds; else fault_dgram5_lcm; fi; }
 fault_dgram5_dds() {  # 50 per mille of Cyclone's outgoing datagrams dropped, in every process
@@ -360,6 +365,11 @@ check_result() {
       && grep -q "keyframes not yet acknowledged stay in the spool" "$out/logs/client_robot1_stopped.log" \
       && echo "ok: robot1 stopped by SIGINT exited 0 and said what stays spooled" \
       || { echo "FAIL: robot1 after SIGINT: $(grep robot1 "$out/logs/exits.txt"; tail -n 3 "$out/logs/client_robot1_stopped.log")"; ok=0; }
+  fi
+  if [ "$fault" = outage ]; then
+    local most; most=$(grep -o 'spool=[0-9]*' "$out/logs/monitor.log" | cut -d= -f2 | sort -n | tail -n 1)
+    [ "${most:-0}" -gt 0 ] && echo "ok: rgbdmap-monitor showed up to $most keyframes in a robot's spool during the outage" \
+      || { echo "FAIL: the monitor never showed a spooled keyframe: $(tail -n 2 "$out/logs/monitor.log")"; ok=0; }
   fi
   jq -e 'all(.robots[]; .duplicates == 0)' "$res" >/dev/null && echo "ok: every keyframe stored once" \
     || { echo "FAIL: keyframes stored twice: $(jq -c '[.robots[] | {robot, duplicates}]' "$res")"; ok=0; }

@@ -8,6 +8,8 @@
 #include "fake_map_server.hpp"
 #include "link_test_util.hpp"
 #include "rgbdmap/link/delivery_report.hpp"
+#include "rgbdmap/proto/codec.hpp"
+#include "rgbdmap/proto/envelope.hpp"
 
 namespace rgbdmap {
 namespace {
@@ -44,17 +46,42 @@ void sendRange(RobotLink& link, int first, int count, int segment) {
 }
 
 TEST(RobotLinkSpool, NoServerBlocksNothingAndEverythingArrivesWhenItComes) {
+  std::mutex m;                         // declared before the transport, whose handler uses them
+  std::optional<msg::LinkStatus> seen;  // what the monitor reads: the robot's LinkStatus
+  msg::KeyStore keys;
+  ASSERT_TRUE(keys.add("robot0", linkKey(1)));
+  msg::ReplayGuard guard;
+  msg::RejectCounters rejects;
   auto transport = testing::makeMemq();
   const std::string dir = linkSpoolDir("outage");
   RobotLinkOptions o = spooledOptions(dir);
   RobotLink link(*transport, o);
   ASSERT_TRUE(link.start());
+  ASSERT_TRUE(
+      transport->subscribe("rgbdmap/robot0/link", [&](const std::string&, const uint8_t* d, size_t n) {
+        auto opened = msg::openEnvelope(d, n, keys, &guard, &rejects);
+        auto status = opened ? msg::decodeMessage<msg::LinkStatus>(*opened, &rejects)
+                             : Result<msg::LinkStatus>::failure("");
+        std::lock_guard<std::mutex> lock(m);
+        if (status) seen = *status;
+      }));
   sendRange(link, 0, 12, 0);  // 12 keyframes, a window of 2, no server: all spooled, none skipped
   RobotLinkStats st = link.stats();
   EXPECT_EQ(st.keyframes_spooled, 12u);
   EXPECT_EQ(st.spool_depth, 12u);
   EXPECT_GE(st.keyframes_queued, 10u);
-  EXPECT_FALSE(link.waitAllAcked(0.3));
+  EXPECT_FALSE(link.waitAllAcked(0.3));  // also a few heartbeat periods: LinkStatus published
+  {
+    std::lock_guard<std::mutex> lock(m);
+    ASSERT_TRUE(seen.has_value());
+    EXPECT_EQ(seen->spool_depth, 12);
+    EXPECT_EQ(seen->keyframes_made, 12);
+    EXPECT_EQ(seen->keyframes_acked, 0);
+    EXPECT_EQ(seen->in_flight + seen->queued, 12);
+    EXPECT_GT(seen->oldest_unanswered_s, 0.0);
+    EXPECT_GT(seen->spool_bytes, 0);
+    EXPECT_FALSE(seen->live_only);
+  }
   FakeMapServer server(*transport, serverOptions(linkKey(1)));
   server.start();
   ASSERT_TRUE(link.waitAllAcked(20.0));

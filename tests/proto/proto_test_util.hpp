@@ -90,6 +90,21 @@ inline msg::RobotPose sampleRobotPose() {
   return m;
 }
 
+inline msg::LinkStatus sampleLinkStatus() {
+  msg::LinkStatus m;
+  m.robot_id = "robot_1";
+  m.keyframes_made = 40;
+  m.keyframes_acked = 31;
+  m.in_flight = 4;
+  m.queued = 5;
+  m.spool_depth = 9;
+  m.spool_bytes = 540000;
+  m.oldest_unanswered_s = 12.5;
+  m.live_only = true;
+  m.diagnosis = "no server heard";
+  return m;
+}
+
 inline msg::Heartbeat sampleHeartbeat() { return {{}, "robot_1", 16, 2, 1, 123.5}; }
 inline msg::KeyframeAck sampleAck() { return {{}, "robot_1", 17, false, "duplicate keyframe"}; }
 
@@ -180,7 +195,7 @@ inline std::vector<Bytes> sampleEnvelopes(msg::Signer* robot, msg::Signer* serve
           server->seal(sampleMap(), t).value(),         server->seal(sampleVelocity(), t).value(),
           server->seal(sampleStatus(), t).value(),      robot->seal(sampleChunk(), t).value(),
           server->seal(sampleChunkAck(), t).value(),    server->seal(sampleLoops(), t).value(),
-          robot->seal(sampleRobotPose(), t).value()};
+          robot->seal(sampleRobotPose(), t).value(),    robot->seal(sampleLinkStatus(), t).value()};
 }
 
 }  // namespace rgbdmap::testing

@@ -51,6 +51,8 @@ Status decodeAny(const OpenedEnvelope& e, RejectCounters* c) {
       return decodeAs<LoopEdges>(e, c);
     case MessageType::kRobotPose:
       return decodeAs<RobotPose>(e, c);
+    case MessageType::kLinkStatus:
+      return decodeAs<LinkStatus>(e, c);
   }
   return Status::failure("unknown type");
 }

@@ -240,6 +240,37 @@ TEST(ProtoRoundTrip, RobotPose) {
   EXPECT_EQ(directionOf(MessageType::kRobotPose), Direction::kRobotToServer);
 }
 
+TEST(ProtoRoundTrip, LinkStatus) {
+  const LinkStatus m = testing::sampleLinkStatus(), m2 = throughEnvelope(m);
+  EXPECT_EQ(m2.robot_id, m.robot_id);
+  EXPECT_EQ(m2.keyframes_made, m.keyframes_made);
+  EXPECT_EQ(m2.keyframes_acked, m.keyframes_acked);
+  EXPECT_EQ(m2.in_flight, m.in_flight);
+  EXPECT_EQ(m2.queued, m.queued);
+  EXPECT_EQ(m2.spool_depth, m.spool_depth);
+  EXPECT_EQ(m2.spool_bytes, m.spool_bytes);
+  EXPECT_EQ(m2.oldest_unanswered_s, m.oldest_unanswered_s);
+  EXPECT_EQ(m2.live_only, m.live_only);
+  EXPECT_EQ(m2.diagnosis, m.diagnosis);
+  LinkStatus bad = m;
+  bad.header.sender = "robot_2";  // a robot's link status comes from that robot only
+  EXPECT_FALSE(validate(bad));
+  bad = m;
+  bad.spool_depth = -2;
+  EXPECT_FALSE(validate(bad));
+  bad = m;
+  bad.queued = -1;
+  EXPECT_FALSE(validate(bad));
+  bad = m;
+  bad.oldest_unanswered_s = std::nan("");
+  EXPECT_FALSE(validate(bad));
+  bad = m;
+  bad.diagnosis = "bell\a";
+  EXPECT_FALSE(validate(bad));
+  EXPECT_EQ(channelFor(MessageType::kLinkStatus, "robot_1").value(), "rgbdmap/robot_1/link");
+  EXPECT_EQ(directionOf(MessageType::kLinkStatus), Direction::kRobotToServer);
+}
+
 TEST(ProtoChannels, NamesAndDirections) {
   EXPECT_EQ(channelFor(MessageType::kKeyframe, "robot_1").value(), "rgbdmap/robot_1/keyframe");
   EXPECT_EQ(channelFor(MessageType::kPoseCorrections, "r2").value(), "rgbdmap/r2/pose_corrections");

@@ -223,6 +223,26 @@ TEST(ViewerPose, RobotPosesApplyInOrderPerSession) {
   EXPECT_FALSE(view.snapshot("nobody").live_pose);
 }
 
+TEST(ViewerLink, TheRobotsLinkStatusIsKeptInOrderPerSession) {
+  MapView view({"robot0"});
+  msg::LinkStatus l;
+  l.robot_id = "robot0";
+  l.header.session = 7;
+  l.header.utime = 2000;
+  l.spool_depth = 12;
+  l.oldest_unanswered_s = 30.5;
+  view.applyLinkStatus("robot0", l);
+  msg::LinkStatus older = l;
+  older.header.utime = 1000;
+  older.spool_depth = 40;
+  view.applyLinkStatus("robot0", older);  // reordered: dropped
+  ASSERT_TRUE(view.snapshot("robot0").link);
+  EXPECT_EQ(view.snapshot("robot0").link->spool_depth, 12);
+  EXPECT_EQ(view.snapshot("robot0").status_changes, 1u) << "republishes /robot0/status";
+  view.applyLinkStatus("nobody", l);
+  EXPECT_FALSE(view.snapshot("nobody").link);
+}
+
 TEST(ViewerMapGrid, CutFromTheStreamedTreeAndKeyframeIdKept) {
   MapView view({"robot0"});
   EXPECT_FALSE(view.mapGrid("robot0", 0.0, SliceConfig{})) << "no map yet";

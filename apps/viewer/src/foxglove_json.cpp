@@ -20,6 +20,7 @@ json object(const std::string& title, json properties) {
 json number() { return {{"type", "number"}}; }
 json integer() { return {{"type", "integer"}}; }
 json string() { return {{"type", "string"}}; }
+json boolean() { return {{"type", "boolean"}}; }
 json bytes() { return {{"type", "string"}, {"contentEncoding", "base64"}}; }
 json array(json items) { return {{"type", "array"}, {"items", std::move(items)}}; }
 
@@ -125,6 +126,10 @@ std::map<std::string, json> buildSchemas() {
                                                             {"down_kbps", number()},
                                                             {"last_seen_s", number()},
                                                             {"live_poses", integer()},
+                                                            {"spool_depth", integer()},
+                                                            {"oldest_unanswered_s", number()},
+                                                            {"live_only", boolean()},
+                                                            {"link", string()},
                                                             {"state", string()}});
   return s;
 }

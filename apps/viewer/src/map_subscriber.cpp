@@ -23,7 +23,7 @@ Status MapSubscriber::subscribe(transport::Transport& transport) {
   using T = msg::MessageType;
   for (const std::string& robot : view_.robots()) {
     for (const T type : {T::kMapUpdate, T::kPoseCorrections, T::kOccupancySlice, T::kServerStatus,
-                         T::kLoopEdges, T::kRobotPose}) {
+                         T::kLoopEdges, T::kRobotPose, T::kLinkStatus}) {
       const auto channel = msg::channelFor(type, robot);
       if (!channel) return Status::failure(channel.error());
       auto handler = [this, robot, type](const std::string&, const uint8_t* data, size_t size) {
@@ -47,8 +47,9 @@ void MapSubscriber::onMessage(const std::string& robot, msg::MessageType type, c
     if (!result) return;  // counted and logged (rate-limited) by openEnvelope
     opened = std::move(*result);
   }
-  // Everything comes from the server, but a robot's live pose, which comes from that robot.
-  const std::string sender = type == msg::MessageType::kRobotPose ? robot : std::string(msg::kServerId);
+  // Everything comes from the server, but a robot's live pose and link status, which come from that robot.
+  const bool from_robot = type == msg::MessageType::kRobotPose || type == msg::MessageType::kLinkStatus;
+  const std::string sender = from_robot ? robot : std::string(msg::kServerId);
   if (opened->header.sender != sender || opened->type != type) {
     rejects_.add(msg::RejectReason::kUnknownSender, "viewer: " + opened->header.sender + " on " + robot);
     return;
@@ -81,6 +82,9 @@ void MapSubscriber::onMessage(const std::string& robot, msg::MessageType type, c
       break;
     case msg::MessageType::kRobotPose:
       if (auto m = msg::decodeMessage<msg::RobotPose>(*opened, &rejects_)) view_.applyRobotPose(robot, *m);
+      break;
+    case msg::MessageType::kLinkStatus:
+      if (auto m = msg::decodeMessage<msg::LinkStatus>(*opened, &rejects_)) view_.applyLinkStatus(robot, *m);
       break;
     default:
       break;

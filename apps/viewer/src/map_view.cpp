@@ -112,6 +112,18 @@ void MapView::applyRobotPose(const std::string& robot, const msg::RobotPose& pos
   changed();
 }
 
+void MapView::applyLinkStatus(const std::string& robot, const msg::LinkStatus& link) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  Robot* r = find(robot);
+  if (!r) return;
+  r->s.last_seen_utime = std::max(r->s.last_seen_utime, link.header.utime);
+  const auto& old = r->s.link;
+  if (old && old->header.session == link.header.session && old->header.utime > link.header.utime) return;
+  r->s.link = link;
+  ++r->s.status_changes;
+  changed();
+}
+
 void MapView::countBytes(const std::string& robot, size_t bytes) {
   std::lock_guard<std::mutex> lock(mutex_);
   if (Robot* r = find(robot)) r->s.bytes_down += bytes;
@@ -155,7 +167,7 @@ Result<msg::OccupancySlice> MapView::mapGrid(const std::string& robot, double ca
 }
 
 Result<std::string> MapView::octomapBinary(const std::string& robot, double* resolution_m,
-                                          int64_t* revision) const {
+                                           int64_t* revision) const {
   std::lock_guard<std::mutex> lock(mutex_);
   const auto it = state_.find(robot);
   if (it == state_.end() || !it->second->tree) return Result<std::string>::failure("no map yet");

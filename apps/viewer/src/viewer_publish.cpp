@@ -169,6 +169,10 @@ void Viewer::Impl::publishStatus(size_t index, const RobotSnapshot& s) {
                        {"down_kbps", kbps},
                        {"last_seen_s", last_seen},
                        {"live_poses", s.live_changes},
+                       {"spool_depth", s.link ? s.link->spool_depth : -1},
+                       {"oldest_unanswered_s", s.link ? s.link->oldest_unanswered_s : 0.0},
+                       {"live_only", s.link && s.link->live_only},
+                       {"link", s.link ? s.link->diagnosis : std::string()},
                        {"state", s.server_state.empty() ? "no status" : s.server_state}};
   send(channels[index].status, status, utime);
 }

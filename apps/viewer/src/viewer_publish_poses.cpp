@@ -34,7 +34,8 @@ void Viewer::Impl::publishTransforms() {
 void Viewer::Impl::publishMapGrid(size_t index, const RobotSnapshot& s) {
   RobotPublished& p = *published[index];
   if (!p.grid_pending ||
-      std::chrono::duration<double>(std::chrono::steady_clock::now() - p.last_grid).count() < options.cloud_period_s)
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - p.last_grid).count() <
+          options.cloud_period_s)
     return;
   p.grid_pending = false;
   p.last_grid = std::chrono::steady_clock::now();

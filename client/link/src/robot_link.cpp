@@ -78,6 +78,7 @@ Status RobotLink::Impl::start() {
   keyframe_channel_ = *msg::channelFor(msg::MessageType::kKeyframe, options_.robot_id);
   chunk_channel_ = *msg::channelFor(msg::MessageType::kKeyframeChunk, options_.robot_id);
   pose_channel_ = *msg::channelFor(msg::MessageType::kRobotPose, options_.robot_id);
+  link_status_channel_ = *msg::channelFor(msg::MessageType::kLinkStatus, options_.robot_id);
   if (Status s = subscribeAll(); !s) return s;
   if (Status s = transport_.start(); !s) return Status::failure("RobotLink: transport: " + s.error());
   reliable_.start();
@@ -119,6 +120,7 @@ Status RobotLink::Impl::sealAndPublish(const T& message, const std::string& chan
 template Status RobotLink::Impl::sealAndPublish(const msg::KeyframeChunk&, const std::string&);
 // robot_link_pose.cpp publishes the live pose with it.
 template Status RobotLink::Impl::sealAndPublish(const msg::RobotPose&, const std::string&);
+template Status RobotLink::Impl::sealAndPublish(const msg::LinkStatus&, const std::string&);
 
 Status RobotLink::Impl::publishCommand(msg::VelocityCommand command) {
   command.robot_id = options_.robot_id;
@@ -189,6 +191,8 @@ void RobotLink::Impl::runPeriodic() {
     lock.unlock();
     if (heartbeat_due) {
       if (Status s = sendHeartbeat(); !s) log::debug("robot ", options_.robot_id, ": heartbeat: ", s.error());
+      if (Status s = sendLinkStatus(); !s)
+        log::debug("robot ", options_.robot_id, ": link status: ", s.error());
       next_heartbeat = std::max(next_heartbeat + hb_period, now);
     }
     if (hello_due) {

@@ -95,6 +95,8 @@ class RobotLink::Impl : public std::enable_shared_from_this<RobotLink::Impl> {
   void diagnoseLink(Clock::time_point now);  ///< caller holds mutex_
   Status sendHello();
   Status sendHeartbeat();
+  msg::LinkStatus linkStatus() const;  ///< from stats() and the send window (robot_link_pose.cpp)
+  Status sendLinkStatus();
   bool allAnswered() const;                         ///< caller holds mutex_
   void countSubmitted(const KeyframeBytes& bytes);  ///< caller holds mutex_
 
@@ -103,7 +105,7 @@ class RobotLink::Impl : public std::enable_shared_from_this<RobotLink::Impl> {
   /// A keyframe written to the spool: queued for the send window (the feeder submits it).
   Status enqueueSpooled(msg::Keyframe message, const KeyframeBytes& bytes);
   void noteSpooled(const Status& spooled);  ///< counts a keyframe the spool refused; logs live-only changes
-  void runFeeder();  ///< moves queued keyframes into the send window while it has room
+  void runFeeder();                         ///< moves queued keyframes into the send window while it has room
   /// The send window now: max_pending, or kOutageWindow while unanswered keyframes get no answer at all.
   size_t windowLimit(Clock::time_point now) const;  ///< caller holds mutex_
   void onGivenUp(uint64_t id);         ///< the ReliableSender gave a keyframe up: a spooled one is requeued
@@ -193,7 +195,7 @@ class RobotLink::Impl : public std::enable_shared_from_this<RobotLink::Impl> {
   std::thread periodic_;
   std::mutex pose_mutex_;  ///< publishPose's throttle
   std::optional<Clock::time_point> last_pose_;
-  std::string pose_channel_;
+  std::string pose_channel_, link_status_channel_;
 };
 
 }  // namespace rgbdmap

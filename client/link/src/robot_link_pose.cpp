@@ -1,7 +1,9 @@
-// RobotLink::publishPose: the robot's live pose for visualisers (RobotPose, best effort, throttled).
+// RobotLink: what visualisers and the monitor read from the robot, best effort: the live pose (RobotPose,
+// throttled) and the link's delivery state (LinkStatus, once a heartbeat period).
 #include <algorithm>
 
 #include "robot_link_impl.hpp"
+#include "wall_clock.hpp"
 
 namespace rgbdmap {
 
@@ -31,6 +33,40 @@ Status RobotLink::Impl::publishPose(double timestamp, int segment, int reference
   if (s) {
     std::lock_guard<std::mutex> lock(mutex_);
     ++counts_.poses_sent;
+  }
+  return s;
+}
+
+msg::LinkStatus RobotLink::Impl::linkStatus() const {
+  const RobotLinkStats s = stats();
+  msg::LinkStatus m;
+  m.robot_id = options_.robot_id;
+  m.keyframes_made =
+      static_cast<int>(s.keyframes_spooled + s.keyframes_live_only + (spool_ ? 0 : s.keyframes_sent));
+  m.keyframes_acked = static_cast<int>(s.keyframes_acked - s.recovered_acked);
+  m.queued = static_cast<int>(s.keyframes_queued);
+  m.in_flight = static_cast<int>(reliable_.pending());
+  m.spool_depth = spool_ ? static_cast<int>(s.spool_depth) : -1;
+  m.spool_bytes = static_cast<int64_t>(s.spool_bytes);
+  const auto now = Clock::now();
+  double oldest = s.spool_oldest_utime > 0 ? (nowUtime() - s.spool_oldest_utime) * 1e-6 : 0.0;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    for (const auto& [id, entry] : sent_)
+      if (entry.answer == Answer::kPending && entry.fed && !entry.spooled)
+        oldest = std::max(oldest, std::chrono::duration<double>(now - entry.first_sent).count());
+    m.live_only = live_only_;
+  }
+  m.oldest_unanswered_s = std::max(0.0, oldest);
+  m.diagnosis = s.diagnosis;
+  return m;
+}
+
+Status RobotLink::Impl::sendLinkStatus() {
+  Status s = sealAndPublish(linkStatus(), link_status_channel_);
+  if (s) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    ++counts_.link_status_sent;
   }
   return s;
 }

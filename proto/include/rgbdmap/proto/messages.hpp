@@ -31,10 +31,11 @@ enum class MessageType : int16_t {
   kServerStatus = 9,
   kKeyframeChunk = 10,  ///< chunked keyframe transfer (udpm://): see KeyframeChunk, ChunkAck
   kChunkAck = 11,
-  kLoopEdges = 12,  ///< the accepted loop edges of a robot's map (visualisers)
-  kRobotPose = 13,  ///< a robot's live pose (visualisers)
+  kLoopEdges = 12,   ///< the accepted loop edges of a robot's map (visualisers)
+  kRobotPose = 13,   ///< a robot's live pose (visualisers)
+  kLinkStatus = 14,  ///< a robot's delivery state: spool, window (monitor, visualisers)
 };
-constexpr int kNumMessageTypes = 13;
+constexpr int kNumMessageTypes = 14;
 const char* toString(MessageType type);
 bool isKnownType(int type);
 
@@ -98,6 +99,20 @@ struct RobotPose {
   int tracking_state = 0;           ///< rgbdmap::TrackingState as int, 0..3
   int64_t graph_revision = -1;      ///< of the PoseCorrections applied; -1 before any
   SE3 T_map_cam = SE3::Identity();  ///< T_map_odom(segment) * T_odom_cam
+};
+
+/// Robot -> monitor and visualisers, best effort, once a heartbeat period: how its keyframes get through.
+struct LinkStatus {
+  static constexpr MessageType kType = MessageType::kLinkStatus;
+  Header header;
+  std::string robot_id;
+  int keyframes_made = 0, keyframes_acked = 0;  ///< by this process
+  int in_flight = 0, queued = 0;                ///< in the send window; spooled and waiting for it
+  int spool_depth = -1;                         ///< spooled and unanswered; -1: no spool
+  int64_t spool_bytes = 0;
+  double oldest_unanswered_s = 0.0;  ///< the oldest unanswered keyframe's age; 0: none
+  bool live_only = false;            ///< the spool refused the last keyframe (budget, disk full)
+  std::string diagnosis;             ///< RobotLinkStats::diagnosis
 };
 
 struct KeyPoint {

@@ -20,6 +20,7 @@ Status validate(const Header& header);
 Status validate(const Hello& m);
 Status validate(const Heartbeat& m);
 Status validate(const RobotPose& m);
+Status validate(const LinkStatus& m);
 Status validate(const Keyframe& m);
 Status validate(const KeyframeAck& m);
 Status validate(const PoseCorrections& m);

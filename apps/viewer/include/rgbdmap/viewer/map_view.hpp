@@ -39,6 +39,7 @@ struct RobotSnapshot {
   std::optional<msg::OccupancySlice> slice;
   std::vector<msg::MapLoopEdge> loops;  ///< accepted loop edges of the robot's map
   std::optional<msg::RobotStatus> status;
+  std::optional<msg::LinkStatus> link;  ///< the robot's newest LinkStatus (its spool and send window)
   std::string server_state;
   uint64_t bytes_down = 0;  ///< server -> robot bytes seen on its channels
   int64_t last_seen_utime = 0;
@@ -70,6 +71,7 @@ class MapView {
   void applyStatus(const std::string& robot, const msg::ServerStatus& status);
   /// The robot's live pose; an older one (by the robot's send time) than the newest is ignored.
   void applyRobotPose(const std::string& robot, const msg::RobotPose& pose);
+  void applyLinkStatus(const std::string& robot, const msg::LinkStatus& link);
   void countBytes(const std::string& robot, size_t bytes);
 
   RobotSnapshot snapshot(const std::string& robot) const;

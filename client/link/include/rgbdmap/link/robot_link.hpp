@@ -102,6 +102,7 @@ struct RobotLinkStats {
   uint64_t poses_sent = 0;     ///< RobotPose messages (publishPose, throttled to pose_period_s)
   uint64_t commands_sent = 0;  ///< publishCommand (the robot's own avoidance commands on its cmd_vel channel)
   uint64_t hellos_sent = 0, heartbeats_sent = 0;
+  uint64_t link_status_sent = 0;  ///< LinkStatus (spool, window, diagnosis) for the monitor, once a heartbeat
   uint64_t messages_rejected = 0;  ///< every rejection (envelope, payload, wrong sender or robot)
   uint64_t bytes_sent = 0, bytes_received = 0;  ///< this link's messages only (the transport may be shared)
   /// The parts of the keyframes passed to sendKeyframe, summed once per keyframe (retransmissions are in
