@@ -2,8 +2,10 @@
 
 #include <algorithm>
 #include <cmath>
-#include <stdexcept>
 #include <sstream>
+#include <stdexcept>
+
+#include "rgbdmap/proto/envelope.hpp"
 
 namespace rgbdmap::cmd {
 namespace {
@@ -28,7 +30,6 @@ void checkRunOptions(const cli::Args& args, const RunOptions& o, std::vector<std
   if (!o.datasets.empty() && (args.has("scene") || args.has("seed")))
     errors->push_back("--scene and --seed only apply without --dataset");
 }
-
 
 }  // namespace
 
