@@ -79,6 +79,12 @@ struct MapServer::Impl {
     status.setRejectCounts([this] { return inbox.rejectCounts(); });
     inbox.setChunkAckSink(
         [this](const std::string& robot, const msg::ChunkAck& ack) { publisher.publish(robot, ack); });
+    inbox.setKeyframeAckSink(
+        [this](const std::string& robot, const msg::KeyframeAck& ack) { publisher.publish(robot, ack); });
+    pipeline.setAnswerSink([this](const std::string& robot, int64_t session, int keyframe_id, bool accepted,
+                                  const std::string& reason) {
+      inbox.noteAnswer(robot, session, keyframe_id, accepted, reason);
+    });
     inbox.setNoticeSink([this](const std::string& robot, const msg::ServerStatus& notice) {
       publisher.publishNotice(robot, notice);
     });

@@ -28,6 +28,7 @@ Json optimisationJson(const MapServerStats& s) {
 Json intakeJson(const MapServerStats& s) {
   return {{"messages_rejected", s.inbox.messages_rejected},
           {"refusal_notices_sent", s.inbox.refusal_notices_sent},
+          {"keyframe_acks_repeated", s.inbox.keyframe_acks_repeated},
           {"keyframes_waiting", s.keyframes_waiting},
           {"keyframes_deferred_max", s.keyframes_deferred_max},
           {"keyframes_held_for_hello", s.hello_hold.keyframes_held},

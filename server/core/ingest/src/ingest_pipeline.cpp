@@ -134,7 +134,7 @@ void IngestPipeline::storeLocked(const msg::Keyframe& kf, const KeyframeKey& key
   stored.keyframe.images = {};
   timing.store_ms = msSince(t_store);
   // Stored first, acknowledged at once whatever its order; the graph takes it in chain order.
-  publisher_.acknowledge(kf.robot_id, kf.keyframe_id, true, "");
+  answer(kf, true, "");
   waiting.features = std::move(decoded.features);
   DeferredKeyframe d{std::move(waiting), key, std::nullopt, timing};
   if (intake_.keepsImages()) d.images = std::move(decoded.images);
@@ -247,7 +247,7 @@ bool IngestPipeline::admitLocked(const msg::Keyframe& kf, const KeyframeKey& key
   const bool accepted = !index.refused(key);
   registry_.recordKeyframe(kf.robot_id, RobotRegistry::KeyframeOutcome::kDuplicate);
   lock.unlock();
-  publisher_.acknowledge(kf.robot_id, kf.keyframe_id, accepted, accepted ? "duplicate" : "refused before");
+  answer(kf, accepted, accepted ? "duplicate" : "refused before");
   return false;
 }
 
@@ -261,7 +261,12 @@ void IngestPipeline::refuseLocked(const msg::Keyframe& kf, const KeyframeKey& ke
   order_.predecessorRefused(key);
   lock.unlock();
   log::warn("server: keyframe ", kf.keyframe_id, " of ", kf.robot_id, " refused: ", reason);
-  publisher_.acknowledge(kf.robot_id, kf.keyframe_id, false, reason);
+  answer(kf, false, reason);
+}
+
+void IngestPipeline::answer(const msg::Keyframe& kf, bool accepted, const std::string& reason) {
+  if (answered_) answered_(kf.robot_id, kf.header.session, kf.keyframe_id, accepted, reason);
+  publisher_.acknowledge(kf.robot_id, kf.keyframe_id, accepted, reason);
 }
 
 void IngestPipeline::integrateLocked(const WaitingKeyframe& w, const DecodedImages* images, bool live) {

@@ -14,7 +14,8 @@ Inbox::Inbox(InboxConfig config, const msg::KeyStore& keys, RobotRegistry& regis
       registry_(registry),
       queue_(std::move(queue)),
       throttle_(config_.max_keyframes_per_s, config_.keyframe_burst),
-      ledger_(RejectLedgerOptions{}, [this](const std::string& robot) { return known(robot); }) {}
+      ledger_(RejectLedgerOptions{}, [this](const std::string& robot) { return known(robot); }),
+      answers_(config_.answers) {}
 
 void Inbox::onMessage(const std::string& channel, const uint8_t* data, size_t size) {
   std::string robot, suffix;
@@ -72,6 +73,7 @@ InboxStats Inbox::stats() const {
   s.keyframes_throttled = throttled_.load();
   s.rejects = ledger_.counts();
   s.refusal_notices_sent = notices_.sent();
+  s.keyframe_acks_repeated = answers_.repeated();
   return s;
 }
 

@@ -1,5 +1,8 @@
 // Inbox: chunked keyframe transfers (udpm:// robots). Each chunk is an authenticated envelope of its own;
-// the reassembled bytes are a keyframe envelope, opened and checked exactly like one that came whole.
+// the reassembled bytes are a keyframe envelope, opened and checked exactly like one that came whole. The
+// last chunk of a burst (and the one that completes a transfer) gets a ChunkAck; a duplicate last chunk of a
+// keyframe the ingest worker answered (a robot's probe for a KeyframeAck it did not get) gets that answer
+// again as well.
 #include "rgbdmap/intake/inbox.hpp"
 
 namespace rgbdmap {
@@ -32,6 +35,20 @@ void Inbox::onChunk(const msg::OpenedEnvelope& opened, const std::string& robot)
   ack.chunk_count = chunk->chunk_count;
   ack.received = *bitmap;
   chunk_ack_sink_(robot, ack);
+  if (outcome == ChunkReassembly::Outcome::kDuplicate) repeatAnswer(robot, *chunk, now);
+}
+
+void Inbox::noteAnswer(const std::string& robot, int64_t session, int keyframe_id, bool accepted,
+                       const std::string& reason) {
+  answers_.remember(robot, session, keyframe_id, accepted, reason, KeyframeAnswers::Clock::now());
+}
+
+void Inbox::repeatAnswer(const std::string& robot, const msg::KeyframeChunk& chunk,
+                         ChunkReassembly::Clock::time_point now) {
+  if (!keyframe_ack_sink_) return;
+  // The chunks and the keyframe envelope are sealed in the same robot session.
+  if (auto ack = answers_.repeat(robot, chunk.header.session, chunk.keyframe_id, now))
+    keyframe_ack_sink_(robot, *ack);
 }
 
 void Inbox::onReassembled(const std::string& robot, const msg::Bytes& envelope) {

@@ -52,6 +52,11 @@ class IngestPipeline {
 
   /// Before restore(): the opened store and where graph batches go.
   void attach(MapStore* store, SubmitGraph submit);
+  /// Told of every KeyframeAck as it is sent (stored, refused, or seen before): the receive side repeats it
+  /// for a robot that shows it did not get it (Inbox::noteAnswer). Set before the ingest worker starts.
+  using AnswerSink = std::function<void(const std::string& robot, int64_t session, int keyframe_id,
+                                        bool accepted, const std::string& reason)>;
+  void setAnswerSink(AnswerSink sink) { answered_ = std::move(sink); }
   /// Restores robots, keyframes and loop edges from the store (MapRestore).
   Status restore();
   /// Hands every restored keyframe to the map worker (it reads the images back itself) and keeps it for
@@ -102,6 +107,8 @@ class IngestPipeline {
   /// again.
   bool admitLocked(const msg::Keyframe& kf, const KeyframeKey& key, Lock& lock);
   void refuseLocked(const msg::Keyframe& kf, const KeyframeKey& key, const std::string& reason, Lock& lock);
+  /// The KeyframeAck of `kf` to its robot, and to answered_.
+  void answer(const msg::Keyframe& kf, bool accepted, const std::string& reason);
   /// When the ingest worker took a keyframe (wall, its CPU time).
   struct Started {
     std::chrono::steady_clock::time_point t0;
@@ -119,6 +126,7 @@ class IngestPipeline {
   const MapServerConfig& config_;
   RobotRegistry& registry_;
   RobotPublisher& publisher_;
+  AnswerSink answered_;
   MapStore* store_ = nullptr;
   MapWorker* map_worker_ = nullptr;  ///< null when occupancy is off
   uint64_t map_pose_epoch_ = 0;      ///< pose updates sent to map_worker_ (MapKeyframeJob::pose_epoch)

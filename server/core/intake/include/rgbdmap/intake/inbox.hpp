@@ -4,6 +4,8 @@
 // its robot's rate (KeyframeThrottle) is dropped before its payload is decoded; one that does not fit its
 // robot's queue after decoding; both unacknowledged (the robot resends) and counted per robot (throttled,
 // queue_full). A retransmission of a keyframe still queued is dropped and counted (duplicates_queued).
+// A duplicate last-of-burst chunk of a keyframe the ingest worker answered gets that KeyframeAck again
+// (KeyframeAnswers).
 // Rejections are counted (and logged, rate-limited) by RejectCounters. The queue behind it (the server's
 // ingest queue) is given as an InboxQueue of three calls.
 #include <atomic>
@@ -14,6 +16,7 @@
 
 #include "rgbdmap/intake/chunk_reassembly.hpp"
 #include "rgbdmap/intake/intake_stats.hpp"
+#include "rgbdmap/intake/keyframe_answers.hpp"
 #include "rgbdmap/intake/keyframe_throttle.hpp"
 #include "rgbdmap/intake/refusal_notices.hpp"
 #include "rgbdmap/intake/reject_ledger.hpp"
@@ -28,6 +31,7 @@ struct InboxConfig {
   std::vector<std::string> robots;
   double max_keyframes_per_s = 30.0;  ///< server.robot_max_keyframes_per_s (KeyframeThrottle; 0: off)
   double keyframe_burst = 256.0;      ///< server.robot_keyframe_burst
+  KeyframeAnswersOptions answers;     ///< the answers repeated for duplicate chunks (no config key)
 };
 
 /// Where the inbox hands what it accepted.
@@ -51,6 +55,14 @@ class Inbox {
   /// Where ChunkAcks go (the server's RobotPublisher); chunked keyframes are refused without one.
   using ChunkAckSink = std::function<void(const std::string& robot, const msg::ChunkAck& ack)>;
   void setChunkAckSink(ChunkAckSink sink) { chunk_ack_sink_ = std::move(sink); }
+  /// Where the KeyframeAcks repeated for duplicate chunks go (the server's RobotPublisher); none without one.
+  using KeyframeAckSink = std::function<void(const std::string& robot, const msg::KeyframeAck& ack)>;
+  void setKeyframeAckSink(KeyframeAckSink sink) { keyframe_ack_sink_ = std::move(sink); }
+  /// The ingest worker answered keyframe `keyframe_id` of `robot`'s process `session` (any thread): from now
+  /// on a duplicate last-of-burst chunk of it gets that answer again, at most every
+  /// answers.repeat_interval_s.
+  void noteAnswer(const std::string& robot, int64_t session, int keyframe_id, bool accepted,
+                  const std::string& reason);
   /// Where the notices to robots the server does not serve go (RefusalNotices: unsigned); none without one.
   using NoticeSink = std::function<void(const std::string& robot, const msg::ServerStatus& notice)>;
   void setNoticeSink(NoticeSink sink) { notice_sink_ = std::move(sink); }
@@ -81,6 +93,8 @@ class Inbox {
   void notServed(const std::string& robot, const std::string& reason);
   void onChunk(const msg::OpenedEnvelope& opened, const std::string& robot);  ///< inbox_chunks.cpp
   void onReassembled(const std::string& robot, const msg::Bytes& envelope);
+  void repeatAnswer(const std::string& robot, const msg::KeyframeChunk& chunk,
+                    ChunkReassembly::Clock::time_point now);
 
   const InboxConfig config_;
   const msg::KeyStore& keys_;
@@ -96,6 +110,8 @@ class Inbox {
   RejectLedger ledger_;
   ChunkReassembly chunks_;
   ChunkAckSink chunk_ack_sink_;
+  KeyframeAnswers answers_;
+  KeyframeAckSink keyframe_ack_sink_;
   RefusalNotices notices_;
   NoticeSink notice_sink_;
 };

@@ -51,6 +51,7 @@ struct InboxStats {
   uint64_t keyframes_duplicates_queued = 0;   ///< all robots' duplicates_queued
   uint64_t keyframes_throttled = 0;           ///< all robots' throttled
   uint64_t refusal_notices_sent = 0;          ///< unsigned "not serving R" notices (RefusalNotices)
+  uint64_t keyframe_acks_repeated = 0;  ///< KeyframeAcks sent again for a duplicate chunk (KeyframeAnswers)
   /// Rejected messages per claimed robot and reason, largest first (robot_id "" = every claimed sender
   /// that is not a known robot); what ServerStatus::rejects carries.
   std::vector<msg::RejectCount> rejects;
