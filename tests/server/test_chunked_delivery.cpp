@@ -1,13 +1,15 @@
 // Keyframes in chunks (RobotLink chunk_bytes > 0) to the real MapServer: every keyframe stored and
-// acknowledged despite lost chunks (in-process, a transport that drops publishes), forged chunks rejected
-// and counted; and (NetChunk, in a network namespace) over udpm:// through rgbdmap-lossy-relay at 5 %
-// packet loss, where whole ~140 KB keyframes over LCM almost never arrive.
+// acknowledged despite lost chunks (in-process, a transport that drops publishes), a lost KeyframeAck
+// repeated for the robot's probe (and a new transfer when a restarted server forgot it), forged chunks
+// rejected and counted; and (NetChunk, in a network namespace) over udpm:// through rgbdmap-lossy-relay
+// at 5 % packet loss, where whole ~140 KB keyframes over LCM almost never arrive.
 #include <gtest/gtest.h>
 #include <signal.h>
 #include <spawn.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <atomic>
 #include <chrono>
 #include <cstdlib>
 #include <filesystem>
@@ -56,6 +58,44 @@ class DroppingTransport : public transport::Transport {
   double loss_;
   std::mutex mutex_;
   std::mt19937_64 rng_;
+};
+
+/// Drops the messages delivered on `channel` while blocked, and the first `drop_first` of them: answers lost
+/// on their way back to the robot.
+class LosingAnswers : public transport::Transport {
+ public:
+  LosingAnswers(transport::Transport& inner, std::string channel, int drop_first)
+      : inner_(inner), channel_(std::move(channel)), state_(std::make_shared<State>()) {
+    state_->drop_first = drop_first;
+  }
+  Status publish(const std::string& channel, const uint8_t* data, size_t size) override {
+    return inner_.publish(channel, data, size);
+  }
+  Status subscribe(const std::string& channel, Handler handler) override {
+    if (channel != channel_) return inner_.subscribe(channel, handler);
+    return inner_.subscribe(channel,
+                            [state = state_, handler](const std::string& c, const uint8_t* d, size_t n) {
+                              if (state->blocked || state->drop_first.fetch_sub(1) > 0) {
+                                ++state->dropped;
+                                return;
+                              }
+                              handler(c, d, n);
+                            });
+  }
+  Status start() override { return inner_.start(); }
+  void stop() override {}
+  transport::TransportStats stats() const override { return inner_.stats(); }
+  void block(bool blocked) { state_->blocked = blocked; }
+  int dropped() const { return state_->dropped; }
+
+ private:
+  struct State {
+    std::atomic<bool> blocked{false};
+    std::atomic<int> drop_first{0}, dropped{0};
+  };
+  transport::Transport& inner_;
+  const std::string channel_;
+  std::shared_ptr<State> state_;
 };
 
 /// A frame of colour noise: 320x240 ~70 KB per keyframe on the wire, 448x336 ~140 KB (a real keyframe).
@@ -133,6 +173,79 @@ TEST(ChunkedDelivery, ARobotStartedBeforeItsServerSaysHelloUntilRegistered) {
   EXPECT_TRUE(harness.server->waitIdle(30.0));  // acknowledged = stored; placed into the graph after
   EXPECT_EQ(harness.server->stats().keyframes, 3);
   link.stop();
+  std::filesystem::remove_all(dir);
+}
+
+// The one KeyframeAck of a keyframe is lost. Every chunk arrived, so the robot probes with the transfer's
+// last chunk and the server, having stored the keyframe, answers it with the ack again: no second transfer.
+RGBDMAP_TEST_TIER("ChunkedDelivery.ALostKeyframeAckIsRepeatedForAProbeWithoutANewTransfer", "e2e sanitize");
+TEST(ChunkedDelivery, ALostKeyframeAckIsRepeatedForAProbeWithoutANewTransfer) {
+  const std::string dir = freshDir("chunked_lost_ack");
+  ServerHarness harness(serverTestConfig(dir, {"robot0"}));
+  LosingAnswers lossy(*harness.transport, *msg::channelFor(msg::MessageType::kKeyframeAck, "robot0"), 0);
+  RobotLink link(lossy, chunkedOptions("robot0", testKey(1), 1100));
+  ASSERT_TRUE(link.start());
+  EXPECT_EQ(sendAndWait(link, 1, 10.0), 1u);  // keyframe 0 as usual: one transfer
+  const RobotLinkStats first = link.stats();
+  EXPECT_EQ(first.chunks_resent, 0u);
+  lossy.block(true);  // keyframe 1's ack is lost (and any repeat before the robot probes)
+  const auto t0 = std::chrono::steady_clock::now();
+  ASSERT_TRUE(link.sendKeyframe(smallKeyframe(1, 0, testPose(1), 0), noiseFrame(1, 320, 240)));
+  for (int i = 0; i < 200 && lossy.dropped() == 0; ++i)
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  ASSERT_EQ(lossy.dropped(), 1) << "the first KeyframeAck of keyframe 1";
+  lossy.block(false);
+  EXPECT_TRUE(link.waitAllAcked(10.0));
+  link.stop();  // every send counted
+  const RobotLinkStats s = link.stats();
+  const uint64_t chunks = s.chunks_sent - first.chunks_sent, resent = s.chunks_resent - first.chunks_resent;
+  std::printf(
+      "lost KeyframeAck: acknowledged after %.3f s, %llu chunks sent (%llu resent; keyframe 0: %llu)\n",
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(),
+      static_cast<unsigned long long>(chunks), static_cast<unsigned long long>(resent),
+      static_cast<unsigned long long>(first.chunks_sent));
+  EXPECT_EQ(s.keyframes_acked, 2u);
+  EXPECT_GE(resent, 1u) << "at least one probe";
+  EXPECT_LE(resent, 10u) << "probes only";
+  EXPECT_LT(chunks - resent, first.chunks_sent * 3 / 2) << "one transfer of keyframe 1, not two";
+  const MapServerStats server = harness.server->stats();
+  EXPECT_GE(server.inbox.keyframe_acks_repeated, 1u);
+  ASSERT_EQ(server.robots.size(), 1u);
+  EXPECT_EQ(server.robots[0].duplicates, 0u) << "no second copy of keyframe 1 reached the ingest";
+  std::filesystem::remove_all(dir);
+}
+
+// The server stored a keyframe, its ack was lost, and it restarted before the robot probed: the restarted
+// server knows no transfer and no answer, so it takes the probe for the first chunk of a new transfer and
+// answers with one bit set. The robot does not take that for missing chunks; it seals a new transfer after
+// its reseal wait, and the server acknowledges the restored keyframe as a duplicate.
+RGBDMAP_TEST_TIER("ChunkedDelivery.AProbeToARestartedServerEndsInANewTransfer", "e2e sanitize");
+TEST(ChunkedDelivery, AProbeToARestartedServerEndsInANewTransfer) {
+  const std::string dir = freshDir("chunked_restart_probe");
+  const MapServerConfig config = serverTestConfig(dir, {"robot0"});
+  ServerHarness harness(config);
+  LosingAnswers lossy(*harness.transport, *msg::channelFor(msg::MessageType::kKeyframeAck, "robot0"), 0);
+  RobotLink link(lossy, chunkedOptions("robot0", testKey(1), 1100));
+  ASSERT_TRUE(link.start());
+  lossy.block(true);
+  ASSERT_TRUE(link.sendKeyframe(smallKeyframe(0, 0, testPose(0), -1), noiseFrame(0, 320, 240)));
+  for (int i = 0; i < 400 && lossy.dropped() == 0; ++i)
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  ASSERT_GE(lossy.dropped(), 1) << "stored and acknowledged, the ack lost";
+  harness.server->stop();
+  harness.server.reset();
+  harness.start(config);
+  lossy.block(false);
+  EXPECT_TRUE(link.waitAllAcked(15.0));
+  link.stop();  // every send counted
+  const RobotLinkStats s = link.stats();
+  std::printf("probe to a restarted server: %llu chunks sent (%llu resent), %llu ChunkAcks\n",
+              static_cast<unsigned long long>(s.chunks_sent),
+              static_cast<unsigned long long>(s.chunks_resent),
+              static_cast<unsigned long long>(s.chunk_acks));
+  EXPECT_EQ(s.keyframes_acked, 1u);
+  EXPECT_LT(s.chunk_acks, 40u) << "no ping-pong of ChunkAcks";
+  EXPECT_EQ(harness.server->stats().restored_keyframes, 1);
   std::filesystem::remove_all(dir);
 }
 

@@ -1,8 +1,10 @@
 // RobotLink: keyframes in chunks (udpm://). A transfer is one sealed keyframe envelope cut into
 // KeyframeChunks that each fit one datagram; the server answers a chunk flagged last-of-burst (and a
 // completed transfer) with a ChunkAck bitmap, and only the missing chunks are sent again. The ReliableSender
-// still drives retransmission when no answer comes: it resends what is missing, or seals a new transfer
-// when every chunk arrived but no KeyframeAck did (the server may have refused to queue it).
+// still drives retransmission when no answer comes: it resends what is missing; when every chunk arrived but
+// no KeyframeAck did, it probes with the transfer's last chunk (the server answers a stored keyframe's
+// duplicate chunk with its KeyframeAck again) and, much later, seals a new transfer (the server may have
+// refused to queue the keyframe, or restarted and forgotten the transfer).
 #include <algorithm>
 #include <cmath>
 
@@ -53,6 +55,7 @@ Status RobotLink::Impl::transmitChunked(int keyframe_id) {
   int64_t transfer_id = -1;
   std::vector<int> missing;
   msg::Keyframe copy;
+  bool probe = false;
   {
     std::lock_guard<std::mutex> lock(mutex_);
     auto it = sent_.find(keyframe_id);
@@ -60,11 +63,14 @@ Status RobotLink::Impl::transmitChunked(int keyframe_id) {
     SentKeyframe& entry = it->second;
     ++entry.transmissions;
     if (entry.transfer.envelope) missing = missingChunks(entry.transfer.received);
-    // Every chunk arrived: the KeyframeAck usually follows once the server stored the keyframe; a new
-    // transfer only when it is much later than usual (lost, or the server did not queue the keyframe).
+    // Every chunk arrived: the KeyframeAck usually follows once the server stored the keyframe. Until it is
+    // much later than usual, the last chunk again asks for it (one datagram: a lost ack costs no transfer);
+    // then a new transfer (the server did not queue the keyframe, or forgot the transfer).
     if (entry.transfer.envelope && missing.empty() &&
-        Clock::now() - entry.transfer.completed < resealAfter(entry.reseals))
-      return Status::success();
+        Clock::now() - entry.transfer.completed < resealAfter(entry.reseals)) {
+      probe = true;
+      missing = {static_cast<int>(entry.transfer.received.size()) - 1};
+    }
     if (!missing.empty()) {
       envelope = entry.transfer.envelope;
       transfer_id = entry.transfer.transfer_id;
@@ -96,7 +102,14 @@ Status RobotLink::Impl::transmitChunked(int keyframe_id) {
     it->second.transfer =
         ChunkTransfer{envelope, transfer_id, std::vector<bool>(static_cast<size_t>(count), false)};
   }
-  return sendChunks(keyframe_id, envelope, transfer_id, missing);
+  const Status sent = sendChunks(keyframe_id, envelope, transfer_id, missing);
+  if (probe) {  // its ChunkAck is no progress: unanswered probes back off like any retransmission
+    std::lock_guard<std::mutex> lock(mutex_);
+    auto it = sent_.find(keyframe_id);
+    if (it != sent_.end() && it->second.transfer.transfer_id == transfer_id)
+      it->second.transfer.burst_answered = true;
+  }
+  return sent;
 }
 
 Status RobotLink::Impl::sendChunks(int keyframe_id, const std::shared_ptr<const msg::Bytes>& envelope,
