@@ -97,14 +97,21 @@ void MapView::applyStatus(const std::string& robot, const msg::ServerStatus& sta
   changed();
 }
 
+/// A robot's message kept as its newest, unless an older one of the same session (reordered) comes later;
+/// a new session (a restarted robot, whose clock may be anywhere) always replaces. True when it was kept.
+template <typename T>
+bool keepNewest(std::optional<T>* slot, const T& m, int64_t* last_seen_utime) {
+  *last_seen_utime = std::max(*last_seen_utime, m.header.utime);
+  if (*slot && (*slot)->header.session == m.header.session && (*slot)->header.utime > m.header.utime)
+    return false;
+  *slot = m;
+  return true;
+}
+
 void MapView::applyRobotPose(const std::string& robot, const msg::RobotPose& pose) {
   std::lock_guard<std::mutex> lock(mutex_);
   Robot* r = find(robot);
-  if (!r) return;
-  r->s.last_seen_utime = std::max(r->s.last_seen_utime, pose.header.utime);
-  const auto& old = r->s.live_pose;
-  if (old && old->header.session == pose.header.session && old->header.utime > pose.header.utime) return;
-  r->s.live_pose = pose;
+  if (!r || !keepNewest(&r->s.live_pose, pose, &r->s.last_seen_utime)) return;
   r->s.live_pose_received_utime = std::chrono::duration_cast<std::chrono::microseconds>(
                                       std::chrono::system_clock::now().time_since_epoch())
                                       .count();
@@ -115,11 +122,7 @@ void MapView::applyRobotPose(const std::string& robot, const msg::RobotPose& pos
 void MapView::applyLinkStatus(const std::string& robot, const msg::LinkStatus& link) {
   std::lock_guard<std::mutex> lock(mutex_);
   Robot* r = find(robot);
-  if (!r) return;
-  r->s.last_seen_utime = std::max(r->s.last_seen_utime, link.header.utime);
-  const auto& old = r->s.link;
-  if (old && old->header.session == link.header.session && old->header.utime > link.header.utime) return;
-  r->s.link = link;
+  if (!r || !keepNewest(&r->s.link, link, &r->s.last_seen_utime)) return;
   ++r->s.status_changes;
   changed();
 }
