@@ -2,6 +2,8 @@
 // --record-keyframes) to the mapping server as robot R, at a set rate, in as many passes as a duration asks,
 // and reports every keyframe's acknowledgement latency. No camera and no odometry: many of these fit on a
 // machine that runs one odometry (deploy/bench_fleet.sh runs 16).
+#include <sys/resource.h>
+
 #include <cstdio>
 #include <exception>
 #include <filesystem>
@@ -36,6 +38,9 @@ const char* kUsage =
     "  --start K          the first pass begins at keyframe K of the stream (default 0)\n"
     "  --phase P          the first pass begins at keyframe floor(P * K) of a stream of K (0 <= P < 1)\n"
     "  --out DIR          output folder (default: out)\n"
+    "  --spool DIR        keep every keyframe in a keyframe spool DIR/R until acknowledged "
+    "(robot.spool_max_mb;\n"
+    "                     default: none); a new start sends what an earlier one left first\n"
     "Exit status: 0 every keyframe acknowledged; 1 run-time error; 2 usage or configuration error;\n"
     "3 keyframes not acknowledged.\n";
 
@@ -50,6 +55,14 @@ Json report(const std::string& robot, const std::string& stream_path, const Repl
   j["passes"] = r.passes;
   j["stopped"] = r.stopped;
   j["wall_s"] = jsonNumber(r.wall_s, 4);
+  j["spool_depth"] = r.link.spool_depth;
+  j["spool_recovered"] = r.link.spool_recovered;
+  j["keyframes_live_only"] = r.link.keyframes_live_only;
+  j["keyframes_requeued"] = r.link.keyframes_requeued;
+  j["retransmissions"] = r.link.retransmissions;
+  j["bytes_sent"] = r.link.bytes_sent;
+  struct rusage usage {};
+  j["rss_peak_mb"] = jsonNumber(::getrusage(RUSAGE_SELF, &usage) == 0 ? usage.ru_maxrss / 1024.0 : 0.0, 4);
   j["ack_ms_p50"] = jsonNumber(r.ackQuantileMs(0.5), 4);
   j["ack_ms_p90"] = jsonNumber(r.ackQuantileMs(0.9), 4);
   j["ack_ms_max"] = jsonNumber(r.ackQuantileMs(1.0), 4);
@@ -162,7 +175,7 @@ int run(int argc, char** argv) {
   if (args.has("help")) return std::printf("%s", kUsage), 0;
   cli::SignalThread signals;
   args.checkAllowed({"stream", "config", "robot-id", "transport", "rate", "duration", "start", "phase", "out",
-                     "log-level", "help"});
+                     "spool", "log-level", "help"});
   std::vector<std::string> errors;
   cli::applyLogLevel(args, &errors);
   const std::string stream_path = args.getOr("stream", "");
@@ -188,6 +201,15 @@ int run(int argc, char** argv) {
   std::filesystem::create_directories(out, ec);
   if (ec) return log::error("cannot create ", out, ": ", ec.message()), 1;
 
+  if (const std::string spool_dir = args.getOr("spool", ""); !spool_dir.empty()) {
+    auto spool = KeyframeSpool::open(
+        {(std::filesystem::path(spool_dir) / config.robot_id).string(), uint64_t(config.spool_max_mb) << 20},
+        config.robot_id);
+    if (!spool) return log::error(spool.error()), 1;
+    ro.first_keyframe_id = (*spool)->firstKeyframeId();
+    ro.first_segment = (*spool)->firstSegment();
+    config.link.spool = std::move(*spool);
+  }
   log::info("robot ", config.robot_id, " replays ", stream->keyframes.size(), " keyframes of ",
             stream->hello.robot_id, " from ", stream_path, " on ", config.transport_url);
   Status started = Status::success();

@@ -68,12 +68,12 @@ ReplayResult replayKeyframes(const KeyframeStream& stream, RobotLink& link, cons
         break;
       }
       result.passes = pass + 1;
-      const int id_offset = static_cast<int>(pass) * (max_id + 1);
+      const int id_offset = options.first_keyframe_id + static_cast<int>(pass) * (max_id + 1);
       const bool chained = k.previous_keyframe_id >= 0 && sent_this_pass.count(k.previous_keyframe_id) > 0;
       sent_this_pass.insert(k.keyframe_id);
       k.keyframe_id += id_offset;
       k.previous_keyframe_id = chained ? k.previous_keyframe_id + id_offset : -1;
-      k.segment_id += static_cast<int>(pass) * (max_segment + 1);
+      k.segment_id += options.first_segment + static_cast<int>(pass) * (max_segment + 1);
       k.timestamp = stamp;
       const int id = k.keyframe_id, segment = k.segment_id;
       const int64_t wall = nowUtime();
@@ -97,6 +97,7 @@ ReplayResult replayKeyframes(const KeyframeStream& stream, RobotLink& link, cons
       result.keyframes[i].ack_ms = std::max(0.0, 1e-3 * static_cast<double>(it->second - sent_wall[i]));
   }
   result.wall_s = std::chrono::duration<double>(Clock::now() - t0).count();
+  result.link = link.stats();
   return result;
 }
 

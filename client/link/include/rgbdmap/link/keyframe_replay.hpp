@@ -25,6 +25,9 @@ struct ReplayOptions {
   size_t start = 0;  ///< the first pass begins at this keyframe of the stream (taken modulo its size)
   double final_wait_s = 20.0;  ///< at the end, wait at most this for every acknowledgement
   const StopRequest* stop = nullptr;
+  /// Added to every id and segment sent (a link with a keyframe spool: KeyframeSpool::firstKeyframeId and
+  /// firstSegment, above what its session used).
+  int first_keyframe_id = 0, first_segment = 0;
 };
 
 struct ReplayedKeyframe {
@@ -39,6 +42,7 @@ struct ReplayResult {
   size_t passes = 0;
   double wall_s = 0.0;
   bool stopped = false;  ///< a stop request ended it early
+  RobotLinkStats link;   ///< the link's counters at the end
   size_t acked() const;
   /// q-quantile of the acked keyframes' latencies whose send time is in [from_s, to_s); 0 when none.
   double ackQuantileMs(double q, double from_s = 0.0, double to_s = 1e300) const;
