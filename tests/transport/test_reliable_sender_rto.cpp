@@ -228,5 +228,35 @@ TEST(TransportReliableSender, BackedOffRtoIsKeptUntilAValidSample) {
   EXPECT_NEAR(s.rto_ms, std::max(20.0, s.srtt_ms + std::max(10.0, 4.0 * s.rttvar_ms)), 1e-6);
 }
 
+/// shared_backoff = false: an id that is never answered backs off on its own; a new id starts from the RTO
+/// of the samples, not from that backoff.
+TEST(TransportReliableSender, UnsharedBackoffLeavesTheRtoOfNewIdsAlone) {
+  ReliableSenderOptions o;
+  o.initial_backoff = 50ms;
+  o.max_backoff = 800ms;
+  o.jitter = 0.0;
+  o.max_attempts = 1000;
+  o.shared_backoff = false;
+  SendLog log;
+  ReliableSender sender(o, log.fn());
+  sender.start();
+  ASSERT_TRUE(sender.submit(1));  // never answered: timeouts 50, 100, 200, 400 ms
+  const auto deadline = Clock::now() + 5s;
+  while (log.count(1) < 4 && Clock::now() < deadline) std::this_thread::sleep_for(10ms);
+  ASSERT_GE(log.count(1), 4u);
+  EXPECT_NEAR(sender.stats().rto_ms, 50.0, 1e-6) << "no sample yet: initial_backoff";
+  ASSERT_TRUE(sender.submit(2));
+  while (log.count(2) < 2 && Clock::now() < deadline) std::this_thread::sleep_for(10ms);
+  ASSERT_EQ(log.count(2), 2u);
+  {
+    std::lock_guard<std::mutex> lock(log.mutex);
+    EXPECT_LT(ms(log.sends[2][1] - log.sends[2][0]), 300.0) << "its own first timeout: 50 ms";
+    const auto& ones = log.sends[1];
+    EXPECT_GE(ms(ones[3] - ones[2]), 200.0 - 1.0) << "id 1 still backs off";
+  }
+  EXPECT_TRUE(sender.acknowledge(1));
+  EXPECT_TRUE(sender.acknowledge(2));
+}
+
 }  // namespace
 }  // namespace rgbdmap::transport

@@ -196,7 +196,8 @@ void ReliableSender::run() {
       ++item.unanswered;
       ++stats_.retransmissions;
       item.delay = backedOff(options_, item.delay, rto_);
-      if (options_.adaptive) rto_ = std::max(rto_, item.delay);  // kept for new ids (RFC 6298 5.5)
+      if (options_.adaptive && options_.shared_backoff)
+        rto_ = std::max(rto_, item.delay);  // kept for new ids (RFC 6298 5.5)
       schedule(id, item, now);
       due.push_back(id);
     }

@@ -35,6 +35,10 @@ struct ReliableSenderOptions {
   int max_attempts = 20;  // sends per id (first included) without an answer (progress() starts them
                           // again); then it is given up. 0: until acknowledged
   uint64_t seed = 1;      // jitter random stream
+  /// adaptive: an id's backoff also raises the RTO new ids start from, until the next valid sample (RFC
+  /// 6298 5.5, as for one connection); false: each id backs off on its own and the RTO follows the samples
+  /// only (ids whose sends are lost independently and answered by progress(): a keyframe's chunk bursts).
+  bool shared_backoff = true;
 };
 
 struct ReliableSenderStats {
@@ -136,7 +140,7 @@ class ReliableSender {
   std::mt19937_64 rng_;
   RttEstimate rtt_;
   std::chrono::nanoseconds
-      rto_;  ///< for new ids: rto(options_, rtt_), or backed off since (RFC 6298 5.5-5.7)
+      rto_;  ///< for new ids: rto(options_, rtt_), or backed off since (shared_backoff; RFC 6298 5.5-5.7)
   ReliableSenderStats stats_;
   bool stopping_ = false;
   std::thread worker_;
