@@ -59,7 +59,7 @@ RobotLink::Impl::Impl(transport::Transport& transport, RobotLinkOptions options)
       signer_(options_.robot_id, options_.key, session_, spool_ ? spool_->firstSeq() : 0),
       keyframe_signer_(options_.robot_id, options_.key, session_, spool_ ? spool_->firstSeq() : 0),
       reliable_(
-          options_.reliable, [this](uint64_t id) { return transmitKeyframe(id); },
+          senderOptions(options_), [this](uint64_t id) { return transmitKeyframe(id); },
           [this](uint64_t id) { onGivenUp(id); }) {}
 
 RobotLink::Impl::~Impl() { stop(); }

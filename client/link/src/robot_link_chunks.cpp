@@ -43,6 +43,14 @@ int resolveChunkBytes(int configured, const std::string& transport_url) {
   return transport_url.rfind("udpm://", 0) == 0 ? kUdpmChunkBytes : 0;
 }
 
+transport::ReliableSenderOptions RobotLink::Impl::senderOptions(const RobotLinkOptions& options) {
+  transport::ReliableSenderOptions out = options.reliable;
+  // A burst goes unanswered when its last-of-burst chunk or the ChunkAck is lost, independently of the
+  // other keyframes' bursts: one keyframe's backoff does not lengthen the others' timeouts.
+  if (options.chunk_bytes > 0) out.shared_backoff = false;
+  return out;
+}
+
 RobotLink::Impl::Clock::duration RobotLink::Impl::resealAfter(int reseals) const {
   const double ms = std::max<double>(kMinResealWait.count(), kResealAfterStoreAcks * store_ack_ms_) *
                     std::ldexp(1.0, std::min(reseals, 8));

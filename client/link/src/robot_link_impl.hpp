@@ -114,6 +114,9 @@ class RobotLink::Impl : public std::enable_shared_from_this<RobotLink::Impl> {
 
   // Chunked keyframes (robot_link_chunks.cpp).
   bool chunking() const { return options_.chunk_bytes > 0; }
+  /// options.reliable, with shared_backoff off when chunking (each keyframe's bursts are answered and
+  /// timed on their own).
+  static transport::ReliableSenderOptions senderOptions(const RobotLinkOptions& options);
   /// How long a transfer whose every chunk arrived waits for its KeyframeAck before it is sealed anew, after
   /// `reseals` such transfers of the same keyframe.
   Clock::duration resealAfter(int reseals) const;  ///< caller holds mutex_
