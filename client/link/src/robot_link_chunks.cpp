@@ -1,6 +1,7 @@
 // RobotLink: keyframes in chunks (udpm://). A transfer is one sealed keyframe envelope cut into
-// KeyframeChunks that each fit one datagram; the server answers a chunk flagged last-of-burst (and a
-// completed transfer) with a ChunkAck bitmap, and only the missing chunks are sent again. The ReliableSender
+// KeyframeChunks that each fit one datagram; the server answers each chunk flagged last-of-burst (the last
+// three of a burst) and a completed transfer with a ChunkAck bitmap, and the missing chunks it shows lost
+// (sent before a chunk that arrived) are sent again. The ReliableSender
 // still drives retransmission when no answer comes: it resends what is missing; when every chunk arrived but
 // no KeyframeAck did, it probes with the transfer's last chunk (the server answers a stored keyframe's
 // duplicate chunk with its KeyframeAck again) and, much later, seals a new transfer (the server may have
@@ -23,6 +24,9 @@ constexpr double kResealAfterStoreAcks = 4.0;
 constexpr std::chrono::milliseconds kMinResealWait{500};
 constexpr std::chrono::milliseconds kMaxResealWait{8000};
 constexpr int kMaxAckRounds = 16;  ///< resends answering ChunkAcks per transfer
+/// The last chunks of a burst flagged last-of-burst, each answered by a ChunkAck: a burst goes unanswered
+/// (and waits for a timeout) only when all of them or all their answers are lost.
+constexpr size_t kFlaggedChunks = 3;
 
 std::vector<int> missingChunks(const std::vector<bool>& received) {
   std::vector<int> out;
@@ -45,7 +49,7 @@ int resolveChunkBytes(int configured, const std::string& transport_url) {
 
 transport::ReliableSenderOptions RobotLink::Impl::senderOptions(const RobotLinkOptions& options) {
   transport::ReliableSenderOptions out = options.reliable;
-  // A burst goes unanswered when its last-of-burst chunk or the ChunkAck is lost, independently of the
+  // A burst goes unanswered when its flagged chunks or their ChunkAcks are lost, independently of the
   // other keyframes' bursts: one keyframe's backoff does not lengthen the others' timeouts.
   if (options.chunk_bytes > 0) out.shared_backoff = false;
   return out;
@@ -107,28 +111,38 @@ Status RobotLink::Impl::transmitChunked(int keyframe_id) {
     auto it = sent_.find(keyframe_id);
     if (it == sent_.end() || it->second.answer != Answer::kPending) return Status::success();
     if (it->second.transfer.envelope) ++it->second.reseals;
-    it->second.transfer =
-        ChunkTransfer{envelope, transfer_id, std::vector<bool>(static_cast<size_t>(count), false)};
+    ChunkTransfer& transfer = it->second.transfer;
+    transfer = ChunkTransfer{};
+    transfer.envelope = envelope;
+    transfer.transfer_id = transfer_id;
+    transfer.received.assign(static_cast<size_t>(count), false);
+    transfer.sent_seq.assign(static_cast<size_t>(count), 0);
   }
-  const Status sent = sendChunks(keyframe_id, envelope, transfer_id, missing);
-  if (probe) {  // its ChunkAck is no progress: unanswered probes back off like any retransmission
-    std::lock_guard<std::mutex> lock(mutex_);
-    auto it = sent_.find(keyframe_id);
-    if (it != sent_.end() && it->second.transfer.transfer_id == transfer_id)
-      it->second.transfer.burst_answered = true;
-  }
-  return sent;
+  // A probe's ChunkAck is no progress: unanswered probes back off like any retransmission.
+  return sendChunks(keyframe_id, envelope, transfer_id, missing, probe);
 }
 
 Status RobotLink::Impl::sendChunks(int keyframe_id, const std::shared_ptr<const msg::Bytes>& envelope,
-                                   int64_t transfer_id, const std::vector<int>& indices) {
+                                   int64_t transfer_id, const std::vector<int>& indices, bool probe) {
+  {  // numbered before they go out: a ChunkAck may come back before the burst ends
+    std::lock_guard<std::mutex> lock(mutex_);
+    auto it = sent_.find(keyframe_id);
+    if (it != sent_.end() && it->second.transfer.transfer_id == transfer_id) {
+      ChunkTransfer& transfer = it->second.transfer;
+      transfer.burst_first = transfer.sends + 1;
+      for (const int i : indices) transfer.sent_seq[static_cast<size_t>(i)] = ++transfer.sends;
+      transfer.burst_sent = Clock::now();
+      transfer.burst_answered = probe;
+    }
+  }
   Status result = Status::success();
   uint64_t sent = 0;
+  const size_t flagged_from = indices.size() - std::min(indices.size(), kFlaggedChunks);
   for (size_t k = 0; k < indices.size(); ++k) {
     Result<msg::KeyframeChunk> chunk = msg::makeChunk(*envelope, options_.chunk_bytes, indices[k],
                                                       options_.robot_id, keyframe_id, transfer_id);
     if (!chunk) return Status::failure(chunk.error());
-    chunk->last_of_burst = k + 1 == indices.size();
+    chunk->last_of_burst = k >= flagged_from;
     if (Status s = sealAndPublish(*chunk, chunk_channel_); !s) {
       result = s;  // the rest still goes out; the server reports what is missing
     } else {
@@ -137,11 +151,6 @@ Status RobotLink::Impl::sendChunks(int keyframe_id, const std::shared_ptr<const 
   }
   std::lock_guard<std::mutex> lock(mutex_);
   counts_.chunks_sent += sent;
-  auto it = sent_.find(keyframe_id);
-  if (it != sent_.end() && it->second.transfer.transfer_id == transfer_id) {
-    it->second.transfer.burst_sent = Clock::now();
-    it->second.transfer.burst_answered = false;
-  }
   return result;
 }
 
@@ -157,10 +166,15 @@ void RobotLink::Impl::handle(const msg::ChunkAck& ack) {
     ChunkTransfer& transfer = it->second.transfer;
     if (!transfer.envelope || transfer.transfer_id != ack.transfer_id ||
         transfer.received.size() != static_cast<size_t>(ack.chunk_count))
-      return;  // an older transfer of this keyframe, or not ours
-    for (size_t i = 0; i < transfer.received.size(); ++i)
-      if (msg::chunkReceived(ack.received, static_cast<int>(i))) transfer.received[i] = true;
-    if (!transfer.burst_answered) {  // the server is there: the next timeout restarts from the RTO
+      return;             // an older transfer of this keyframe, or not ours
+    uint32_t newest = 0;  // the latest chunk send this ChunkAck shows received
+    for (size_t i = 0; i < transfer.received.size(); ++i) {
+      if (!msg::chunkReceived(ack.received, static_cast<int>(i))) continue;
+      transfer.received[i] = true;
+      newest = std::max(newest, transfer.sent_seq[i]);
+    }
+    const bool answers_burst = !transfer.burst_answered && newest >= transfer.burst_first;
+    if (answers_burst) {  // the server is there: the next timeout restarts from the RTO
       transfer.burst_answered = true;
       reliable_.progress(static_cast<uint64_t>(ack.keyframe_id), Clock::now() - transfer.burst_sent);
     }
@@ -169,6 +183,13 @@ void RobotLink::Impl::handle(const msg::ChunkAck& ack) {
       if (transfer.completed == Clock::time_point{}) transfer.completed = Clock::now();
       return;
     }
+    // Chunks arrive in the order sent: a missing chunk sent before the newest one received is lost. One
+    // sent after it may still be on its way (this ChunkAck may answer an earlier flagged chunk); the
+    // next ChunkAck or the timeout tells.
+    missing.erase(std::remove_if(missing.begin(), missing.end(),
+                                 [&](int i) { return transfer.sent_seq[static_cast<size_t>(i)] > newest; }),
+                  missing.end());
+    if (missing.empty()) return;
     if (++transfer.ack_rounds > kMaxAckRounds) return;  // no ping-pong with a server that keeps refusing
     envelope = transfer.envelope;
     counts_.chunks_resent += missing.size();

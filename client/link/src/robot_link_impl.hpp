@@ -61,8 +61,13 @@ class RobotLink::Impl : public std::enable_shared_from_this<RobotLink::Impl> {
     std::vector<bool> received;     ///< per chunk, from the server's ChunkAcks
     Clock::time_point completed{};  ///< a ChunkAck said every chunk arrived (the epoch before)
     int ack_rounds = 0;  ///< resends answering a ChunkAck (bounded; then only the deadlines resend)
-    Clock::time_point burst_sent{};  ///< the last chunk of the latest burst went out
-    bool burst_answered = true;      ///< a ChunkAck came since (its round trip: ReliableSender::progress)
+    /// Per chunk, the number of its latest send in this transfer (1, 2, ...; 0 never sent): a ChunkAck
+    /// that shows a chunk sent later as received proves the missing ones sent before it lost.
+    std::vector<uint32_t> sent_seq;
+    uint32_t sends = 0;              ///< chunk sends of this transfer so far (the latest sent_seq)
+    uint32_t burst_first = 0;        ///< sent_seq of the latest burst's first chunk
+    Clock::time_point burst_sent{};  ///< the latest burst started
+    bool burst_answered = true;      ///< a ChunkAck answered it (its round trip: ReliableSender::progress)
   };
   struct SentKeyframe {
     int segment = 0;
@@ -121,8 +126,10 @@ class RobotLink::Impl : public std::enable_shared_from_this<RobotLink::Impl> {
   /// `reseals` such transfers of the same keyframe.
   Clock::duration resealAfter(int reseals) const;  ///< caller holds mutex_
   Status transmitChunked(int keyframe_id);  ///< the missing chunks, or a new transfer when none are missing
+  /// Sends `indices` in that order as one burst, its last kFlaggedChunks flagged last-of-burst; a burst
+  /// that is `probe` gets no progress() from its ChunkAck.
   Status sendChunks(int keyframe_id, const std::shared_ptr<const msg::Bytes>& envelope, int64_t transfer_id,
-                    const std::vector<int>& indices);
+                    const std::vector<int>& indices, bool probe = false);
   void handle(const msg::ChunkAck& ack);
 
   // Receiving (robot_link_receive.cpp).
