@@ -1,9 +1,10 @@
 // RobotLink's chunked keyframes against a scripted server over memq://: which chunks of a burst are flagged
-// last-of-burst, and which chunks a ChunkAck makes the link send again (only those a chunk sent after them
-// shows lost, never those still on their way).
+// last-of-burst, which chunks a ChunkAck makes the link send again (only those a chunk sent after them shows
+// lost, never those still on their way), and the Hello to a server heard before it registered the robot.
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <atomic>
 #include <chrono>
 #include <memory>
 #include <mutex>
@@ -179,6 +180,28 @@ TEST(RobotLinkChunks, ALostFlaggedChunkIsResentOnTheNextFlaggedChunksAnswer) {
   server.ack({n - 3}, n);
   EXPECT_EQ(indicesFrom(server.sent(static_cast<size_t>(n) + 1), static_cast<size_t>(n)),
             (std::vector<int>{n - 3}));
+  link.stop();
+}
+
+// The server answers chunks but has not shown it registered the robot (its Hello was lost, and it holds the
+// keyframes until one arrives): the robot says Hello again within 0.2 s, not after hello_period_s.
+TEST(RobotLinkChunks, AServerHeardBeforeItKnowsTheRobotGetsHellosSoon) {
+  auto transport = testing::makeMemq();
+  ChunkScript server(*transport, linkKey(1));
+  auto hellos = std::make_shared<std::atomic<int>>(0);
+  ASSERT_TRUE(transport->subscribe(*msg::channelFor(msg::MessageType::kHello, "robot0"),
+                                   [hellos](const std::string&, const uint8_t*, size_t) { ++*hellos; }));
+  RobotLinkOptions options = chunkedLink();
+  options.hello_period_s = 30.0;
+  RobotLink link(*transport, options);
+  ASSERT_TRUE(link.start());
+  std::this_thread::sleep_for(std::chrono::milliseconds(500));
+  EXPECT_EQ(hellos->load(), 1) << "the first Hello only: no server heard";
+  ASSERT_TRUE(link.sendKeyframe(smallKeyframe(0, 0, testPose(0)), smallFrame(0)));
+  server.ack({}, static_cast<int>(server.sent().size()));  // heard; a ChunkAck is no registration
+  std::this_thread::sleep_for(std::chrono::milliseconds(1000));
+  EXPECT_GE(hellos->load(), 4) << "about every 0.2 s";
+  EXPECT_LE(hellos->load(), 8);
   link.stop();
 }
 

@@ -60,7 +60,8 @@ const ConfigTable<RobotLinkOptions>& robotLinkConfigTable() {
           .add("heartbeat_period_s", &C::heartbeat_period_s, R::closed(0.01, 3600.0),
                "Heartbeat (last keyframe, segment, tracking state, uptime) every this many seconds")
           .add("hello_period_s", &C::hello_period_s, R::closed(0.01, 3600.0),
-               "Hello again every this many seconds until the server has answered anything")
+               "Hello again every this many seconds (at most 0.2 s once the server was heard) until the "
+               "server shows it registered the robot")
           .add("send_timeout_s", &C::send_timeout_s, R::closed(0.0, 3600.0),
                "a keyframe waits at most this long for room in the send window, then is skipped")
           .add("chunk_bytes", &C::chunk_bytes, R::closed(-1, msg::kMaxChunkBytes),

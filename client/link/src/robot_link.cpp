@@ -18,6 +18,10 @@
 namespace rgbdmap {
 namespace {
 
+/// The Hello's period (at most) once the server was heard but has not shown it registered this robot: the
+/// server holds the robot's keyframes, unanswered, until a Hello arrives (on a lossy link one may not).
+constexpr std::chrono::milliseconds kHelloPeriodWhenHeard{200};
+
 std::chrono::nanoseconds seconds(double s) {
   return std::chrono::nanoseconds(static_cast<int64_t>(std::clamp(s, 0.0, 1e9) * 1e9));
 }
@@ -183,10 +187,12 @@ Status RobotLink::Impl::sendHeartbeat() {
 void RobotLink::Impl::runPeriodic() {
   const auto hb_period = std::chrono::duration_cast<Clock::duration>(seconds(options_.heartbeat_period_s));
   const auto hello_period = std::chrono::duration_cast<Clock::duration>(seconds(options_.hello_period_s));
-  Clock::time_point next_heartbeat = Clock::now(), next_hello = Clock::now() + hello_period;
+  const auto heard_period = std::min<Clock::duration>(hello_period, kHelloPeriodWhenHeard);
+  Clock::time_point next_heartbeat = Clock::now(), last_hello = Clock::now();
   std::unique_lock<std::mutex> lock(mutex_);
   while (!stopping_) {
     const auto now = Clock::now();
+    const auto next_hello = last_hello + (heard_from_server_ ? heard_period : hello_period);
     const bool heartbeat_due = now >= next_heartbeat, hello_due = !server_knows_me_ && now >= next_hello;
     lock.unlock();
     if (heartbeat_due) {
@@ -197,12 +203,13 @@ void RobotLink::Impl::runPeriodic() {
     }
     if (hello_due) {
       if (Status s = sendHello(); !s) log::debug("robot ", options_.robot_id, ": hello: ", s.error());
-      next_hello = now + hello_period;
+      last_hello = now;
     }
     lock.lock();
     diagnoseLink(Clock::now());
     changed_.notify_all();  // waiters re-check: a keyframe may have been given up meanwhile
-    const auto wake = server_knows_me_ ? next_heartbeat : std::min(next_heartbeat, next_hello);
+    // Unregistered: awake at least every heard_period, so a server heard meanwhile gets its Hello soon.
+    const auto wake = server_knows_me_ ? next_heartbeat : std::min(next_heartbeat, last_hello + heard_period);
     changed_.wait_until(lock, wake, [this] { return stopping_; });
   }
 }

@@ -1,8 +1,8 @@
 #pragma once
 // The robot's side of the mapping protocol (proto/README.md) over any transport::Transport:
-//  - says Hello at start (again every hello_period_s until the server shows it registered the robot) and
-//  sends a
-//    Heartbeat every heartbeat_period_s with the tracking state the odometry last reported;
+//  - says Hello at start (again every hello_period_s, or 0.2 s once the server was heard, until the server
+//    shows it registered the robot) and sends a Heartbeat every heartbeat_period_s with the tracking state
+//    the odometry last reported;
 //  - sends each keyframe (images encoded once, message kept unsealed) through a ReliableSender keyed by the
 //    keyframe id; every (re)transmission is sealed afresh with a new seq; KeyframeAck removes it (accepted)
 //    or refuses it for good (accepted = false: counted, not resent);
