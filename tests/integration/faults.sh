@@ -16,8 +16,9 @@
 #   dgram5    5 % of the UDP datagrams: DDS via Cyclone's Internal/Test/XmitLossiness (a test config
 #             derived from deploy/dds/cyclonedds-loopback.xml); LCM: 5 % of the IP packets (MTU 1500)
 #             through rgbdmap-lossy-relay between the robots' and the server's multicast groups
-#   dgram30   30 % of the datagrams through the relay (LCM only), the robots' link at its defaults; a robot
-#             that ends with keyframes spooled starts again on its last frame to deliver them
+#   dgram30   30 % of the datagrams (LCM: through the relay; DDS: XmitLossiness 300), the robots' link at
+#             its defaults; a robot that ends with keyframes spooled starts again on its last frame to deliver
+#             them
 #   kill9     the server is killed (SIGKILL) at five random moments of the run and restarted on the same
 #             map directory each time (the robots at 30 Hz here, not --fast: the run must last the kills)
 #   robotkill9  while the server hangs (SIGSTOP) and keyframes are unacknowledged, robot0 is killed (SIGKILL)
@@ -237,11 +238,12 @@ fault_outage() {
   kill -INT "$monitor"; wait "$monitor"
 }
 fault_dgram5() { if [ "$transport" = dds ]; then fault_dgram5_dds; else fault_dgram5_lcm; fi; }
-fault_dgram5_dds() {  # 50 per mille of Cyclone's outgoing datagrams dropped, in every process
+fault_dgram5_dds() { dds_lossiness 50; }
+dds_lossiness() {  # PER_MILLE of Cyclone's outgoing datagrams dropped, in every process
   write_configs
-  sed 's|^    <Internal>|    <Internal>\n      <Test><XmitLossiness>50</XmitLossiness></Test>|' \
+  sed "s|^    <Internal>|    <Internal>\n      <Test><XmitLossiness>$1</XmitLossiness></Test>|" \
     "$repo/deploy/dds/cyclonedds-loopback.xml" >"$out/cyclonedds-lossy.xml"
-  grep -q '<XmitLossiness>50<' "$out/cyclonedds-lossy.xml" || { echo "FAIL: lossy DDS config"; exit 1; }
+  grep -q "<XmitLossiness>$1<" "$out/cyclonedds-lossy.xml" || { echo "FAIL: lossy DDS config"; exit 1; }
   export CYCLONEDDS_URI="file://$out/cyclonedds-lossy.xml"
   run_plain
 }
@@ -252,9 +254,8 @@ fault_dgram5_lcm() { relay_loss 0.05; }
 # dgram30 (LCM): 30 % of the datagrams through the relay, the robots with the default link configuration
 # (final wait, attempts): what a robot on a bad Wi-Fi link meets.
 fault_dgram30() {
-  [ "$transport" = lcm ] || { echo "SKIP: dgram30 runs over LCM (the relay)"; exit 77; }
   final_wait="" max_attempts="" after_clients=restart_spooled
-  relay_loss 0.3
+  if [ "$transport" = dds ]; then dds_lossiness 300; else relay_loss 0.3; fi
 }
 relay_loss() {
   [ -x "$bin/rgbdmap-lossy-relay" ] || { echo "FAIL: no $bin/rgbdmap-lossy-relay"; exit 1; }
