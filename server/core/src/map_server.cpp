@@ -70,8 +70,8 @@ struct MapServer::Impl {
         pipeline(config, registry, publisher, server_session / 1000000 * 1000000),
         queue({config.robot_queue_capacity, config.robot_queue_bytes, config.ingest_queue_capacity},
               reorderTick(config), pipeline),
-        inbox(InboxConfig{config.robots, config.robot_max_keyframes_per_s, config.robot_keyframe_burst}, keys,
-              registry, inboxQueue(queue)),
+        inbox(InboxConfig{config.robots, config.robot_max_keyframes_per_s, config.robot_keyframe_burst, {}},
+              keys, registry, inboxQueue(queue)),
         status(config.status_period_s, registry, publisher, [this] { return pipeline.graphRevision(); }),
         gate([this](const std::string& channel, const uint8_t* data, size_t size) {
           inbox.onMessage(channel, data, size);
