@@ -272,12 +272,12 @@ Status RobotLink::Impl::sendKeyframeMessage(msg::Keyframe message) {
   }
   if (options_.keyframe_tap) options_.keyframe_tap(*encoded);
   lock.lock();
-  countSubmitted(bytes);
+  ++counts_.keyframes_sent;
+  countKeyframeBytes(bytes);
   return Status::success();
 }
 
-void RobotLink::Impl::countSubmitted(const KeyframeBytes& bytes) {
-  ++counts_.keyframes_sent;
+void RobotLink::Impl::countKeyframeBytes(const KeyframeBytes& bytes) {
   counts_.keyframe_depth_bytes += bytes.depth;
   counts_.keyframe_color_bytes += bytes.color;
   counts_.keyframe_feature_bytes += bytes.features;

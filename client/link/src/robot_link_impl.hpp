@@ -102,8 +102,8 @@ class RobotLink::Impl : public std::enable_shared_from_this<RobotLink::Impl> {
   Status sendHeartbeat();
   msg::LinkStatus linkStatus() const;  ///< from stats() and the send window (robot_link_pose.cpp)
   Status sendLinkStatus();
-  bool allAnswered() const;                         ///< caller holds mutex_
-  void countSubmitted(const KeyframeBytes& bytes);  ///< caller holds mutex_
+  bool allAnswered() const;                             ///< caller holds mutex_
+  void countKeyframeBytes(const KeyframeBytes& bytes);  ///< once per keyframe; caller holds mutex_
 
   // The keyframe spool (robot_link_spool.cpp); everything here needs options_.spool.
   void startSpool();  ///< queues what an earlier process left, starts the feeder

@@ -50,10 +50,7 @@ Status RobotLink::Impl::enqueueSpooled(msg::Keyframe message, const KeyframeByte
       entry.message = std::make_unique<msg::Keyframe>(std::move(message));
     queue_.insert(id);
     ++counts_.keyframes_spooled;
-    counts_.keyframe_depth_bytes += bytes.depth;
-    counts_.keyframe_color_bytes += bytes.color;
-    counts_.keyframe_feature_bytes += bytes.features;
-    counts_.keyframe_message_bytes += bytes.message;
+    countKeyframeBytes(bytes);
   }
   changed_.notify_all();
   return Status::success();
