@@ -70,6 +70,8 @@ Json clientJson(const ClientRunInfo& info, const RobotRunResult& r) {
           {"keyframes_spooled", l.keyframes_spooled},
           {"keyframes_live_only", l.keyframes_live_only},
           {"keyframes_requeued", l.keyframes_requeued},
+          {"sends_held_unmatched", l.sends_held_unmatched},
+          {"subscriber_matches", l.subscriber_matches},
           {"spool_depth", l.spool_depth},
           {"spool_bytes", l.spool_bytes},
           {"spool_recovered", l.spool_recovered},

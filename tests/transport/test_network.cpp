@@ -5,6 +5,8 @@
 
 #include <chrono>
 #include <map>
+#include <optional>
+#include <thread>
 
 #include "test_tier.hpp"
 #include "transport_test_util.hpp"
@@ -103,6 +105,43 @@ TEST(NetDds, APrefixSubscriptionReadsTheTopicsOthersPublishAsTheyAppear) {
   EXPECT_EQ(channels.count("other/robot_7/keyframe"), 0u);
   EXPECT_GE(channels["rgbdmap/robot-8/hello"], 1);
   EXPECT_EQ(inbox.payloadsLongerThan(1), (std::vector<std::vector<uint8_t>>{payload}));
+}
+
+TEST(NetDds, AWriterReportsTheSubscribersMatchedWithIt) {
+  RGBDMAP_REQUIRE_NETNS();
+  auto tx = testing::makeTestTransport("dds://?domain=0");
+  ASSERT_TRUE(tx);
+  const std::string channel = "rgbdmap/robot0/keyframe";
+  std::optional<SubscriberMatch> match = tx->matchedSubscribers(channel);
+  ASSERT_TRUE(match.has_value());
+  EXPECT_EQ(match->current, 0);
+  EXPECT_EQ(match->total, 0u);
+  const auto matched = [&](int current, uint64_t total) {  // polled, at most 10 s
+    for (int i = 0; i < 1000; ++i, std::this_thread::sleep_for(10ms))
+      if (match = tx->matchedSubscribers(channel); match->current == current && match->total == total)
+        return true;
+    return false;
+  };
+  {
+    auto rx = testing::makeTestTransport("dds://?domain=0");
+    ASSERT_TRUE(rx);
+    Inbox inbox;
+    ASSERT_TRUE(rx->subscribe(channel, inbox.handler()));
+    ASSERT_TRUE(rx->start());
+    EXPECT_TRUE(matched(1, 1)) << match->current << " " << match->total;
+  }  // the subscriber's participant is deleted: unmatched
+  EXPECT_TRUE(matched(0, 1)) << match->current << " " << match->total;
+  auto again = testing::makeTestTransport("dds://?domain=0");  // a restarted server: total grows
+  Inbox inbox;
+  ASSERT_TRUE(again && again->subscribe(channel, inbox.handler()) && again->start());
+  EXPECT_TRUE(matched(1, 2)) << match->current << " " << match->total;
+}
+
+TEST(NetUdpm, DeliveryDoesNotDependOnAMatch) {
+  RGBDMAP_REQUIRE_NETNS();
+  auto tx = testing::makeTestTransport("udpm://239.255.76.67:7667?ttl=0");
+  ASSERT_TRUE(tx);
+  EXPECT_FALSE(tx->matchedSubscribers("rgbdmap/robot0/keyframe").has_value());
 }
 
 }  // namespace

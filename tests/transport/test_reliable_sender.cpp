@@ -44,6 +44,33 @@ TEST(TransportReliableSender, BackoffGrowsExponentiallyUpToTheCapWithBoundedJitt
   EXPECT_NEAR(ms(ReliableSender::backedOff(o, 800ms, 100ms)), 1000.0, 1e-6);
 }
 
+TEST(TransportReliableSender, ResendAllNowSendsEveryPendingIdAtOnceAndRestartsItsAttempts) {
+  ReliableSenderOptions o;
+  o.initial_backoff = o.max_backoff = 10s;  // no retransmission within the test but the ones asked for
+  o.adaptive = false;
+  o.max_attempts = 2;
+  SendLog log;
+  std::atomic<int> given_up{0};
+  ReliableSender sender(o, log.fn(), [&](uint64_t) { ++given_up; });
+  sender.start();
+  ASSERT_TRUE(sender.submit(1));
+  ASSERT_TRUE(sender.submit(2));
+  ASSERT_TRUE(sender.acknowledge(2));
+  const Clock::time_point asked = Clock::now();
+  for (int round = 1; round <= 3; ++round) {  // beyond max_attempts: each round starts the count again
+    sender.resendAllNow();
+    for (int i = 0; i < 500 && log.count(1) < static_cast<size_t>(1 + round); ++i)
+      std::this_thread::sleep_for(2ms);  // bounded: 1 s
+    ASSERT_EQ(log.count(1), static_cast<size_t>(1 + round));
+  }
+  EXPECT_LT(ms(Clock::now() - asked), 1000.0);
+  EXPECT_EQ(log.count(2), 1u);  // acknowledged: not sent again
+  EXPECT_EQ(given_up.load(), 0);
+  EXPECT_EQ(sender.pending(), 1u);
+  EXPECT_EQ(sender.stats().retransmissions, 3u);
+  sender.stop();
+}
+
 /// RFC 6298 2.2-2.3 by hand (alpha 1/8, beta 1/4, K 4, G 10 ms), samples in ms.
 TEST(TransportReliableSender, RetransmitsWithGrowingGapsThenGivesUp) {
   ReliableSenderOptions o;

@@ -16,9 +16,10 @@ const ConfigTable<transport::ReliableSenderOptions>& reliableSenderConfigTable()
                "true: the first retransmission after the timeout adapted to the measured ack latency "
                "(RFC 6298: smoothed latency + 4 x its deviation); false: after initial_backoff_ms")
           .add("initial_backoff_ms", &C::initial_backoff, R::closed(1, 600000),
-               "first retransmission after this long until an ack was measured (always: adaptive false) ...")
+               "first retransmission after this long until an ack was measured (always: adaptive false); "
+               "dds://, which repairs losses itself: at least 1000 ...")
           .add("min_backoff_ms", &C::min_backoff, R::closed(1, 600000),
-               "adaptive: the timeout never below this (<= initial_backoff_ms)")
+               "adaptive: the timeout never below this (<= initial_backoff_ms; dds://: at least 1000)")
           .add("max_backoff_ms", &C::max_backoff, R::closed(1, 600000),
                "... growing by backoff_factor per attempt up to this (>= initial_backoff_ms)")
           .add("backoff_factor", &C::backoff_factor, R::closed(1.0, 10.0), "")

@@ -21,6 +21,8 @@ namespace {
 /// The Hello's period (at most) once the server was heard but has not shown it registered this robot: the
 /// server holds the robot's keyframes, unanswered, until a Hello arrives (on a lossy link one may not).
 constexpr std::chrono::milliseconds kHelloPeriodWhenHeard{200};
+/// DDS: how soon a newly matched subscriber (a restarted server) gets the keyframes in flight.
+constexpr std::chrono::milliseconds kMatchPoll{50};
 
 std::chrono::nanoseconds seconds(double s) {
   return std::chrono::nanoseconds(static_cast<int64_t>(std::clamp(s, 0.0, 1e9) * 1e9));
@@ -63,8 +65,8 @@ RobotLink::Impl::Impl(transport::Transport& transport, RobotLinkOptions options)
       signer_(options_.robot_id, options_.key, session_, spool_ ? spool_->firstSeq() : 0),
       keyframe_signer_(options_.robot_id, options_.key, session_, spool_ ? spool_->firstSeq() : 0),
       reliable_(
-          senderOptions(options_), [this](uint64_t id) { return transmitKeyframe(id); },
-          [this](uint64_t id) { onGivenUp(id); }) {}
+          senderOptions(options_, transport.repairsLoss()),
+          [this](uint64_t id) { return transmitKeyframe(id); }, [this](uint64_t id) { onGivenUp(id); }) {}
 
 RobotLink::Impl::~Impl() { stop(); }
 
@@ -86,6 +88,8 @@ Status RobotLink::Impl::start() {
   if (Status s = subscribeAll(); !s) return s;
   if (Status s = transport_.start(); !s) return Status::failure("RobotLink: transport: " + s.error());
   reliable_.start();
+  // Subscribers matched before anything was sent are no news to the keyframes in flight (none yet).
+  if (const auto match = transport_.matchedSubscribers(deliveryChannel())) matched_total_ = match->total;
   if (Status s = sendHello(); !s) log::warn("robot ", options_.robot_id, ": first Hello failed: ", s.error());
   periodic_ = std::thread([this] { runPeriodic(); });
   if (spool_) startSpool();
@@ -205,11 +209,13 @@ void RobotLink::Impl::runPeriodic() {
       if (Status s = sendHello(); !s) log::debug("robot ", options_.robot_id, ": hello: ", s.error());
       last_hello = now;
     }
+    const bool matching = watchMatches();
     lock.lock();
     diagnoseLink(Clock::now());
     changed_.notify_all();  // waiters re-check: a keyframe may have been given up meanwhile
     // Unregistered: awake at least every heard_period, so a server heard meanwhile gets its Hello soon.
-    const auto wake = server_knows_me_ ? next_heartbeat : std::min(next_heartbeat, last_hello + heard_period);
+    auto wake = server_knows_me_ ? next_heartbeat : std::min(next_heartbeat, last_hello + heard_period);
+    if (matching) wake = std::min(wake, Clock::now() + kMatchPoll);
     changed_.wait_until(lock, wake, [this] { return stopping_; });
   }
 }
@@ -285,6 +291,7 @@ void RobotLink::Impl::countKeyframeBytes(const KeyframeBytes& bytes) {
 }
 
 Status RobotLink::Impl::transmitKeyframe(uint64_t id) {
+  if (!deliveryMatched()) return Status::failure("no subscriber of " + deliveryChannel() + " matched yet");
   if (chunking()) return transmitChunked(static_cast<int>(id));
   std::unique_ptr<msg::Keyframe> last;  // the final transmission takes the message over
   msg::Keyframe copy;

@@ -40,6 +40,9 @@ std::vector<int> missingChunks(const std::vector<bool>& received) {
 constexpr int kUdpmChunkBytes = 1100;  ///< one datagram at MTU 1500 even for a 32-character robot id
 static_assert(kUdpmChunkBytes >= msg::kMinChunkBytes, "chunk size");
 
+/// The earliest resend of a keyframe on a transport that repairs losses itself.
+constexpr std::chrono::milliseconds kRepairedFirstResend{1000};
+
 int resolveChunkBytes(int configured, const std::string& transport_url) {
   if (configured >= 0) return configured;
   // LCM splits a large message into datagrams and loses all of it with any one of them; DDS retransmits
@@ -47,8 +50,17 @@ int resolveChunkBytes(int configured, const std::string& transport_url) {
   return transport_url.rfind("udpm://", 0) == 0 ? kUdpmChunkBytes : 0;
 }
 
-transport::ReliableSenderOptions RobotLink::Impl::senderOptions(const RobotLinkOptions& options) {
+transport::ReliableSenderOptions RobotLink::Impl::senderOptions(const RobotLinkOptions& options,
+                                                                bool repairs_loss) {
   transport::ReliableSenderOptions out = options.reliable;
+  if (repairs_loss) {
+    // DDS repairs a lost fragment in tens of milliseconds, a keyframe under 30 % loss within about a
+    // second; an earlier resend only adds a whole keyframe to the repairs (docs/results.md, Faults). A
+    // resend is for what DDS cannot repair: a subscriber that restarted.
+    out.initial_backoff = std::max(out.initial_backoff, kRepairedFirstResend);
+    out.min_backoff = std::max(out.min_backoff, kRepairedFirstResend);
+    out.max_backoff = std::max(out.max_backoff, out.initial_backoff);
+  }
   // A burst goes unanswered when its flagged chunks or their ChunkAcks are lost, independently of the
   // other keyframes' bursts: one keyframe's backoff does not lengthen the others' timeouts.
   if (options.chunk_bytes > 0) out.shared_backoff = false;

@@ -119,9 +119,19 @@ class RobotLink::Impl : public std::enable_shared_from_this<RobotLink::Impl> {
 
   // Chunked keyframes (robot_link_chunks.cpp).
   bool chunking() const { return options_.chunk_bytes > 0; }
+  /// The channel keyframes travel on: chunks, or whole keyframes.
+  const std::string& deliveryChannel() const { return chunking() ? chunk_channel_ : keyframe_channel_; }
+  /// False while the transport matches endpoints and no subscriber of deliveryChannel() is matched
+  /// (robot_link_match.cpp): a keyframe published now would reach nobody.
+  bool deliveryMatched();
+  /// Periodic thread, mutex_ not held: a subscriber newly matched while keyframes are in flight gets them
+  /// at once. True while matching applies (the periodic thread then wakes every kMatchPoll).
+  bool watchMatches();
   /// options.reliable, with shared_backoff off when chunking (each keyframe's bursts are answered and
   /// timed on their own).
-  static transport::ReliableSenderOptions senderOptions(const RobotLinkOptions& options);
+  /// The ReliableSender's options: link.reliable, with per-keyframe backoff for chunks and, on a transport
+  /// that repairs losses itself (DDS), no resend within kRepairedFirstResend.
+  static transport::ReliableSenderOptions senderOptions(const RobotLinkOptions& options, bool repairs_loss);
   /// How long a transfer whose every chunk arrived waits for its KeyframeAck before it is sealed anew, after
   /// `reseals` such transfers of the same keyframe.
   Clock::duration resealAfter(int reseals) const;  ///< caller holds mutex_
@@ -206,6 +216,7 @@ class RobotLink::Impl : public std::enable_shared_from_this<RobotLink::Impl> {
   std::mutex pose_mutex_;  ///< publishPose's throttle
   std::optional<Clock::time_point> last_pose_;
   std::string pose_channel_, link_status_channel_;
+  std::atomic<uint64_t> matched_total_{0};  ///< the delivery channel's subscribers ever matched, last seen
 };
 
 }  // namespace rgbdmap

@@ -100,6 +100,16 @@ Status DdsTransport::publish(const std::string& channel, const uint8_t* data, si
   return Status::success();
 }
 
+std::optional<SubscriberMatch> DdsTransport::matchedSubscribers(const std::string& channel) {
+  SubscriberMatch match;
+  auto writer = writerFor(channel);
+  dds_publication_matched_status_t status{};
+  if (!writer || dds_get_publication_matched_status(*writer, &status) != DDS_RETCODE_OK) return match;
+  match.current = static_cast<int>(status.current_count);
+  match.total = status.total_count;
+  return match;
+}
+
 Status DdsTransport::subscribe(const std::string& channel, Handler handler) {
   if (channel.empty() || !handler) return Status::failure("subscribe needs a channel and a handler");
   std::lock_guard<std::mutex> lock(entities_mutex_);

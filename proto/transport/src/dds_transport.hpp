@@ -30,6 +30,8 @@ class DdsTransport final : public Transport {
   Status start() override;
   void stop() override;
   TransportStats stats() const override { return stats_.snapshot(); }
+  std::optional<SubscriberMatch> matchedSubscribers(const std::string& channel) override;
+  bool repairsLoss() const override { return true; }
 
  private:
   DdsTransport(TransportOptions options, dds_entity_t participant, dds_entity_t waitset, dds_entity_t guard)

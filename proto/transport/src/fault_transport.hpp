@@ -36,6 +36,10 @@ class FaultInjectingTransport final : public Transport {
   Status start() override { return inner_->start(); }
   void stop() override { inner_->stop(); }
   TransportStats stats() const override;
+  bool repairsLoss() const override { return inner_->repairsLoss(); }
+  std::optional<SubscriberMatch> matchedSubscribers(const std::string& channel) override {
+    return inner_->matchedSubscribers(channel);
+  }
 
  private:
   bool drop(double probability);

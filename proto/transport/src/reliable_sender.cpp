@@ -140,6 +140,20 @@ void ReliableSender::progress(uint64_t id, nanoseconds round_trip) {
   if (deadlines_.begin()->second == id) wake_.notify_all();
 }
 
+void ReliableSender::resendAllNow() {
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (items_.empty()) return;
+  const auto now = Clock::now();
+  deadlines_.clear();
+  for (auto& [id, item] : items_) {
+    item.delay = rto_;  // the worker backs it off once as it sends
+    item.unanswered = 0;
+    item.deadline = now;
+    deadlines_.emplace(now, id);
+  }
+  wake_.notify_all();
+}
+
 size_t ReliableSender::pending() const {
   std::lock_guard<std::mutex> lock(mutex_);
   return items_.size();

@@ -149,6 +149,9 @@ struct RobotLinkStats {
   uint64_t keyframes_requeued = 0;
   /// Of keyframes_pending: sent live only (not in a spool), lost if the process ends now.
   uint64_t keyframes_pending_live = 0;
+  /// DDS: keyframe sends held because no subscriber was matched (they reach nobody), and new subscribers
+  /// (a restarted server) that matched while keyframes were in flight, each sending them again at once.
+  uint64_t sends_held_unmatched = 0, subscriber_matches = 0;
 };
 
 class RobotLink {  // thread-safe; handlers never block the transport's receive thread

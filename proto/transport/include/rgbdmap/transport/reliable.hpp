@@ -92,6 +92,10 @@ class ReliableSender {
   /// max_attempts count starts again (an id is given up after max_attempts sends without any answer).
   /// Nothing for an id not pending.
   void progress(uint64_t id, std::chrono::nanoseconds round_trip);
+  /// Every pending id is sent again at once (on the worker thread, counted as a retransmission), its
+  /// timeout and max_attempts count starting again: none of its sends so far could have reached the
+  /// peer that answers (that peer appeared only now: a DDS subscriber matched).
+  void resendAllNow();
   size_t pending() const;
   ReliableSenderStats stats() const;
 

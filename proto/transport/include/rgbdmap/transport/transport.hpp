@@ -5,6 +5,7 @@
 #include <cstdint>
 #include <functional>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -29,6 +30,12 @@ struct TransportStats {
 
 /// publish() is thread-safe; handlers run on the transport's receive thread, one at a time, and may
 /// call publish() and subscribe() themselves.
+/// Subscribers matched with a writer (DDS publication-matched status).
+struct SubscriberMatch {
+  int current = 0;     ///< matched now
+  uint64_t total = 0;  ///< ever matched: grows when a new subscriber (a restarted server) appears
+};
+
 class Transport {
  public:
   using Handler = std::function<void(const std::string& channel, const uint8_t* data, size_t size)>;
@@ -43,6 +50,17 @@ class Transport {
   /// Wakes and joins the receive thread promptly; idempotent. The destructor calls it.
   virtual void stop() = 0;
   virtual TransportStats stats() const = 0;
+  /// The subscribers this process's writer of `channel` is matched with, on transports that match
+  /// endpoints (DDS: a sample published while no subscriber is matched reaches nobody, not even one matched
+  /// a moment later); nullopt where delivery does not depend on a match (LCM, memq). Creates the channel's
+  /// writer if it has none yet, so that matching starts.
+  /// True where the transport itself repairs lost datagrams between matched endpoints (DDS, reliable
+  /// QoS): a resend on top of it only covers what it cannot repair.
+  virtual bool repairsLoss() const { return false; }
+  virtual std::optional<SubscriberMatch> matchedSubscribers(const std::string& channel) {
+    (void)channel;
+    return std::nullopt;
+  }
 
   Status publish(const std::string& channel, const std::vector<uint8_t>& bytes) {
     return publish(channel, bytes.data(), bytes.size());
