@@ -13,6 +13,7 @@ int eval(int argc, char** argv);
 int run(int argc, char** argv);
 int viewMap(int argc, char** argv);
 int keys(int argc, char** argv);
+int map(int argc, char** argv);
 
 /// `convert`'s work (also `run --source`): the first `frames` (0: all) of `url` into the TUM folder `out`
 /// with the configuration of `args`; the exit code (2 with `usage` on configuration errors).

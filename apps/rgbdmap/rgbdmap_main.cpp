@@ -1,4 +1,4 @@
-// rgbdmap: one binary, several subcommands (synth, odometry, convert, eval, run, view-map).
+// rgbdmap: one binary, several subcommands (synth, odometry, convert, eval, run, view-map, keys, map).
 #include <cstdio>
 #include <cstring>
 #include <exception>
@@ -17,6 +17,7 @@ const char* kUsage =
     "  eval      ATE and RPE of an estimated trajectory against ground truth\n"
     "  view-map  statistics of an octree map file (.bt or .ot)\n"
     "  keys      keys new ROBOT...: a key per robot and the server's keys file\n"
+    "  map       map bundles: export MAP_DIR FILE, info FILE, import FILE MAP_DIR\n"
     "run `rgbdmap <command> --help` for its options.\n";
 }
 
@@ -34,6 +35,7 @@ int main(int argc, char** argv) {
     if (!std::strcmp(name, "run")) return rgbdmap::cmd::run(argc - 2, argv + 2);
     if (!std::strcmp(name, "view-map")) return rgbdmap::cmd::viewMap(argc - 2, argv + 2);
     if (!std::strcmp(name, "keys")) return rgbdmap::cmd::keys(argc - 2, argv + 2);
+    if (!std::strcmp(name, "map")) return rgbdmap::cmd::map(argc - 2, argv + 2);
   } catch (const std::exception& e) {
     std::fprintf(stderr, "rgbdmap %s: unexpected error: %s\n", name, e.what());
     return 1;

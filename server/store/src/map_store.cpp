@@ -237,37 +237,33 @@ MapStore::MapStore(std::unique_ptr<State> state) : state_(std::move(state)) {}
 MapStore::~MapStore() = default;
 
 Status MapStore::appendKeyframe(const StoredKeyframe& keyframe) {
+  Result<msg::Bytes> payload = store::encodeKeyframePayload(keyframe);
+  if (!payload) return Status::failure(payload.error());
+  return appendEncodedKeyframe(keyframe, *payload);
+}
+
+Status MapStore::appendKeyframePayload(const msg::Bytes& payload) {
+  Result<StoredKeyframe> keyframe = store::decodeKeyframePayload(payload.data(), payload.size());
+  if (!keyframe) return Status::failure(keyframe.error());
+  return appendEncodedKeyframe(*keyframe, payload);
+}
+
+Status MapStore::appendEncodedKeyframe(const StoredKeyframe& keyframe, const msg::Bytes& payload) {
   State& s = *state_;
   std::lock_guard<std::mutex> lock(s.append_mutex);
   if (!s.failed.empty()) return s.failedStatus();
   if (keyframe.node_id < 0) return Status::failure("negative node id " + std::to_string(keyframe.node_id));
   if (s.hasNode(keyframe.node_id))
     return Status::failure("duplicate node id " + std::to_string(keyframe.node_id) + ": already stored");
-  Result<msg::Bytes> payload = store::encodeKeyframePayload(keyframe);
-  if (!payload) return Status::failure(payload.error());
-  const msg::Bytes record = store::frameRecord(store::RecordType::kKeyframe, *payload);
+  const msg::Bytes record = store::frameRecord(store::RecordType::kKeyframe, payload);
   const int64_t offset = s.keyframe_log.end;
   if (Status st = s.append(&s.keyframe_log, record); !st) return st;
   {
     std::lock_guard<std::mutex> index_lock(s.index_mutex);
     s.index[keyframe.node_id] = {offset, static_cast<int64_t>(record.size())};
   }
-  StoredKeyframe kept;
-  kept.node_id = keyframe.node_id;
-  kept.session = keyframe.session;
-  const msg::Keyframe& k = keyframe.keyframe;
-  kept.keyframe.header = k.header;
-  kept.keyframe.robot_id = k.robot_id;
-  kept.keyframe.segment_id = k.segment_id;
-  kept.keyframe.keyframe_id = k.keyframe_id;
-  kept.keyframe.timestamp = k.timestamp;
-  kept.keyframe.T_odom_cam = k.T_odom_cam;
-  kept.keyframe.previous_keyframe_id = k.previous_keyframe_id;
-  kept.keyframe.T_prev_cur = k.T_prev_cur;
-  kept.keyframe.information = k.information;
-  kept.keyframe.images.width = k.images.width;
-  kept.keyframe.images.height = k.images.height;
-  kept.keyframe.images.color_codec = k.images.color_codec;
+  StoredKeyframe kept = keyframe;  // a copy of ~100 KB beside the append's fdatasync
+  dropPayload(&kept);              // read back on demand
   s.keyframes.push_back(std::move(kept));
   return Status::success();
 }
@@ -332,7 +328,20 @@ MapStoreHealth MapStore::health() const {
 }
 
 Result<StoredKeyframe> MapStore::readKeyframe(int64_t node_id) const {
-  using R = Result<StoredKeyframe>;
+  auto read = readVerifiedKeyframe(node_id, false);
+  if (!read) return Result<StoredKeyframe>::failure(read.error());
+  return std::move(read->second);
+}
+
+Result<msg::Bytes> MapStore::readKeyframePayload(int64_t node_id) const {
+  auto read = readVerifiedKeyframe(node_id, true);
+  if (!read) return Result<msg::Bytes>::failure(read.error());
+  return std::move(read->first);
+}
+
+Result<std::pair<msg::Bytes, StoredKeyframe>> MapStore::readVerifiedKeyframe(int64_t node_id,
+                                                                             bool keep_payload) const {
+  using R = Result<std::pair<msg::Bytes, StoredKeyframe>>;
   RecordLocation where;
   {
     std::lock_guard<std::mutex> lock(state_->index_mutex);
@@ -349,7 +358,9 @@ Result<StoredKeyframe> MapStore::readKeyframe(int64_t node_id) const {
   if (!k) return R::failure(context + k.error());
   if (k->node_id != node_id)
     return R::failure(context + "record holds node id " + std::to_string(k->node_id));
-  return k;
+  msg::Bytes payload;
+  if (keep_payload) payload.assign(record->payload(), record->payload() + record->payload_size);
+  return std::make_pair(std::move(payload), std::move(*k));
 }
 
 Result<std::vector<std::pair<int, int>>> MapStore::readLoopPairs(size_t i) const {

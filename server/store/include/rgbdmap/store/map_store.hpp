@@ -82,6 +82,9 @@ class MapStore {
   /// node_id or a keyframe that msg::validate rejects. After an I/O error every later append fails until
   /// recover() succeeds.
   Status appendKeyframe(const StoredKeyframe& keyframe);
+  /// appendKeyframe of a record payload as readKeyframePayload gives it (another store's): decoded and
+  /// checked the same way, and stored byte for byte (map bundles copy a map exactly).
+  Status appendKeyframePayload(const msg::Bytes& payload);
   /// Durable on return (when options.sync). Both nodes must be stored keyframes.
   Status appendLoop(const StoredLoop& loop);
   /// Several loops in one write and one fdatasync (each is validated first; after a crash a prefix may
@@ -101,6 +104,8 @@ class MapStore {
   /// Reads one keyframe (with images) back from disk; fails for an unknown id or a record that no longer
   /// verifies. Thread-safe with respect to concurrent appends.
   Result<StoredKeyframe> readKeyframe(int64_t node_id) const;
+  /// The keyframe's record payload as stored (CRC, decoding and node id verified), for appendKeyframePayload.
+  Result<msg::Bytes> readKeyframePayload(int64_t node_id) const;
 
   /// Takes a failed store back into service (success at once when it is not failed): both logs are cut
   /// back to their last acknowledged record and synced, then a probe write past the end of the keyframe
@@ -119,6 +124,10 @@ class MapStore {
  private:
   struct State;
   explicit MapStore(std::unique_ptr<State> state);
+  Status appendEncodedKeyframe(const StoredKeyframe& keyframe, const msg::Bytes& payload);
+  /// The record of node_id, verified, with its decoded keyframe.
+  Result<std::pair<msg::Bytes, StoredKeyframe>> readVerifiedKeyframe(int64_t node_id,
+                                                                     bool keep_payload) const;
   std::unique_ptr<State> state_;
 };
 
