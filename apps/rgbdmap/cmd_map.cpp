@@ -12,7 +12,7 @@ namespace rgbdmap::cmd {
 namespace {
 
 const char* kMapUsage =
-    "usage: rgbdmap map export MAP_DIR FILE | info FILE | import FILE MAP_DIR [--help]\n"
+    "usage: rgbdmap map export MAP_DIR FILE | info FILE | import FILE MAP_DIR | merge A B OUT [--help]\n"
     "Map bundles: one versioned, checksummed file (SHA-256 over the file, CRC-32 per entry) with\n"
     "everything a server needs to serve a map: its keyframes (features and images), loop edges, the\n"
     "robots' cameras and mounts (robots.txt) and the octree (map.bt, map.ot).\n"
@@ -21,6 +21,10 @@ const char* kMapUsage =
     "  info    verifies FILE entirely and prints what it holds, as `key value` lines\n"
     "  import  creates MAP_DIR (missing or empty) from FILE; a damaged or foreign file is refused and\n"
     "          nothing is written. Serve it with rgbdmap-server (server.map_dir: MAP_DIR)\n"
+    "  merge   joins the map directories A and B into OUT (missing or empty): OUT starts as a copy of A,\n"
+    "          then B's keyframes go, session by session, to a mapping server on OUT in this process,\n"
+    "          whose loop closure joins them to A's map; fails (nothing written) when no loop closure\n"
+    "          joins them: the maps do not overlap\n"
     "exit status: 0 success, 1 the map or the file could not be read or written (the reason is printed),\n"
     "2 usage error\n";
 
@@ -48,13 +52,18 @@ int map(int argc, char** argv) {
   args.checkAllowed({"help"});
   const auto& pos = args.positional();
   const std::string verb = pos.empty() ? "" : pos[0];
-  const size_t want = verb == "info" ? 2 : (verb == "export" || verb == "import") ? 3 : 0;
+  const size_t want = verb == "info"                           ? 2
+                      : (verb == "export" || verb == "import") ? 3
+                      : verb == "merge"                        ? 4
+                                                               : 0;
   if (want == 0)
-    args.addError(verb.empty() ? "expected export, info or import" : "unknown map command '" + verb + "'");
+    args.addError(verb.empty() ? "expected export, info, import or merge"
+                               : "unknown map command '" + verb + "'");
   else if (pos.size() != want)
     args.addError("map " + verb + " takes " + std::to_string(want - 1) + " argument(s), got " +
                   std::to_string(pos.size() - 1));
   if (!args.errors().empty()) return cli::usageError(args.errors(), kMapUsage);
+  if (verb == "merge") return mapMerge(pos[1], pos[2], pos[3]);
   Result<store::MapBundleInfo> info = verb == "export"   ? store::exportMapBundle(pos[1], pos[2])
                                       : verb == "import" ? store::importMapBundle(pos[1], pos[2])
                                                          : store::readMapBundleInfo(pos[1]);

@@ -14,6 +14,8 @@ int run(int argc, char** argv);
 int viewMap(int argc, char** argv);
 int keys(int argc, char** argv);
 int map(int argc, char** argv);
+/// rgbdmap map merge (cmd_map_merge.cpp): the exit code.
+int mapMerge(const std::string& a, const std::string& b, const std::string& out);
 
 /// `convert`'s work (also `run --source`): the first `frames` (0: all) of `url` into the TUM folder `out`
 /// with the configuration of `args`; the exit code (2 with `usage` on configuration errors).
