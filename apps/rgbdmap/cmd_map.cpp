@@ -21,10 +21,10 @@ const char* kMapUsage =
     "  info    verifies FILE entirely and prints what it holds, as `key value` lines\n"
     "  import  creates MAP_DIR (missing or empty) from FILE; a damaged or foreign file is refused and\n"
     "          nothing is written. Serve it with rgbdmap-server (server.map_dir: MAP_DIR)\n"
-    "  merge   joins the map directories A and B into OUT (missing or empty): OUT starts as a copy of A,\n"
-    "          then B's keyframes go, session by session, to a mapping server on OUT in this process,\n"
-    "          whose loop closure joins them to A's map; fails (nothing written) when no loop closure\n"
-    "          joins them: the maps do not overlap\n"
+    "  merge   joins the maps A and B (map directories or bundles) into the map directory OUT (missing\n"
+    "          or empty): OUT starts as a copy of A, then B's keyframes go, session by session, to a\n"
+    "          mapping server on OUT in this process, whose loop closure joins them to A's map; fails\n"
+    "          (nothing written) when no loop closure joins them: the maps do not overlap\n"
     "exit status: 0 success, 1 the map or the file could not be read or written (the reason is printed),\n"
     "2 usage error\n";
 

@@ -94,14 +94,42 @@ Result<std::set<int64_t>> nodesOf(const std::string& dir) {
   return nodes;
 }
 
-Status mergeInto(const std::string& a, const std::string& b, const fs::path& tmp) {
+bool isMapDir(const std::string& path) { return fs::is_regular_file(fs::path(path) / "MANIFEST"); }
+
+/// OUT's start: an exact copy of A (a map directory, through a bundle; or a bundle, imported).
+Status copyInto(const std::string& a, const fs::path& tmp) {
+  if (fs::is_regular_file(a)) {
+    auto imported = store::importMapBundle(a, tmp.string());
+    return imported ? Status::success() : Status::failure(imported.error());
+  }
+  if (!isMapDir(a)) return Status::failure("'" + a + "' is neither a map directory nor a map bundle");
   const fs::path bundle = tmp.string() + ".a.rmb";
   auto exported = store::exportMapBundle(a, bundle.string());
   if (!exported) return Status::failure(exported.error());
   auto imported = store::importMapBundle(bundle.string(), tmp.string());
   std::error_code ec;
   fs::remove(bundle, ec);
-  if (!imported) return Status::failure(imported.error());
+  return imported ? Status::success() : Status::failure(imported.error());
+}
+
+/// B as a map directory to read: itself, or a bundle imported into `scratch`.
+Result<std::string> sourceDir(const std::string& b, const fs::path& scratch) {
+  if (fs::is_regular_file(b)) {
+    auto imported = store::importMapBundle(b, scratch.string());
+    if (!imported) return Result<std::string>::failure(imported.error());
+    return scratch.string();
+  }
+  if (!isMapDir(b))
+    return Result<std::string>::failure("'" + b + "' is neither a map directory nor a map bundle");
+  return b;
+}
+
+Status mergeInto(const std::string& a, const std::string& b_arg, const fs::path& tmp,
+                 const fs::path& scratch) {
+  if (Status s = copyInto(a, tmp); !s) return s;
+  auto b_dir = sourceDir(b_arg, scratch);
+  if (!b_dir) return Status::failure(b_dir.error());
+  const std::string& b = *b_dir;
   auto a_nodes = nodesOf(tmp.string());
   if (!a_nodes) return Status::failure(a_nodes.error());
   auto source = MapStore::open(b);
@@ -151,7 +179,10 @@ int mapMerge(const std::string& a, const std::string& b, const std::string& out)
   }
   const fs::path tmp = target.string() + ".merge-" + std::to_string(::getpid());
   fs::remove_all(tmp, ec);
-  const Status merged = mergeInto(a, b, tmp);
+  const fs::path scratch = target.string() + ".merge-b-" + std::to_string(::getpid());
+  fs::remove_all(scratch, ec);
+  const Status merged = mergeInto(a, b, tmp, scratch);
+  fs::remove_all(scratch, ec);
   if (merged && fs::exists(target, ec)) fs::remove(target, ec);  // an empty folder
   if (!merged || ::rename(tmp.c_str(), target.c_str()) != 0) {
     std::fprintf(stderr, "rgbdmap map merge: %s\n",
