@@ -16,20 +16,6 @@ namespace {
 
 constexpr uint8_t kBundleMagic[8] = {'R', 'G', 'B', 'D', 'M', 'A', 'P', 'B'};
 
-void putBundleU16(uint8_t* p, uint16_t v) {
-  p[0] = static_cast<uint8_t>(v);
-  p[1] = static_cast<uint8_t>(v >> 8);
-}
-void putBundleU32(uint8_t* p, uint32_t v) {
-  for (int i = 0; i < 4; ++i) p[i] = static_cast<uint8_t>(v >> (8 * i));
-}
-uint16_t getBundleU16(const uint8_t* p) { return static_cast<uint16_t>(p[0] | (p[1] << 8)); }
-uint32_t getBundleU32(const uint8_t* p) {
-  uint32_t v = 0;
-  for (int i = 3; i >= 0; --i) v = (v << 8) | p[i];
-  return v;
-}
-
 struct DigestDeleter {
   void operator()(EVP_MD_CTX* ctx) const { EVP_MD_CTX_free(ctx); }
 };
@@ -69,7 +55,7 @@ Result<std::unique_ptr<BundleWriter>> BundleWriter::create(const std::string& pa
   if (!writer->state_->digest) return R::failure("SHA-256 is not available (OpenSSL)");
   uint8_t header[kBundleHeaderSize];
   std::memcpy(header, kBundleMagic, 8);
-  putBundleU32(header + 8, kMapBundleFormatVersion);
+  putLE(header + 8, kMapBundleFormatVersion, 4);
   if (Status s = writer->write(header, sizeof(header)); !s) return R::failure(s.error());
   return R(std::move(writer));
 }
@@ -85,10 +71,10 @@ Status BundleWriter::add(BundleEntry kind, const msg::Bytes& payload) {
   if (payload.size() > kMaxBundleEntryBytes)
     return Status::failure("a bundle entry of " + std::to_string(payload.size()) + " bytes is too large");
   uint8_t header[kBundleEntryHeaderSize];
-  putBundleU16(header, static_cast<uint16_t>(kind));
-  putBundleU16(header + 2, 0);
-  putBundleU32(header + 4, static_cast<uint32_t>(payload.size()));
-  putBundleU32(header + 8, crc32Of(payload.data(), payload.size()));
+  putLE(header, static_cast<uint16_t>(kind), 2);
+  putLE(header + 2, 0, 2);
+  putLE(header + 4, payload.size(), 4);
+  putLE(header + 8, crc32Of(payload.data(), payload.size()), 4);
   if (Status s = write(header, sizeof(header)); !s) return s;
   return write(payload.data(), payload.size());
 }
@@ -133,7 +119,7 @@ Result<std::unique_ptr<BundleReader>> BundleReader::open(const std::string& path
   uint8_t header[kBundleHeaderSize];
   if (Status s = readAt(state->fd.get(), header, sizeof(header), 0, path); !s) return R::failure(s.error());
   if (std::memcmp(header, kBundleMagic, 8) != 0) return R::failure(what + "is not an rgbdmap map bundle");
-  if (const uint32_t version = getBundleU32(header + 8); version != kMapBundleFormatVersion)
+  if (const uint32_t version = ByteReader(header + 8).u32(); version != kMapBundleFormatVersion)
     return R::failure(what + "is a map bundle of format version " + std::to_string(version) +
                       "; this build reads version " + std::to_string(kMapBundleFormatVersion) + " only");
   Digest digest = newDigest();
@@ -170,7 +156,10 @@ Status BundleReader::next(BundleEntry* kind, msg::Bytes* payload) {
     return Status::failure(where + "no entry left (the end entry is missing)");
   uint8_t header[kBundleEntryHeaderSize];
   if (Status s = readAt(state_->fd.get(), header, sizeof(header), state_->offset, state_->path); !s) return s;
-  const uint32_t length = getBundleU32(header + 4);
+  ByteReader fields(header);
+  const auto kind_value = fields.u16();
+  fields.u16();  // 0
+  const uint32_t length = fields.u32(), crc = fields.u32();
   if (length > kMaxBundleEntryBytes ||
       state_->offset + static_cast<int64_t>(kBundleEntryHeaderSize) + length > body_end)
     return Status::failure(where + "an entry of " + std::to_string(length) + " bytes does not fit the file");
@@ -179,16 +168,16 @@ Status BundleReader::next(BundleEntry* kind, msg::Bytes* payload) {
                         state_->offset + static_cast<int64_t>(kBundleEntryHeaderSize), state_->path);
       !s)
     return s;
-  if (crc32Of(payload->data(), payload->size()) != getBundleU32(header + 8))
+  if (crc32Of(payload->data(), payload->size()) != crc)
     return Status::failure(where + "an entry's CRC does not match");
-  *kind = static_cast<BundleEntry>(getBundleU16(header));
+  *kind = static_cast<BundleEntry>(kind_value);
   state_->offset += static_cast<int64_t>(kBundleEntryHeaderSize) + length;
   return Status::success();
 }
 
 msg::Bytes fileEntry(const std::string& name, const std::string& bytes) {
   msg::Bytes out(2 + name.size() + bytes.size());
-  putBundleU16(out.data(), static_cast<uint16_t>(name.size()));
+  putLE(out.data(), name.size(), 2);
   std::memcpy(out.data() + 2, name.data(), name.size());
   if (!bytes.empty()) std::memcpy(out.data() + 2 + name.size(), bytes.data(), bytes.size());
   return out;
@@ -196,7 +185,7 @@ msg::Bytes fileEntry(const std::string& name, const std::string& bytes) {
 
 Status parseFileEntry(const msg::Bytes& payload, std::string* name, std::string* bytes) {
   if (payload.size() < 2) return Status::failure("a file entry without a name");
-  const size_t n = getBundleU16(payload.data());
+  const size_t n = ByteReader(payload.data()).u16();
   if (n == 0 || 2 + n > payload.size()) return Status::failure("a file entry with a bad name length");
   name->assign(reinterpret_cast<const char*>(payload.data() + 2), n);
   bytes->assign(reinterpret_cast<const char*>(payload.data() + 2 + n), payload.size() - 2 - n);

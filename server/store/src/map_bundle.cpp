@@ -8,13 +8,13 @@
 #include <array>
 #include <ctime>
 #include <filesystem>
-#include <fstream>
 #include <functional>
 #include <set>
 #include <sstream>
 
 #include "bundle_format.hpp"
 #include "rgbdmap/common/atomic_file.hpp"
+#include "rgbdmap/common/text_lines.hpp"
 #include "rgbdmap/proto/messages.hpp"
 #include "rgbdmap/store/map_store.hpp"
 #include "store_codec.hpp"
@@ -45,18 +45,11 @@ std::string utcNow() {
 msg::Bytes textBytes(const std::string& text) { return msg::Bytes(text.begin(), text.end()); }
 
 msg::Bytes endEntry(int64_t keyframes, int64_t loops) {
-  msg::Bytes out(16);
-  for (int i = 0; i < 8; ++i) {
-    out[i] = static_cast<uint8_t>(static_cast<uint64_t>(keyframes) >> (8 * i));
-    out[8 + i] = static_cast<uint8_t>(static_cast<uint64_t>(loops) >> (8 * i));
-  }
+  msg::Bytes out;
+  ByteWriter w(&out);
+  w.i64(keyframes);
+  w.i64(loops);
   return out;
-}
-
-int64_t getI64(const uint8_t* p) {
-  uint64_t v = 0;
-  for (int i = 7; i >= 0; --i) v = (v << 8) | p[i];
-  return static_cast<int64_t>(v);
 }
 
 Status parseManifest(const msg::Bytes& payload, MapBundleInfo* info) {
@@ -140,8 +133,8 @@ Result<MapBundleInfo> readBundle(const std::string& path, const BundleVisitor& v
         break;
       }
       case BundleEntry::kEnd:
-        if (payload.size() != 16 || getI64(payload.data()) != info.keyframes ||
-            getI64(payload.data() + 8) != info.loops)
+        if (payload.size() != 16 || ByteReader(payload.data()).i64() != info.keyframes ||
+            ByteReader(payload.data() + 8).i64() != info.loops)
           return R::failure(what + "its end entry does not match the keyframes and loops it holds");
         if (!(*reader)->atEnd()) return R::failure(what + "entries after its end entry");
         info.sessions.assign(sessions.begin(), sessions.end());
@@ -151,13 +144,6 @@ Result<MapBundleInfo> readBundle(const std::string& path, const BundleVisitor& v
     }
     if (!s) return R::failure(what + s.error());
   }
-}
-
-std::string readWholeFile(const fs::path& path) {
-  std::ifstream in(path, std::ios::binary);
-  std::ostringstream os;
-  os << in.rdbuf();
-  return os.str();
 }
 
 Status syncFile(const std::string& path) {
@@ -202,7 +188,9 @@ Result<MapBundleInfo> exportMapBundle(const std::string& map_dir, const std::str
   for (const char* name : kCarriedFiles) {
     const fs::path file = fs::path(map_dir) / name;
     if (!fs::is_regular_file(file)) continue;
-    if (Status st = (*writer)->add(BundleEntry::kFile, fileEntry(name, readWholeFile(file))); !st)
+    Result<std::string> bytes = readTextFile(file.string());
+    if (!bytes) return R::failure(bytes.error());
+    if (Status st = (*writer)->add(BundleEntry::kFile, fileEntry(name, *bytes)); !st)
       return R::failure(st.error());
   }
   const auto keyframes = static_cast<int64_t>(s.keyframes().size()),

@@ -14,6 +14,7 @@
 // is skipped by searching for the next magic whose header CRC verifies.
 #include <cstddef>
 #include <cstdint>
+#include <cstring>
 #include <optional>
 
 #include "rgbdmap/common/result.hpp"
@@ -36,6 +37,55 @@ struct RecordHeader {
   uint32_t payload_size = 0;
   uint32_t payload_crc = 0;
 };
+
+/// Little-endian integers and doubles appended to a buffer (byte by byte: no struct memcpy).
+class ByteWriter {
+ public:
+  explicit ByteWriter(Bytes* out) : out_(out) {}
+  void u16(uint16_t v) { le(v, 2); }
+  void u32(uint32_t v) { le(v, 4); }
+  void i64(int64_t v) { le(static_cast<uint64_t>(v), 8); }
+  void f64(double v) {
+    uint64_t bits = 0;
+    std::memcpy(&bits, &v, sizeof bits);
+    le(bits, 8);
+  }
+
+ private:
+  void le(uint64_t v, int bytes) {
+    for (int i = 0; i < bytes; ++i) out_->push_back(static_cast<uint8_t>(v >> (8 * i)));
+  }
+  Bytes* out_;
+};
+
+/// Reads little-endian values; the caller checks the total size first.
+class ByteReader {
+ public:
+  explicit ByteReader(const uint8_t* data) : p_(data) {}
+  uint16_t u16() { return static_cast<uint16_t>(le(2)); }
+  uint32_t u32() { return static_cast<uint32_t>(le(4)); }
+  int64_t i64() { return static_cast<int64_t>(le(8)); }
+  double f64() {
+    const uint64_t bits = le(8);
+    double v = 0.0;
+    std::memcpy(&v, &bits, sizeof v);
+    return v;
+  }
+
+ private:
+  uint64_t le(int bytes) {
+    uint64_t v = 0;
+    for (int i = 0; i < bytes; ++i) v |= static_cast<uint64_t>(p_[i]) << (8 * i);
+    p_ += bytes;
+    return v;
+  }
+  const uint8_t* p_;
+};
+
+/// Little-endian into a buffer of known size.
+inline void putLE(uint8_t* p, uint64_t v, int bytes) {
+  for (int i = 0; i < bytes; ++i) p[i] = static_cast<uint8_t>(v >> (8 * i));
+}
 
 uint32_t crc32Of(const uint8_t* data, size_t size);
 
