@@ -32,11 +32,24 @@ struct LogFile {
 
 /// What the in-memory list keeps of a keyframe: everything but the images and the features (~55 KB of a
 /// keyframe's ~60 KB in RAM otherwise); readKeyframe() has them.
-void dropPayload(StoredKeyframe* k) {
-  msg::Bytes().swap(k->keyframe.images.depth);
-  msg::Bytes().swap(k->keyframe.images.color);
-  std::vector<msg::KeyPoint>().swap(k->keyframe.keypoints);
-  msg::Bytes().swap(k->keyframe.descriptors);
+/// What keyframes() keeps: the keyframe without its images and features, copied field by field (a whole
+/// copy would copy ~100 KB of blobs on every append).
+StoredKeyframe withoutPayload(const StoredKeyframe& k) {
+  StoredKeyframe m{k.node_id, k.session, {}};
+  const msg::Keyframe& s = k.keyframe;
+  m.keyframe.header = s.header;
+  m.keyframe.robot_id = s.robot_id;
+  m.keyframe.segment_id = s.segment_id;
+  m.keyframe.keyframe_id = s.keyframe_id;
+  m.keyframe.timestamp = s.timestamp;
+  m.keyframe.T_odom_cam = s.T_odom_cam;
+  m.keyframe.previous_keyframe_id = s.previous_keyframe_id;
+  m.keyframe.T_prev_cur = s.T_prev_cur;
+  m.keyframe.information = s.information;
+  m.keyframe.images.width = s.images.width;
+  m.keyframe.images.height = s.images.height;
+  m.keyframe.images.color_codec = s.images.color_codec;
+  return m;
 }
 
 /// A record read back from a log: its bytes, the payload after the header, verified (header and CRC).
@@ -130,8 +143,7 @@ Status MapStore::State::loadKeyframes() {
                 if (index.count(k->node_id))
                   return Status::failure("duplicate node id " + std::to_string(k->node_id));
                 index[k->node_id] = {offset, static_cast<int64_t>(store::kRecordHeaderSize + size)};
-                dropPayload(&k.value());
-                keyframes.push_back(std::move(k).value());
+                keyframes.push_back(withoutPayload(*k));
                 return Status::success();
               });
 }
@@ -262,9 +274,7 @@ Status MapStore::appendEncodedKeyframe(const StoredKeyframe& keyframe, const msg
     std::lock_guard<std::mutex> index_lock(s.index_mutex);
     s.index[keyframe.node_id] = {offset, static_cast<int64_t>(record.size())};
   }
-  StoredKeyframe kept = keyframe;  // a copy of ~100 KB beside the append's fdatasync
-  dropPayload(&kept);              // read back on demand
-  s.keyframes.push_back(std::move(kept));
+  s.keyframes.push_back(withoutPayload(keyframe));
   return Status::success();
 }
 
