@@ -179,6 +179,31 @@ Result<LoopDetection> LoopDetector::addKeyframe(LoopKeyframe keyframe, const Mea
   return out;
 }
 
+Result<LoopDetection> LoopDetector::place(const LoopKeyframe& query) const {
+  const auto t0 = std::chrono::steady_clock::now();
+  if (slot_of_.count(query.id) != 0)
+    return Result<LoopDetection>::failure("place: keyframe id " + std::to_string(query.id) + " is stored");
+  if (!query.features || !consistent(*query.features))
+    return Result<LoopDetection>::failure("place: missing or inconsistent features");
+  LoopDetection out;
+  const auto count = robot_count_.find(query.robot_id);
+  const WordHistogram words = hasher_.histogram(query.features->descriptors);
+  const std::vector<RetrievalHit> hits =
+      retrieve(query, count == robot_count_.end() ? 0 : count->second, words);
+  out.stats.retrieval_ms = msSince(t0);
+  const KeyframeSummary summary{query.id, query.robot_id, query.map_id, query.T_map_kf};
+  // Recent and random candidates are the robot's own: none are stored.
+  out.candidates = selectLoopCandidates(summary, summaries_, hits, config_.candidates, nullptr);
+  out.stats.candidates = static_cast<int>(out.candidates.size());
+  for (const LoopCandidate& c : out.candidates)
+    for (int b = 0; b < kCandidateSourceCount; ++b) out.stats.candidates_by_source[b] += (c.sources >> b) & 1;
+  const auto t1 = std::chrono::steady_clock::now();
+  verifyCandidates(query, nullptr, &out);
+  out.stats.verify_ms = msSince(t1);
+  out.stats.total_ms = msSince(t0);
+  return out;
+}
+
 Status LoopDetector::restoreKeyframe(LoopKeyframe keyframe) {
   if (slot_of_.count(keyframe.id) != 0)
     return Status::failure("duplicate keyframe id " + std::to_string(keyframe.id));

@@ -109,6 +109,13 @@ class LoopDetector {
   /// map are checked against the pose estimates, local ones only. Fails (nothing stored) on a duplicate id
   /// or on features whose arrays disagree in size.
   Result<LoopDetection> addKeyframe(LoopKeyframe keyframe, const MeasuredPoses* measured = nullptr);
+  /// Place recognition without storing (a robot that localises in the map): candidates are the retrieval
+  /// hits among the stored keyframes and, when query.map_id names a stored map, the stored keyframes near
+  /// query.T_map_kf (a predicted pose) in it, each verified as a loop is (a nearby one under the predicted
+  /// relative pose as its prior). Nothing of the query is kept and the totals do not change. query.id must
+  /// not be a stored id; query.robot_id should have no stored keyframes (recent and random candidates are of
+  /// the same robot). Fails on features whose arrays disagree in size.
+  Result<LoopDetection> place(const LoopKeyframe& query) const;
   /// Restart path: stores and indexes a keyframe that was verified before (no candidates, no verification),
   /// in the original order, so retrieval and recent/random candidates continue as before the restart.
   Status restoreKeyframe(LoopKeyframe keyframe);
