@@ -31,6 +31,8 @@ const char* kUsage =
     "  --robots a,b,c      robots to serve (overrides server.robots)\n"
     "  --keys-file FILE    the robots' keys (overrides server.keys_file; `rgbdmap keys new R...` writes it)\n"
     "  --open              accept unsigned messages (local demos only)\n"
+    "  --frozen-map        every robot localises in the stored map without changing it (server.frozen_map):\n"
+    "                      keyframes are acknowledged, never stored; only server_summary.json is written\n"
     "  --status-every S    print a status line every S seconds (default 5; 0: never)\n"
     "  --log-level L       debug|info|warn|error\n"
     "On SIGINT/SIGTERM it stops and writes keyframes_<robot>.txt (optimised, map frame) into the map "
@@ -94,6 +96,16 @@ int writeFinalOutputs(const rgbdmap::MapServer& server, const rgbdmap::ServerApp
                       bool* map_files) {
   using namespace rgbdmap;
   int failed = 0;
+  *map_files = false;
+  if (config.server.frozen_map) {
+    // Nothing the robots sent changed the map: its files stay as they are; the run's figures go next to it.
+    if (const Status w = writeJsonFile(config.server.map_dir + "/server_summary.json", summaryJson(server));
+        !w) {
+      log::error(w.error());
+      ++failed;
+    }
+    return failed;
+  }
   std::map<std::string, Trajectory> by_robot;
   for (const ServerKeyframe& k : server.keyframes())
     by_robot[k.robot_id].push_back({k.timestamp, k.T_map_kf});
@@ -147,6 +159,7 @@ ServerOptions parseOptions(cli::Args& args, std::vector<std::string>* errors) {
   if (const auto v = args.get("robots")) o.config.server.robots = splitList(*v);
   if (const auto v = args.get("keys-file")) o.config.keys_file = *v;
   if (args.has("open")) o.config.open_mode = true;
+  if (args.has("frozen-map")) o.config.server.frozen_map = true;
   o.status_every = args.getDouble("status-every").value_or(5.0);
   cli::applyLogLevel(args, errors);
   if (const std::string p = o.config.server.validate(); !p.empty()) errors->push_back(p);
@@ -218,12 +231,13 @@ int main(int argc, char** argv) {
   // First of all: a stop signal during start-up (a supervisor restarting us at once) waits for the clean
   // stop below instead of killing the process before it wrote its outputs.
   const sigset_t stop_signals = blockStopSignals();
-  cli::Args args(argc, argv, {"help", "open"});
+  cli::Args args(argc, argv, {"help", "open", "frozen-map"});
   if (args.has("help")) {
     std::fputs(kUsage, stdout);
     return 0;
   }
-  args.checkAllowed({"config", "map-dir", "transport", "robots", "keys-file", "open", "status-every", "log-level"});
+  args.checkAllowed({"config", "map-dir", "transport", "robots", "keys-file", "open", "frozen-map",
+                     "status-every", "log-level"});
   std::vector<std::string> errors(args.errors().begin(), args.errors().end());
   const ServerOptions options = parseOptions(args, &errors);
   if (!errors.empty()) return cli::usageError(errors, kUsage);

@@ -94,12 +94,14 @@ class ScriptedRobot {
       EXPECT_TRUE(transport_.subscribe(*msg::channelFor(type, id_), handler));
   }
 
-  void hello(const CameraIntrinsics& camera, const SE3& T_base_camera = defaultT_base_camera()) {
+  void hello(const CameraIntrinsics& camera, const SE3& T_base_camera = defaultT_base_camera(),
+             bool localize = false) {
     msg::Hello h;
     h.robot_id = id_;
     h.camera = camera;
     h.T_base_camera = T_base_camera;
     h.software_version = "test";
+    if (localize) h.capabilities.push_back(msg::kCapabilityLocalize);
     publish(h);
   }
   void send(const Keyframe& kf, const EncodedImages& images, bool with_features = true) {

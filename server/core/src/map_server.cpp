@@ -93,6 +93,8 @@ struct MapServer::Impl {
   Status openAndRestore();
   void startWorkers();
   Status subscribe();
+  /// The ingest queue idle, then a global BA of every map changed since its last one; false at the deadline.
+  bool waitOptimized(std::chrono::steady_clock::time_point deadline);
 
   MapServerConfig config;
   transport::Transport& transport;
@@ -194,6 +196,11 @@ Status MapServer::start() {
   if (m.started) return Status::failure("server already started");
   if (const Status s = m.openAndRestore(); !s) return s;
   m.startWorkers();
+  // A frozen map is served as it was written: the restored loops' solve and a global bundle adjustment
+  // (what the session that wrote it ended with) come before any robot is placed in it.
+  if (m.config.frozen_map && !m.pipeline.keyframes().empty() &&
+      !m.waitOptimized(std::chrono::steady_clock::now() + std::chrono::seconds(120)))
+    log::warn("server: the restored map was not refined within 120 s; robots are placed in it as it is");
   return m.subscribe();
 }
 
@@ -209,20 +216,25 @@ void MapServer::stop() {
   if (m.map_worker) m.map_worker->stop();
 }
 
+bool MapServer::Impl::waitOptimized(std::chrono::steady_clock::time_point deadline) {
+  if (!queue.waitIdleUntil(deadline)) return false;
+  // A map that changed since its last global bundle adjustment gets one now (a quiet map would get it
+  // after ba.global_when_idle_s anyway): idle means nothing left to refine.
+  if (optimizer && optimizer->globalDue()) {
+    OptimizerBatch global;
+    global.global = true;
+    queue.noteSubmitted(optimizer->submit(std::move(global)));
+    if (!queue.waitIdleUntil(deadline)) return false;
+  }
+  return true;
+}
+
 bool MapServer::waitIdle(double timeout_s) {
   Impl& m = *impl_;
   using Clock = std::chrono::steady_clock;
   const auto deadline =
       Clock::now() + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(timeout_s));
-  if (!m.queue.waitIdleUntil(deadline)) return false;
-  // A map that changed since its last global bundle adjustment gets one now (a quiet map would get it
-  // after ba.global_when_idle_s anyway): idle means nothing left to refine.
-  if (m.optimizer && m.optimizer->globalDue()) {
-    OptimizerBatch global;
-    global.global = true;
-    m.queue.noteSubmitted(m.optimizer->submit(std::move(global)));
-    if (!m.queue.waitIdleUntil(deadline)) return false;
-  }
+  if (!m.waitOptimized(deadline)) return false;
   if (!m.map_worker) return true;
   return m.map_worker->waitIdle(
       std::max(0.0, std::chrono::duration<double>(deadline - Clock::now()).count()));

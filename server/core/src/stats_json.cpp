@@ -89,11 +89,19 @@ Json serverRobotStatsJson(const ServerRobotStats& r) {
           {"queue_full", r.queue_full},
           {"duplicates_queued", r.duplicates_queued},
           {"throttled", r.throttled},
-          {"refused_before_decode", r.refused_before_decode}};
+          {"refused_before_decode", r.refused_before_decode},
+          {"mode", r.mode},
+          {"placed", r.placed},
+          {"first_placement_s", jsonNumber(r.first_placement_s)},
+          {"keyframes_localized", r.keyframes_localized},
+          {"keyframes_matched", r.keyframes_matched}};
 }
 
 Json serverStatsJson(const MapServerStats& s, const std::vector<std::vector<std::string>>& merged_maps) {
-  Json j = {{"keyframes", s.keyframes}, {"maps", s.maps}, {"merged_maps", merged_maps}};
+  Json j = {{"keyframes", s.keyframes},
+            {"maps", s.maps},
+            {"merged_maps", merged_maps},
+            {"keyframes_localized", s.keyframes_localized}};
   for (const Json& part : {loopsJson(s), optimisationJson(s), intakeJson(s), timesJson(s), occupancyJson(s),
                            storeJson(s), rejectsJson(s)})
     j.update(part);

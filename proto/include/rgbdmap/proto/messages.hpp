@@ -77,6 +77,9 @@ struct Hello {
   std::string software_version;
   std::vector<std::string> capabilities;  ///< each like an id: [A-Za-z0-9_-]{1,32}
 };
+/// A Hello capability: the robot localises in the stored map without changing it (map mode "localize"):
+/// its keyframes place and track it and are then dropped, never stored. Without it: map mode "map".
+constexpr const char* kCapabilityLocalize = "localize";
 
 struct Heartbeat {
   static constexpr MessageType kType = MessageType::kHeartbeat;

@@ -30,7 +30,8 @@ IngestPipeline::IngestPipeline(const MapServerConfig& config, RobotRegistry& reg
              }),
       intake_(registry, stats_),
       corrections_(registry, stats_),
-      hello_hold_(static_cast<size_t>(config.reorder_capacity), config.robot_queue_bytes) {}
+      hello_hold_(static_cast<size_t>(config.reorder_capacity), config.robot_queue_bytes),
+      localize_(config.placement) {}
 
 void IngestPipeline::attach(MapStore* store, SubmitGraph submit) {
   std::lock_guard<std::mutex> lock(mutex_);
@@ -57,13 +58,20 @@ void IngestPipeline::onHello(const msg::Hello& hello) {
   std::vector<msg::Keyframe> held;
   {
     std::lock_guard<std::mutex> lock(mutex_);
+    const bool localize =
+        config_.frozen_map || std::count(hello.capabilities.begin(), hello.capabilities.end(),
+                                         std::string(msg::kCapabilityLocalize)) > 0;
     const auto registered =
-        registry_.hello(hello.robot_id, hello.header.session, hello.camera, hello.T_base_camera);
+        registry_.hello(hello.robot_id, hello.header.session, hello.camera, hello.T_base_camera, localize);
     if (!registered) {
       log::warn("server: hello from ", hello.robot_id, ": ", registered.error());
       return;
     }
-    if (*registered) {
+    if (localize) {
+      graph_.setRobotCamera(MapGraph::kLocalizeRobotBase + registry_.index(hello.robot_id), hello.camera);
+      log::info("server: robot ", hello.robot_id, " (", hello.software_version,
+                ") localises in the map, session ", hello.header.session);
+    } else if (*registered) {
       intake_.saveRegistry();
       graph_.setRobotCamera(registry_.index(hello.robot_id), hello.camera);
       loader_.setCamera(hello.robot_id, hello.camera);
@@ -94,6 +102,7 @@ void IngestPipeline::onKeyframe(Prepared prepared) {
     return;
   }
   registry_.noteSession(kf.robot_id, kf.header.session);  // a restarted server heard no Hello
+  if (registry_.localizing(kf.robot_id)) return localizeLocked(std::move(prepared), *camera, robot, lock);
   const KeyframeKey key{robot, kf.header.session, kf.segment_id, kf.keyframe_id};
   if (!admitLocked(kf, key, lock)) return;
   const ImageLimits limits{config_.max_image_pixels, config_.max_image_bytes};
@@ -326,10 +335,23 @@ IngestReport IngestPipeline::stats() const {
   r.ingest.keyframes_deferred = static_cast<int>(intake_.deferredNow());
   r.hello_hold = hello_hold_.stats();
   r.robots = registry_.stats();
+  const auto& nodes = graph_.index().nodes();
+  const int main_map = nodes.empty() || !nodes.front().valid ? -1 : nodes.front().kf.map_id;
+  const std::map<std::string, LocalizeRobotStats> localizing = localize_.stats();
   for (ServerRobotStats& robot_stats : r.robots) {
     const int robot = registry_.index(robot_stats.robot_id);
     graph_.index().fillRobotStats(&robot_stats, robot);
     robot_stats.keyframes_waiting = static_cast<int>(order_.waiting(robot));
+    // A mapping robot is placed once its newest keyframe is in the map of the graph's first keyframe.
+    robot_stats.placed = robot_stats.map_id >= 0 && robot_stats.map_id == main_map;
+    if (robot_stats.mode != "localize") continue;
+    const auto it = localizing.find(robot_stats.robot_id);
+    if (it == localizing.end()) continue;
+    robot_stats.placed = it->second.placed;
+    robot_stats.map_id = it->second.map_id;
+    robot_stats.first_placement_s = it->second.first_placement_s;
+    robot_stats.keyframes_localized = it->second.keyframes;
+    robot_stats.keyframes_matched = it->second.keyframes_matched;
   }
   return r;
 }

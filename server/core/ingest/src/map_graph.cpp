@@ -59,6 +59,30 @@ std::vector<LoopEdge> MapGraph::integrate(const StoredKeyframe& stored, const Fr
   return detection->edges;
 }
 
+std::vector<PlacementVote> MapGraph::placeVotes(const std::shared_ptr<const FrameFeatures>& features,
+                                                int robot, int query_id,
+                                                const std::optional<PlacementEstimate>& predicted,
+                                                const SE3& provisional, LoopStats* loop_stats) const {
+  const LoopKeyframe query(query_id, robot, predicted ? predicted->map_id : -1,
+                           predicted ? predicted->T_map_kf : provisional, features);
+  const Result<LoopDetection> detection = detector_.place(query);
+  if (!detection) {
+    log::error("server: placement query: ", detection.error());
+    return {};
+  }
+  if (loop_stats) *loop_stats = detection->stats;
+  std::vector<PlacementVote> votes;
+  for (const LoopEdge& e : detection->edges) {
+    if (e.to_id < 0 || static_cast<size_t>(e.to_id) >= index_.nodes().size()) continue;
+    const IndexedNode& n = index_.node(e.to_id);
+    if (!n.valid) continue;
+    // T_from_to = T_query_other: the query's pose is the other's times its inverse.
+    votes.push_back(
+        {e.to_id, n.kf.map_id, se3::normalized(n.kf.T_map_kf * e.T_from_to.inverse()), e.inliers});
+  }
+  return votes;
+}
+
 /// The node of a stored keyframe: chained to its predecessor's optimised pose, or a map of its own.
 IndexedNode MapGraph::makeNode(const StoredKeyframe& stored, int robot, std::optional<int64_t> prev,
                                bool split) {

@@ -42,29 +42,31 @@ RobotRegistry::Entry& RobotRegistry::entry(const std::string& robot_id) {
 }
 
 Result<bool> RobotRegistry::hello(const std::string& robot_id, int64_t session,
-                                  const CameraIntrinsics& camera, const SE3& T_base_camera) {
+                                  const CameraIntrinsics& camera, const SE3& T_base_camera, bool localize) {
   std::lock_guard<std::mutex> lock(mutex_);
   Entry& e = entry(robot_id);
-  bool changed = false;
-  if (e.index < 0) {
-    e.index = next_index_++;
-    changed = true;
-  }
-  if (!e.stats.camera || !sameIntrinsics(*e.stats.camera, camera)) {
-    if (e.stats.camera) log::warn("server: robot ", robot_id, " reports a different camera from now on");
-    e.stats.camera = camera;
-    changed = true;
-  }
-  if (!sameMount(e.T_base_camera, T_base_camera)) {
-    // New chains of the robot start with it; keyframes already in the graph keep their poses.
-    e.T_base_camera = T_base_camera;
-    changed = true;
-  }
+  if (e.index < 0) e.index = next_index_++;
+  if (e.stats.camera && !sameIntrinsics(*e.stats.camera, camera))
+    log::warn("server: robot ", robot_id, " reports a different camera from now on");
+  e.stats.camera = camera;
+  // New chains of the robot start with the mount; keyframes already in the graph keep their poses.
+  e.T_base_camera = T_base_camera;
+  e.localize = localize;
   if (session > e.session) {
     e.session = session;
     ++e.stats.sessions;
   }
+  if (localize) return false;
+  const bool changed = !e.persisted || !sameIntrinsics(e.persisted->first, camera) ||
+                       !sameMount(e.persisted->second, T_base_camera);
+  e.persisted = std::make_pair(camera, T_base_camera);
   return changed;
+}
+
+bool RobotRegistry::localizing(const std::string& robot_id) const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  const auto it = robots_.find(robot_id);
+  return it != robots_.end() && it->second.localize;
 }
 
 void RobotRegistry::noteSession(const std::string& robot_id, int64_t session) {
@@ -82,16 +84,17 @@ Status RobotRegistry::save(const std::string& map_dir) const {
     std::lock_guard<std::mutex> lock(mutex_);
     std::vector<const Entry*> ordered;
     for (const auto& [id, e] : robots_)
-      if (e.index >= 0 && e.stats.camera) ordered.push_back(&e);
+      if (e.index >= 0 && e.persisted) ordered.push_back(&e);
     std::sort(ordered.begin(), ordered.end(),
               [](const Entry* a, const Entry* b) { return a->index < b->index; });
     for (const Entry* e : ordered) {
-      const CameraIntrinsics& c = *e->stats.camera;
+      const CameraIntrinsics& c = e->persisted->first;
+      const SE3& T_base_camera = e->persisted->second;
       out << e->stats.robot_id << " " << e->index << " " << c.fx << " " << c.fy << " " << c.cx << " " << c.cy
           << " " << c.width << " " << c.height;
       for (const double d : c.distortion) out << " " << d;
-      const Vec3 t = e->T_base_camera.translation();
-      const Eigen::Quaterniond q = se3::quat(e->T_base_camera);
+      const Vec3 t = T_base_camera.translation();
+      const Eigen::Quaterniond q = se3::quat(T_base_camera);
       out << " " << c.depth_scale << " " << t.x() << " " << t.y() << " " << t.z() << " " << q.x() << " "
           << q.y() << " " << q.z() << " " << q.w() << "\n";
     }
@@ -123,6 +126,7 @@ Status RobotRegistry::load(const std::string& map_dir) {
     e.index = index;
     e.stats.camera = c;
     e.T_base_camera = T_base_camera;
+    e.persisted = std::make_pair(c, T_base_camera);
     next_index_ = std::max(next_index_, index + 1);
   }
   return Status::success();
@@ -236,6 +240,7 @@ std::vector<ServerRobotStats> RobotRegistry::stats() const {
   std::sort(ordered.begin(), ordered.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
   std::vector<ServerRobotStats> out;
   for (auto& [i, s] : ordered) out.push_back(std::move(s));
+  for (ServerRobotStats& s : out) s.mode = robots_.at(s.robot_id).localize ? "localize" : "map";
   return out;
 }
 

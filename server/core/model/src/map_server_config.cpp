@@ -69,6 +69,12 @@ const ConfigTable<C>& ownTable() {
                "beyond, the oldest waiting ones give it up and start a new chain (re-anchored by loops)")
           .add("server.reorder_timeout_s", &C::reorder_timeout_s, R::closed(0.0, 3600.0),
                "a keyframe waits at most this long for its predecessor, then starts a new chain")
+          .add("server.allow_localize", &C::allow_localize,
+               "robots may ask (in their Hello) to localise in the map without changing it; false refuses "
+               "their keyframes")
+          .add("server.frozen_map", &C::frozen_map,
+               "every robot localises in the stored map (as if it asked to): keyframes are acknowledged, "
+               "never stored; the map directory does not change")
           .add("server.default_odometry_sigma_m", &C::default_odometry_sigma_m, R::closedOpen(1e-4, 10.0),
                "odometry edge uncertainty when a keyframe carries no information matrix")
           .add("server.default_odometry_sigma_deg", &C::default_odometry_sigma_deg, R::closedOpen(1e-3, 90.0),
@@ -97,6 +103,22 @@ const ConfigTable<C>& ownTable() {
 }
 
 }  // namespace
+
+const ConfigTable<PlacementConfig>& placementConfigTable() {
+  using P = PlacementConfig;
+  using R = ConfigRange;
+  static const ConfigTable<P> table =
+      ConfigTable<P>()
+          .add("first_min_agreeing", &P::first_min_agreeing, R::closed(1, 100),
+               "a first placement needs this many verified matches to distinct map keyframes that agree on "
+               "the keyframe's pose (or two successive keyframes whose matches agree on the odometry frame)")
+          .add("agree_m", &P::agree_m, R::closedOpen(0.001, 10.0), "matches agree within this distance ...")
+          .add("agree_deg", &P::agree_deg, R::closedOpen(0.01, 180.0), "... and this rotation")
+          .add("track_gate_m", &P::track_gate_m, R::closedOpen(0.001, 100.0),
+               "once placed, a match farther than this from the pose odometry predicts is not believed")
+          .add("track_gate_deg", &P::track_gate_deg, R::closedOpen(0.01, 180.0), "");
+  return table;
+}
 
 const ConfigTable<BundleAdjustmentConfig>& bundleAdjustmentConfigTable() {
   using B = BundleAdjustmentConfig;
@@ -142,6 +164,10 @@ const ConfigTable<MapServerConfig>& mapServerConfigTable() {
           .section("map", "")
           .section("slice", "")
           .append(ownTable())
+          .section("placement",
+                   "a robot that localises in the stored map (its Hello asks, or server.frozen_map): when "
+                   "its keyframe's verified matches with map keyframes are believed")
+          .nest("placement.", &C::placement, placementConfigTable())
           .section("features",
                    "ORB features the server extracts from the decoded colour of keyframes sent "
                    "without them (the robots' link.send_features: false); keep equal to the "
@@ -174,6 +200,8 @@ std::string MapServerConfig::validate() const {
     problems.push_back("graph: " + g);
   if (const std::string b = joinProblems(bundleAdjustmentConfigTable().problems(ba)); !b.empty())
     problems.push_back("ba: " + b);
+  if (const std::string p = joinProblems(placementConfigTable().problems(placement)); !p.empty())
+    problems.push_back("placement: " + p);
   if (occupancy_enabled) {
     if (const std::string o = occupancy.validate(); !o.empty()) problems.push_back("occupancy: " + o);
     if (const std::string sl = slice.validate(); !sl.empty()) problems.push_back("slice: " + sl);

@@ -209,12 +209,25 @@ void MapWorker::publishSlice(const std::string& robot_id) {
     if (it == newest_.end()) return;
     newest = nodes_.at(it->second);
   }
+  publishSliceAt(robot_id, newest.map_id, newest.T_map_kf);
+}
+
+void MapWorker::sliceAt(const std::string& robot_id, int map_id, const SE3& T_map_kf) {
+  worker_.post([this, robot_id, map_id, T_map_kf] {
+    const double now = nowS();
+    const auto last = last_slice_s_.find(robot_id);
+    if (last != last_slice_s_.end() && now - last->second < config_.slice_period_s) return;
+    last_slice_s_[robot_id] = now;
+    publishSliceAt(robot_id, map_id, T_map_kf);
+  });
+}
+
+void MapWorker::publishSliceAt(const std::string& robot_id, int map_id, const SE3& T_map_kf) {
   const double cpu0 = threadCpuMs();
   Result<msg::OccupancySlice> slice =
-      Result<msg::OccupancySlice>::failure("no tree for map " + std::to_string(newest.map_id));
-  occupancy_.read(newest.map_id, [&](const octomap::OcTree& tree) {
-    slice = extractSlice(tree, newest.T_map_kf, config_.slice);
-  });
+      Result<msg::OccupancySlice>::failure("no tree for map " + std::to_string(map_id));
+  occupancy_.read(map_id,
+                  [&](const octomap::OcTree& tree) { slice = extractSlice(tree, T_map_kf, config_.slice); });
   if (!slice) {
     log::warn("map: slice for ", robot_id, ": ", slice.error());
     return;

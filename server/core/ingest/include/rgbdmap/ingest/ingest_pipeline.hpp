@@ -26,6 +26,7 @@
 #include "rgbdmap/ingest/ingest_timings.hpp"
 #include "rgbdmap/ingest/keyframe_decoder.hpp"
 #include "rgbdmap/ingest/keyframe_intake.hpp"
+#include "rgbdmap/ingest/localize_sessions.hpp"
 #include "rgbdmap/ingest/map_graph.hpp"
 #include "rgbdmap/intake/hello_hold.hpp"
 #include "rgbdmap/intake/robot_registry.hpp"
@@ -114,6 +115,9 @@ class IngestPipeline {
     std::chrono::steady_clock::time_point t0;
     double cpu0 = 0.0;
   };
+  /// A keyframe of a robot that localises (ingest_localize.cpp): decoded, matched against the map, judged
+  /// by the placement rules, acknowledged and answered with corrections; never stored.
+  void localizeLocked(Prepared prepared, const CameraIntrinsics& camera, int robot, Lock& lock);
   /// Stores and acknowledges a decoded keyframe, then defers its placement.
   void storeLocked(const msg::Keyframe& kf, const KeyframeKey& key, WaitingKeyframe waiting,
                    DecodedKeyframe decoded, KeyframeTiming timing, Started started);
@@ -143,6 +147,9 @@ class IngestPipeline {
   KeyframeIntake intake_;
   CorrectionsFollower corrections_;
   HelloHold hello_hold_;  ///< keyframes that came before their robot's Hello
+  LocalizeSessions localize_;
+  int localize_queries_ = 0;       ///< negative query ids for LoopDetector::place
+  int64_t localize_revision_ = 0;  ///< graph_revision of localising robots' corrections
   IngestTimings timings_;
 };
 

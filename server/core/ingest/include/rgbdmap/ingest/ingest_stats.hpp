@@ -54,7 +54,8 @@ struct IngestStats {
       0;  ///< decoded on the decode thread (not the ingest worker); a resend is not
   uint64_t keyframes_features_extracted = 0;  ///< of those, sent without features: extracted here
   uint64_t keyframes_refused = 0;
-  int keyframes_waiting = 0;  ///< in the reorder buffer: stored and acknowledged, not in the graph yet
+  uint64_t keyframes_localized = 0;  ///< of robots that localise: matched, acknowledged, never stored
+  int keyframes_waiting = 0;         ///< in the reorder buffer: stored and acknowledged, not in the graph yet
   /// Stored and acknowledged, their loop detection and graph insertion not run yet (the ingest worker
   /// stores and acknowledges new keyframes first): now, and the most at once (how far the map lagged).
   int keyframes_deferred = 0;

@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "rgbdmap/backend/optimizer_batch.hpp"
+#include "rgbdmap/backend/placement.hpp"
 #include "rgbdmap/graph/pose_graph.hpp"
 #include "rgbdmap/ingest/ingest_stats.hpp"
 #include "rgbdmap/ingest/keyframe_index.hpp"
@@ -42,6 +43,15 @@ class MapGraph {
   /// keyframe) or just index it (restore). Returns the accepted loop edges.
   std::vector<LoopEdge> integrate(const StoredKeyframe& stored, const FrameFeatures& features, bool detect,
                                   LoopStats* loop_stats);
+  /// A localising robot's keyframe (never stored) matched against the map (LoopDetector::place): one vote
+  /// per verified match, the pose it gives the keyframe in the matched keyframe's map. `predicted`: the
+  /// map and pose odometry predicts (nearby keyframes are candidates too); `robot`: the detector's robot
+  /// id for it (kLocalizeRobotBase + its index: no stored keyframe is its own); `query_id`: negative.
+  std::vector<PlacementVote> placeVotes(const std::shared_ptr<const FrameFeatures>& features, int robot,
+                                        int query_id, const std::optional<PlacementEstimate>& predicted,
+                                        const SE3& provisional, LoopStats* loop_stats) const;
+  /// The detector's robot ids of localising robots start here (registry indices are far below it).
+  static constexpr int kLocalizeRobotBase = 1 << 20;
   /// The detector's loop edges into the graph; returns those added, as they are stored.
   std::vector<StoredLoop> addDetectedLoops(const std::vector<LoopEdge>& edges, int robot);
   Status addLoopEdge(const LoopEdge& edge);

@@ -41,6 +41,15 @@ struct ServerRobotStats {
   int keyframes_queued_max = 0;  ///< the most it has had queued at once (at most robot_queue_capacity)
   int64_t last_utime = 0;
   std::optional<CameraIntrinsics> camera;
+  /// Map mode of its newest Hello: "map" (its keyframes are stored and build the map) or "localize" (placed
+  /// in the stored map, never stored).
+  std::string mode = "map";
+  /// Placed in the map: a mapping robot's newest keyframe is in the map of the graph's first keyframe; a
+  /// localising robot's session was placed by the placement rules. False: "unplaced".
+  bool placed = false;
+  double first_placement_s = -1.0;  ///< localising: its session's first keyframe -> first placement; -1: none
+  uint64_t keyframes_localized = 0;  ///< localising keyframes taken (acknowledged, never stored)
+  uint64_t keyframes_matched = 0;    ///< of them, placed by verified matches of their own
 };
 
 /// What the inbox counted on the receive thread.

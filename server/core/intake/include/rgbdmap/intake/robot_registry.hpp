@@ -23,8 +23,13 @@ namespace rgbdmap {
 class RobotRegistry {
  public:
   /// Registers a Hello. Returns true when something to persist changed (new robot, camera or camera mount).
+  /// `localize`: the robot localises in the map without changing it; its camera and mount are used for its
+  /// keyframes but never persisted (robots.txt keeps what a mapping Hello or the file said), and nothing
+  /// to persist changes.
   Result<bool> hello(const std::string& robot_id, int64_t session, const CameraIntrinsics& camera,
-                     const SE3& T_base_camera = defaultT_base_camera());
+                     const SE3& T_base_camera = defaultT_base_camera(), bool localize = false);
+  /// The robot's newest Hello asked to localise (or the server put it in localize mode).
+  bool localizing(const std::string& robot_id) const;
   /// A keyframe of `session` from a known robot: a newer session than the registry's becomes the current
   /// one (counted like a Hello's). After a restart the registry comes back without sessions and a robot
   /// that heard the old server does not say Hello again (LCM has no durable Hello): without this its
@@ -81,6 +86,9 @@ class RobotRegistry {
     int index = -1;
     int64_t session = 0;
     SE3 T_base_camera = defaultT_base_camera();
+    bool localize = false;
+    /// What robots.txt holds for it (from the file or a mapping Hello); unset: nothing to persist.
+    std::optional<std::pair<CameraIntrinsics, SE3>> persisted;
     std::optional<HeartbeatSeen> heartbeat;
   };
   Entry& entry(const std::string& robot_id);  // caller holds mutex_

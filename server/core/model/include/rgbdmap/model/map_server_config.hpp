@@ -7,6 +7,7 @@
 
 #include "rgbdmap/backend/bundle_adjustment_config.hpp"
 #include "rgbdmap/backend/edge_information.hpp"
+#include "rgbdmap/backend/placement.hpp"
 #include "rgbdmap/common/config_table.hpp"
 #include "rgbdmap/graph/pose_graph.hpp"
 #include "rgbdmap/loop/loop_detector.hpp"
@@ -59,6 +60,14 @@ struct MapServerConfig {
   /// missing predecessor: the waiting keyframes start a new chain (re-anchored by loop closure).
   size_t reorder_capacity = 64;
   double reorder_timeout_s = 10.0;
+  /// Map modes. A robot announces "localize" in its Hello (a capability) to be placed in the stored map and
+  /// tracked in it without changing it: its keyframes are acknowledged but never stored, and the map, its
+  /// octree and its files do not change for it. allow_localize false refuses such robots' keyframes;
+  /// frozen_map puts every robot in localize mode (nothing the robots send changes the map directory).
+  bool allow_localize = true;
+  bool frozen_map = false;
+  /// When a localising robot's keyframe is believed placed (rgbdmap/backend/placement.hpp).
+  PlacementConfig placement;
   /// Uncertainty of an odometry edge whose keyframe carried no information matrix (1 sigma per axis).
   double default_odometry_sigma_m = 0.02;
   double default_odometry_sigma_deg = 1.0;
@@ -100,6 +109,8 @@ struct MapServerConfig {
 /// Every key of the server's file but server.transport, keys_file and open_mode (server_config.hpp): its own
 /// (server.*, map.enabled, map.stream_period_s, slice.period_s), then loop.*, graph.*, map.*, slice.*.
 const ConfigTable<MapServerConfig>& mapServerConfigTable();
+/// The `placement:` section (keys without the prefix).
+const ConfigTable<PlacementConfig>& placementConfigTable();
 /// The `ba:` section (keys without the prefix).
 const ConfigTable<BundleAdjustmentConfig>& bundleAdjustmentConfigTable();
 

@@ -121,6 +121,9 @@ class MapWorker {
   std::optional<MapNodePose> insertedPose(int64_t node_id) const;
   /// Queue empty, nothing in progress and no octree rebuild pending; false on timeout.
   bool waitIdle(double timeout_s) const;
+  /// A robot that localises in the map (its keyframes are not inserted): its slice cut from the tree of
+  /// `map_id` at T_map_kf, at most every slice_period_s, queued behind the work already queued.
+  void sliceAt(const std::string& robot_id, int map_id, const SE3& T_map_kf);
   /// Queues a map stream publication (what the stream period does) behind the work already queued.
   void flushStreams();
   void fillStats(MapWorkerStats* stats) const;
@@ -141,7 +144,8 @@ class MapWorker {
   bool readBackImages(MapKeyframeJob& job) const;  ///< a restored keyframe's images, from the store
   void insertKeyframe(MapKeyframeJob& job);
   void applyPendingPoses();
-  void publishSlice(const std::string& robot_id);
+  void publishSlice(const std::string& robot_id);  ///< at the robot's newest inserted keyframe
+  void publishSliceAt(const std::string& robot_id, int map_id, const SE3& T_map_kf);
   void publishStreams();
   void onStreamTick();  ///< the worker's period: publishStreams() when a keyframe came in or it is time
   const KeyframeCloudMaker& makerFor(const std::string& robot_id, const CameraIntrinsics& camera);
