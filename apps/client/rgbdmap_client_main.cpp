@@ -38,6 +38,9 @@ const char* kUsage =
     "                          dataset and odometry sections of deploy/config/odometry.yaml\n"
     "  --dataset DIR           TUM layout: rgb.txt, depth.txt, rgb/, depth/ [, camera.yaml]\n"
     "  --robot-id R            overrides robot.id\n"
+    "  --map-mode map|localize overrides robot.map_mode: localize places and tracks the robot in the "
+    "server's\n"
+    "                          stored map without changing it (its keyframes are not stored)\n"
     "  --key-file FILE         overrides robot.key_file (a path from the current folder, e.g. keys/R.key\n"
     "                          from `rgbdmap keys new R`)\n"
     "  --transport URL         overrides transport.url: memq:// | udpm://239.255.76.67:7667?ttl=0 |\n"
@@ -119,6 +122,13 @@ Result<OpenedSource> loadClientConfig(cli::Args& args, const ClientArgs& a, Robo
                    errors, read_more);
   if (!opened && errors->empty()) return opened;  // the source cannot be opened (exit 1)
   c.robot_id = args.getOr("robot-id", c.robot_id);
+  if (args.has("map-mode")) {
+    const std::string mode = args.getOr("map-mode", "");
+    if (mode != "map" && mode != "localize")
+      errors->push_back("--map-mode must be map or localize, not '" + mode + "'");
+    c.localize = mode == "localize";
+    c.link.localize = c.localize;
+  }
   const std::string config_folder = std::filesystem::path(args.getOr("config", "")).parent_path().string();
   if (!a.spool.empty())
     c.spool_dir = a.spool;
@@ -235,7 +245,7 @@ int run(int argc, char** argv) {
   cli::SignalThread signals;
   auto allowed = datasetOptionNames();
   allowed.insert(allowed.end(), {"dataset", "source", "record", "record-keyframes", "robot-id", "key-file",
-                                 "transport", "fast", "frames", "out", "threads", "spool"});
+                                 "transport", "fast", "frames", "out", "threads", "spool", "map-mode"});
   args.checkAllowed(allowed);
   std::vector<std::string> errors;
   cli::applyLogLevel(args, &errors);

@@ -23,6 +23,11 @@ const char* kEvalUsage =
     "  --max-dt S         timestamp association tolerance in seconds (default 0.02)\n"
     "  --delta S          RPE pose-pair spacing in seconds (default 1.0)\n"
     "  --scale            align with scale as well (Sim(3), for monocular estimates)\n"
+    "  --align-on FILE    align with the alignment of FILE (another estimate in the same frame, e.g. the\n"
+    "                     session that made a map) instead of the estimate's own: ATE in that fixed frame\n"
+    "  --align-gt FILE    the ground truth of --align-on's estimate when it is another sequence's in the "
+    "same\n"
+    "                     frame (TUM sequences of one room share the motion-capture frame; default --gt)\n"
     "  --json             print one JSON object instead of `key value` lines\n"
     "  --log-level LEVEL  debug|info|warn|error|off (default warn)\n"
     "  --help             this text\n"
@@ -31,6 +36,8 @@ const char* kEvalUsage =
 struct EvalConfig {
   std::string gt_path;
   std::string est_path;
+  std::string align_on_path;  ///< --align-on: the alignment comes from this estimate ...
+  std::string align_gt_path;  ///< ... and this ground truth (--align-gt, default gt_path)
   AteOptions ate;
   RpeOptions rpe;
   bool json = false;
@@ -38,11 +45,14 @@ struct EvalConfig {
 
 /// Parses and checks every option; all problems are reported together.
 std::optional<EvalConfig> parseConfig(cli::Args& args) {
-  args.checkAllowed({"gt", "est", "max-dt", "delta", "scale", "json", "log-level", "help"});
+  args.checkAllowed(
+      {"gt", "est", "max-dt", "delta", "scale", "json", "log-level", "help", "align-on", "align-gt"});
   for (const auto& p : args.positional()) args.addError("unexpected argument '" + p + "'");
   EvalConfig c;
   c.gt_path = args.getOr("gt", "");
   c.est_path = args.getOr("est", "");
+  c.align_on_path = args.getOr("align-on", "");
+  c.align_gt_path = args.getOr("align-gt", c.gt_path);
   if (c.gt_path.empty()) args.addError("--gt is required");
   if (c.est_path.empty()) args.addError("--est is required");
   if (const auto v = args.getDouble("max-dt")) {
@@ -111,7 +121,18 @@ int eval(int argc, char** argv) {
   log::info("eval: gt ", config->gt_path, " (", gt->size(), " poses), est ", config->est_path, " (",
             est->size(), " poses), max_dt ", config->ate.max_dt, " s, delta ", config->rpe.delta,
             " s, alignment ", config->ate.with_scale ? "sim3" : "se3");
-  const Result<AteResult> ate = computeAte(*gt, *est, config->ate);
+  AteOptions ate_options = config->ate;
+  if (!config->align_on_path.empty()) {
+    const auto on = readTumTrajectory(config->align_on_path);
+    const auto on_gt = readTumTrajectory(config->align_gt_path);
+    const Result<AteResult> fixed = !on      ? Result<AteResult>::failure(on.error())
+                                    : !on_gt ? Result<AteResult>::failure(on_gt.error())
+                                             : computeAte(*on_gt, *on, config->ate);
+    if (!fixed) return std::fprintf(stderr, "rgbdmap eval: --align-on: %s\n", fixed.error().c_str()), 1;
+    ate_options.fixed_alignment = fixed->T_gt_est;
+    ate_options.fixed_scale = fixed->scale;
+  }
+  const Result<AteResult> ate = computeAte(*gt, *est, ate_options);
   const Result<RpeResult> rpe = computeRpe(*gt, *est, config->rpe);
   if (config->json)
     printJson(*config, gt->size(), est->size(), ate, rpe);

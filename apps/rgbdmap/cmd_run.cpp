@@ -54,6 +54,11 @@ const char* kRunUsage =
     "  --server-config FILE    server YAML (deploy/config/server.yaml documents every key)\n"
     "  --scene loop|sweep      synthetic scene when no dataset is given (default loop)\n"
     "  --frames N              synthetic frame count (default 300), or the first N frames of --dataset\n"
+    "  --frames A:B            frames A to B-1 of --dataset\n"
+    "  --map DIR               serve this stored map directory instead of a new DIR/map: the run extends it\n"
+    "                          (robots that see mapped places join it through loop closure)\n"
+    "  --frozen-map            with --map: every robot localises in the stored map without changing it\n"
+    "                          (keyframes acknowledged, never stored; the map directory stays as it was)\n"
     "  --seed S                synthetic seed (default 1)\n"
     "  --threads N             OpenCV threads per robot (default 1)\n"
     "  --viewer [PORT]         live map viewer at http://127.0.0.1:PORT/ and for Foxglove (default 8765),\n"
@@ -74,9 +79,9 @@ struct RunInputs {
 /// Parses the command line and the server configuration; every problem is appended to *errors.
 RunOptions parseRun(cli::Args& args, ServerAppConfig* server_config, std::vector<std::string>* errors) {
   auto allowed = app::datasetOptionNames();
-  allowed.insert(allowed.end(),
-                 {"dataset", "source", "out", "scene", "frames", "seed", "threads", "robots", "overlap",
-                  "transport", "realtime", "async", "server-config", "viewer", "record", "ros2"});
+  allowed.insert(allowed.end(), {"dataset", "source", "out", "scene", "frames", "seed", "threads", "robots",
+                                 "overlap", "transport", "realtime", "async", "server-config", "viewer",
+                                 "record", "ros2", "map", "frozen-map"});
   args.checkAllowed(allowed);
   RunOptions o = parseRunOptions(args, errors);
   if (args.has("source") && args.has("dataset"))
@@ -175,8 +180,12 @@ Status clearMapDir(const std::string& map_dir) {
 Result<std::unique_ptr<LocalDeployment>> deploy(const RunOptions& o, const ServerAppConfig& server_config,
                                                 const RunInputs& in, const std::vector<RobotPlan>& plans) {
   MapServerConfig config = server_config.server;
-  config.map_dir = o.out + "/map";
-  if (const Status s = clearMapDir(config.map_dir); !s)
+  config.map_dir = o.map.empty() ? o.out + "/map" : o.map;
+  if (o.frozen_map) config.frozen_map = true;
+  if (!o.map.empty() && !std::filesystem::exists(o.map + "/MANIFEST"))
+    return Result<std::unique_ptr<LocalDeployment>>::failure("--map " + o.map +
+                                                             " is not an rgbdmap map directory");
+  if (const Status s = o.map.empty() ? clearMapDir(config.map_dir) : Status::success(); !s)
     return Result<std::unique_ptr<LocalDeployment>>::failure(s.error());
   std::vector<LocalRobotSpec> robots;
   for (const RobotPlan& p : plans) robots.push_back({p.id, p.key, in.setups[p.dataset].camera});
@@ -267,7 +276,7 @@ int writeOutputs(const RunOptions& o, const RunInputs& in, const std::vector<Rob
 int run(int argc, char** argv) {
   const auto started = std::chrono::steady_clock::now();
   ViewerArgv viewer_argv(argc, argv);
-  cli::Args args(viewer_argv.argc(), viewer_argv.argv(), {"help", "realtime", "async", "ros2"});
+  cli::Args args(viewer_argv.argc(), viewer_argv.argv(), {"help", "realtime", "async", "ros2", "frozen-map"});
   if (args.has("help")) {
     std::printf("%s%s", kRunUsage, app::datasetOptionsHelp());
     return 0;
@@ -298,7 +307,8 @@ int run(int argc, char** argv) {
     viewer = std::move(*started);
   }
   log::info("running ", plans.size(), " robot(s) over ", transportUrl(o.transport), ", server map directory ",
-            o.out, "/map");
+            o.map.empty() ? o.out + "/map" : o.map,
+            o.frozen_map ? " (frozen: the robots localise in it)" : "");
   std::vector<RobotOutcome> robots;
   const double prepare_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
   ServerOutcome server = runDeployment(o, in, plans, **deployment, &robots);

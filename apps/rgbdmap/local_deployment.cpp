@@ -95,6 +95,11 @@ void LocalDeployment::settle(double idle_timeout_s, double robot_timeout_s) {
   const MapServerStats stats = server_->stats();
   const auto keyframes = server_->keyframes();
   for (size_t i = 0; i < robots_.size(); ++i) {
+    // A localising robot stored nothing (the map's keyframes of its id are an earlier session's); its run
+    // already waited for the correction of its last keyframe.
+    const auto row = std::find_if(stats.robots.begin(), stats.robots.end(),
+                                  [&](const ServerRobotStats& r) { return r.robot_id == robot_ids_[i]; });
+    if (row != stats.robots.end() && row->mode == "localize") continue;
     int last = -1;
     for (const ServerKeyframe& k : keyframes)
       if (k.robot_id == robot_ids_[i]) last = k.keyframe_id;

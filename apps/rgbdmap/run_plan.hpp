@@ -13,6 +13,9 @@ struct RunOptions {
   std::vector<std::string> datasets;  ///< empty on the command line: a synthetic sequence is generated
   std::string out = "out", scene = "loop", transport = "memq", server_config;
   long long frames = 0, seed = 1, threads = 1, robots = 0;
+  long long first_frame = 0;  ///< --frames A:B: the robots' frames start at A (B is `frames`)
+  std::string map;            ///< --map DIR: serve this stored map (extended, or with frozen_map not changed)
+  bool frozen_map = false;    ///< --frozen-map: every robot localises in --map's map
   double overlap = 0.25;
   bool realtime = false;
   bool async = false;  ///< --async: robots do not wait for the server after each keyframe

@@ -28,6 +28,10 @@ const ConfigTable<RobotClientConfig>& robotClientConfigTable() {
                    "frame (REP-103: x forward, y left, z up) of the first robot's first keyframe, so maps, "
                    "slices and exports are z-up")
           .nest("robot.camera_mount.", &C::camera_mount, cameraMountConfigTable())
+          .addChoice("robot.map_mode", &C::localize, {{false, "map"}, {true, "localize"}},
+                     "map: the robot's keyframes are stored and build the map; localize: the server places "
+                     "and tracks the robot in its stored map and never stores its keyframes (the map does "
+                     "not change); --map-mode overrides")
           .add("robot.spool_dir", &C::spool_dir,
                "keyframe spool: every keyframe is kept in <spool_dir>/<robot id> until the server "
                "acknowledges it, and a new start sends what an earlier one left. Relative to this file's "
@@ -55,6 +59,7 @@ void readRobotClientConfig(ConfigReader& reader, RobotClientConfig* config) {
   if (const std::string e = config->camera_mount.validate(); !e.empty())
     reader.addError(reader.source() + ": robot.camera_mount: " + e);
   config->link.T_base_camera = config->camera_mount.T_base_camera();
+  config->link.localize = config->localize;
 }
 
 std::vector<ConfigValue> robotClientConfigValues(const RobotClientConfig& config) {

@@ -161,6 +161,7 @@ msg::Hello makeHello(const RobotLinkOptions& options) {
   hello.T_base_camera = options.T_base_camera;
   hello.software_version = options.software_version;
   hello.capabilities = {"keyframes", "pose_corrections", "occupancy_slice", "velocity_command"};
+  if (options.localize) hello.capabilities.push_back(msg::kCapabilityLocalize);
   return hello;
 }
 

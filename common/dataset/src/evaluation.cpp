@@ -111,8 +111,13 @@ Result<AteResult> computeAte(const Trajectory& gt, const Trajectory& est, const 
     p_est.push_back(m.est[i].translation());
     p_gt.push_back(m.gt[i].translation());
   }
-  const auto align = solveAlignment(p_est, p_gt, options.with_scale);
+  auto align = solveAlignment(p_est, p_gt, options.with_scale);
   if (!align) return R::failure("ATE: " + align.error());
+  if (options.fixed_alignment) {
+    align->T_gt_est = *options.fixed_alignment;
+    align->scale = options.fixed_scale;
+    align->unique = true;
+  }
   if (!align->unique)
     log::warn("ATE: matched positions are collinear; the alignment's roll about them is arbitrary");
 

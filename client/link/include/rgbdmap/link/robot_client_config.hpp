@@ -18,6 +18,7 @@ struct RobotClientConfig {
   std::string robot_id = "robot0";
   std::string key_file;      ///< hex key (64 digits for 32 bytes); empty = unsigned (open-mode server)
   CameraMount camera_mount;  ///< where the camera sits on the robot: link.T_base_camera (the map is z-up)
+  bool localize = false;     ///< robot.map_mode: "localize" (link.localize) or "map"
   std::string transport_url = "memq://";  ///< memq:// | udpm://... | dds://?domain=N
   double final_wait_s = 20.0;             ///< at the end, wait this long for acks and the last correction
   /// The keyframe spool's parent folder (the robot's spool is <spool_dir>/<robot id>); empty: <--out>/spool.

@@ -45,6 +45,9 @@ struct RobotLinkOptions {
   /// The camera's optical frame in the robot's base frame (REP-103), sent in Hello: the server anchors the
   /// robot's first keyframe at T_map_cam = T_base_camera * T_odom_cam, so the map frame is z-up.
   SE3 T_base_camera = defaultT_base_camera();
+  /// Map mode "localize" (announced in Hello): the server places and tracks the robot in its stored map and
+  /// never stores its keyframes (they are acknowledged all the same). false: "map", they build the map.
+  bool localize = false;
   ImageCodecOptions codec;  ///< keyframe images (rgbdmap/codec/image_codec.hpp)
   /// Keyframes carry the odometry's keypoints and descriptors (51 KB per keyframe on TUM fr1). Off (the
   /// default), the server extracts them from the decoded colour with its own `features:` configuration,

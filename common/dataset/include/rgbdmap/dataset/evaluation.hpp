@@ -6,6 +6,7 @@
 // angle, translation in another frame), looks ground truth up by nearest stamp within 2x its median period
 // rather than by one-to-one association, and subsamples to 10000 random pairs; here E follows the paper
 // and every pair is used.
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -28,6 +29,10 @@ ErrorStats summarize(std::vector<double> errors);
 struct AteOptions {
   double max_dt = 0.02;     ///< association tolerance, seconds (evaluate_ate.py --max_difference)
   bool with_scale = false;  ///< Sim(3) alignment (monocular); the default is rigid, as the benchmark
+  /// Set: this alignment (and fixed_scale) is applied as it is instead of the least-squares one, e.g. the
+  /// alignment of an earlier session's estimate in the same map frame (rgbdmap eval --align-on).
+  std::optional<SE3> fixed_alignment;
+  double fixed_scale = 1.0;
 };
 
 struct AteResult {
