@@ -9,7 +9,7 @@ busy=()
 stop_busy() { for p in "${busy[@]}"; do kill "$p" 2>/dev/null; done; busy=(); }
 trap 'stop_busy; rm -rf "$tmp"' EXIT
 
-run() { "$bin/rgbdmap" run --scene loop --frames 150 --log-level warn --out "$@"; }
+run() { "$bin/rgbdmap" run --scene loop --frames 100 --log-level warn --out "$@"; }
 check "idle run" 0 run "$tmp/idle"
 for _ in $(seq 1 "$(nproc)"); do
   sh -c 'while :; do :; done' &
