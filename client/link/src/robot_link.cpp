@@ -322,7 +322,7 @@ bool RobotLink::Impl::allAnswered() const {
 bool RobotLink::Impl::waitAllAcked(double timeout_s) {
   std::unique_lock<std::mutex> lock(mutex_);
   changed_.wait_for(lock, seconds(timeout_s), [this] {
-    return stopping_ || allAnswered() || (reliable_.pending() == 0 && queue_.empty());
+    return stopping_ || allAnswered() || (reliable_.pending() == 0 && queue_.empty() && !feeding_);
   });
   return allAnswered();
 }

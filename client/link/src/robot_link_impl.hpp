@@ -193,7 +193,8 @@ class RobotLink::Impl : public std::enable_shared_from_this<RobotLink::Impl> {
   /// and keyframes wait unacknowledged for the robot's Hello.
   bool server_knows_me_ = false;
   std::map<int, SentKeyframe> sent_;
-  std::set<int> queue_;  ///< spooled keyframes waiting for room in the send window, in id (chain) order
+  std::set<int> queue_;   ///< spooled keyframes waiting for room in the send window, in id (chain) order
+  bool feeding_ = false;  ///< the feeder holds a keyframe taken from queue_ and not yet submitted
   Clock::time_point last_answer_ = Clock::now();  ///< the latest KeyframeAck or ChunkAck
   bool live_only_ = false;  ///< the spool's last append failed (logged when this changes)
   std::thread feeder_;

@@ -86,6 +86,13 @@ void RobotLink::Impl::runFeeder() {
     }
     const int id = *queue_.begin();
     queue_.erase(queue_.begin());
+    // Out of the queue and not in the sender yet (read back, submitted without the lock): waitAllAcked must
+    // not take the link for idle meanwhile. Every path below ends this iteration with the lock held.
+    feeding_ = true;
+    struct Fed {
+      bool& feeding;
+      ~Fed() { feeding = false; }
+    } fed{feeding_};
     auto it = sent_.find(id);
     if (it == sent_.end() || it->second.answer != Answer::kPending) continue;
     if (!it->second.message) {
