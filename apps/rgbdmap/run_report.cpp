@@ -157,11 +157,14 @@ void printRunSummary(const RunOptions& o, const std::string& url, const std::vec
       static_cast<size_t>(stats.map_leaves), static_cast<size_t>(stats.map_occupied_leaves),
       stats.map_tree_memory_bytes / 1e6, static_cast<unsigned long long>(stats.map_rebuilds),
       static_cast<unsigned long long>(stats.slices_sent));
+  const std::string map = o.map.empty()  ? ", map/"
+                          : o.frozen_map ? "; the map " + o.map + " is unchanged"
+                                         : "; the map " + o.map + " extended";
   std::fprintf(
       stderr,
       "wrote %s/: trajectory_<robot>.txt, keyframes_<robot>.txt, report.json, map.png, map.bt, map.ot, "
-      "map.ply, slice_<robot>.pgm/.yaml, map_<id>.pgm/.yaml (the 2-D map of each map), map/\n",
-      o.out.c_str());
+      "map.ply, slice_<robot>.pgm/.yaml, map_<id>.pgm/.yaml (the 2-D map of each map)%s\n",
+      o.out.c_str(), map.c_str());
 }
 
 }  // namespace rgbdmap::cmd

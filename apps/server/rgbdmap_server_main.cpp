@@ -61,12 +61,21 @@ sigset_t blockStopSignals() {
 
 void printStatus(const rgbdmap::MapServer& server) {
   const rgbdmap::MapServerStats s = server.stats();
+  // Robots that localise, and those of them not placed yet (a robot in a place the map does not hold).
+  std::string localising;
+  int count = 0;
+  for (const rgbdmap::ServerRobotStats& r : s.robots) {
+    if (r.mode != "localize") continue;
+    ++count;
+    if (!r.placed) localising += (localising.empty() ? " unplaced: " : ",") + r.robot_id;
+  }
+  if (count > 0) localising = " localising " + std::to_string(count) + localising;
   std::fprintf(stderr,
                "[server] robots %zu keyframes %d (+%d stored, not placed yet) loops %d (disabled %d) maps %d "
-               "ingest %.1f ms rejected %llu%s\n",
+               "ingest %.1f ms rejected %llu%s%s\n",
                s.robots.size(), s.keyframes, s.keyframes_deferred, s.loops_accepted, s.loops_disabled, s.maps,
                s.ingest_ms_median, static_cast<unsigned long long>(s.inbox.messages_rejected),
-               s.store_failed ? (" STORE FAILED: " + s.store_error).c_str() : "");
+               localising.c_str(), s.store_failed ? (" STORE FAILED: " + s.store_error).c_str() : "");
 }
 
 /// Sleeps until SIGINT or SIGTERM arrives, printing a status line every `status_every` seconds (0: never).

@@ -6,7 +6,8 @@
 #      --align-on`) within 2 x the first session's ATE, slices sent to it, the map directory byte-identical
 #      before and after;
 #   2. never placed wrongly: other rooms (loop and sweep scenes of other seeds) against that map and, when
-#      ../shared/data has it, against the fr1_xyz map below: not one is placed;
+#      ../shared/data has it, against the fr1_xyz map below: not one is placed (each gets slices of its own
+#      keyframes meanwhile);
 #   3. fr1_xyz (../shared/data, skipped when absent): frames 0-249 map, 250-499 localise (same checks as 1);
 #      the same 250-499 extend a copy of the map (no --frozen-map): one map of both sessions whose
 #      keyframes' ATE is under EXTEND_BOUND; fr1_rpy (the same desk, the same motion-capture frame) is
@@ -41,6 +42,7 @@ localise() {
 unplaced() {
   "$rg" run --dataset "$2" --map "$3" --frozen-map --out "$out/$1" >"$out/$1.log" 2>&1 || fail "$1: rgbdmap run"
   [ "$(robot "$out/$1" placed)" = false ] || fail "$1: placed in a map of another place"
+  [ "$(jq .server.slices_sent "$out/$1/report.json")" -gt 0 ] || fail "$1: no slice from its own keyframes"
   tried=$((tried + 1))
 }
 tried=0

@@ -50,8 +50,13 @@ void IngestPipeline::localizeLocked(Prepared prepared, const CameraIntrinsics& c
   lock.unlock();
   answer(kf, true, "");
   publisher_.publish(kf.robot_id, outcome.corrections);
-  // Placed: its slice from the map it is in, at its pose there. Unplaced: none (its keyframes are nowhere).
-  if (map_worker && outcome.placed) map_worker->sliceAt(kf.robot_id, outcome.map_id, outcome.T_map_kf);
+  if (!map_worker) return;
+  // Placed: its slice from the map it is in, at its pose there. Unplaced: from a scratch tree of its own
+  // keyframes in its provisional frame (never stored).
+  if (outcome.newly_placed) map_worker->dropScratch(kf.robot_id);
+  if (outcome.placed) return map_worker->sliceAt(kf.robot_id, outcome.map_id, outcome.T_map_kf);
+  map_worker->addScratchKeyframe({-1, kf.robot_id, 0, outcome.T_map_kf, camera, decoded->images.depth,
+                                  decoded->images.color, true, kf.keyframe_id, 0});
 }
 
 }  // namespace rgbdmap

@@ -222,6 +222,42 @@ void MapWorker::sliceAt(const std::string& robot_id, int map_id, const SE3& T_ma
   });
 }
 
+void MapWorker::addScratchKeyframe(MapKeyframeJob job) {
+  worker_.post([this, job = std::move(job)]() mutable { insertScratch(job); });
+}
+
+void MapWorker::dropScratch(const std::string& robot_id) {
+  worker_.post([this, robot_id] { scratch_.erase(robot_id); });
+}
+
+void MapWorker::insertScratch(MapKeyframeJob& job) {
+  Scratch& scratch = scratch_[job.robot_id];
+  if (!scratch.tree || scratch.keyframes >= kScratchKeyframes) {
+    OccupancyMapConfig config = config_.occupancy;
+    config.spill_dir.clear();  // nothing of it on disk
+    scratch.tree = std::make_unique<OccupancyMap>(config);
+    scratch.keyframes = 0;
+  }
+  auto cloud = makerFor(job.robot_id, job.camera)
+                   .make(scratch.keyframes, job.depth, job.camera.depth_scale, job.color);
+  if (!cloud) return log::warn("map: scratch keyframe of ", job.robot_id, ": ", cloud.error());
+  if (const Status s = scratch.tree->insert(std::move(*cloud), 0, job.T_map_kf); !s)
+    return log::warn("map: scratch keyframe of ", job.robot_id, ": ", s.error());
+  ++scratch.keyframes;
+  const double now = nowS();
+  const auto last = last_slice_s_.find(job.robot_id);
+  if (last != last_slice_s_.end() && now - last->second < config_.slice_period_s) return;
+  last_slice_s_[job.robot_id] = now;
+  Result<msg::OccupancySlice> slice = Result<msg::OccupancySlice>::failure("no scratch tree");
+  scratch.tree->read(
+      0, [&](const octomap::OcTree& tree) { slice = extractSlice(tree, job.T_map_kf, config_.slice); });
+  if (!slice) return log::warn("map: scratch slice for ", job.robot_id, ": ", slice.error());
+  slice->robot_id = job.robot_id;
+  if (publishers_.slice) publishers_.slice(job.robot_id, *slice);
+  std::lock_guard<std::mutex> lock(state_mutex_);
+  ++slices_sent_;
+}
+
 void MapWorker::publishSliceAt(const std::string& robot_id, int map_id, const SE3& T_map_kf) {
   const double cpu0 = threadCpuMs();
   Result<msg::OccupancySlice> slice =

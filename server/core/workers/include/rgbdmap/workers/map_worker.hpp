@@ -124,6 +124,14 @@ class MapWorker {
   /// A robot that localises in the map (its keyframes are not inserted): its slice cut from the tree of
   /// `map_id` at T_map_kf, at most every slice_period_s, queued behind the work already queued.
   void sliceAt(const std::string& robot_id, int map_id, const SE3& T_map_kf);
+  /// An unplaced localising robot's keyframe (decoded images, T_map_kf in its provisional frame): into a
+  /// scratch tree of the robot's own, which is never stored, streamed or written, and from which its slice
+  /// is cut until it is placed. The scratch tree holds at most the robot's newest kScratchKeyframes (it
+  /// starts again beyond), so a robot that is never placed does not grow the server.
+  void addScratchKeyframe(MapKeyframeJob job);
+  /// The robot was placed: its scratch tree is dropped.
+  void dropScratch(const std::string& robot_id);
+  static constexpr int kScratchKeyframes = 60;
   /// Queues a map stream publication (what the stream period does) behind the work already queued.
   void flushStreams();
   void fillStats(MapWorkerStats* stats) const;
@@ -149,6 +157,7 @@ class MapWorker {
   void publishStreams();
   void onStreamTick();  ///< the worker's period: publishStreams() when a keyframe came in or it is time
   const KeyframeCloudMaker& makerFor(const std::string& robot_id, const CameraIntrinsics& camera);
+  void insertScratch(MapKeyframeJob& job);
 
   const MapWorkerConfig config_;
   const MapStore& store_;
@@ -159,6 +168,11 @@ class MapWorker {
   std::map<std::string, std::pair<CameraIntrinsics, std::unique_ptr<KeyframeCloudMaker>>> makers_;
   std::map<std::string, StreamState> streams_;
   std::map<std::string, double> last_slice_s_;  ///< steady-clock seconds of each robot's last slice
+  struct Scratch {
+    std::unique_ptr<OccupancyMap> tree;  ///< map id 0, the robot's provisional frame
+    int keyframes = 0;
+  };
+  std::map<std::string, Scratch> scratch_;  ///< unplaced localising robots' scratch trees
   /// Poses of the newest update applied, for keyframes not inserted then (node id -> pose).
   std::unordered_map<int64_t, MapNodePose> early_poses_;
   uint64_t early_epoch_ = 0;    ///< that update's epoch
