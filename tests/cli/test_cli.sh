@@ -25,7 +25,8 @@ repo="$(cd "$(dirname "$0")/../.." && pwd)"
 python3 "$repo/deploy/check_json_schema.py" "$repo/deploy/schemas/server_stats.schema.json" "$tmp/run/report.json" \
   --pointer /server && echo "ok: report.json's server matches the schema" \
   || { echo "FAIL: report.json's server does not match deploy/schemas/server_stats.schema.json"; fail=1; }
-check "run with two robots on one dataset" 0 "$bin" run --dataset "$tmp/seq" --robots 2 --out "$tmp/run2"
+check "run with two robots on one dataset (--async)" 0 "$bin" run --dataset "$tmp/seq" --robots 2 --async --out "$tmp/run2"
+json "--async: the robots did not wait for the server" "$tmp/run2/report.json" '.robots.robot0.waited_for_server == false'
 json "robot1 in the report" "$tmp/run2/report.json" '.robots | has("robot1")'
 json "robot1 frame range overlaps robot0's" "$tmp/run2/report.json" '.robots.robot1.frame_range == [20, 45]'
 [ "$(grep -vc '^#' "$tmp/run2/trajectory_robot1.txt")" -eq 25 ] && echo "ok: robot1 one pose per frame of its segment" || { echo "FAIL: robot1 pose count"; fail=1; }
