@@ -11,12 +11,15 @@ void IngestPipeline::localizeLocked(Prepared prepared, const CameraIntrinsics& c
                                     Lock& lock) {
   const msg::Keyframe& kf = prepared.keyframe;
   const int64_t session = kf.header.session;
-  if (!config_.allow_localize && !config_.frozen_map) {
+  // Refused keyframes of a localising robot are counted; none is remembered (nothing waits for them).
+  const auto refuse = [&](const std::string& reason) {
     ++stats_.keyframes_refused;
     registry_.recordKeyframe(kf.robot_id, RobotRegistry::KeyframeOutcome::kRefused);
     lock.unlock();
-    return answer(kf, false, "this server does not allow localize mode (server.allow_localize)");
-  }
+    answer(kf, false, reason);
+  };
+  if (!config_.allow_localize && !config_.frozen_map)
+    return refuse("this server does not allow localize mode (server.allow_localize)");
   if (localize_.seen(kf.robot_id, session, kf.keyframe_id)) {
     registry_.recordKeyframe(kf.robot_id, RobotRegistry::KeyframeOutcome::kDuplicate);
     lock.unlock();
@@ -30,20 +33,16 @@ void IngestPipeline::localizeLocked(Prepared prepared, const CameraIntrinsics& c
                             : ahead      ? std::move(*prepared.decoded)
                                          : decoder_.decodeOnWorker(kf, camera);
   if (!decoded) {
-    ++stats_.keyframes_refused;
-    registry_.recordKeyframe(kf.robot_id, RobotRegistry::KeyframeOutcome::kRefused);
-    lock.unlock();
     log::warn("server: keyframe ", kf.keyframe_id, " of ", kf.robot_id,
               " (localising) refused: ", decoded.error());
-    return answer(kf, false, decoded.error());
+    return refuse(decoded.error());
   }
   const SE3 mount = registry_.mount(kf.robot_id);
   const std::optional<PlacementEstimate> predicted = localize_.predict(kf.robot_id, session, kf);
   auto features = std::make_shared<const FrameFeatures>(std::move(decoded->features));
-  LoopStats loop_stats;
   const std::vector<PlacementVote> votes =
       graph_.placeVotes(features, MapGraph::kLocalizeRobotBase + robot, -(++localize_queries_), predicted,
-                        se3::normalized(mount * kf.T_odom_cam), &loop_stats);
+                        se3::normalized(mount * kf.T_odom_cam), nullptr);
   LocalizeOutcome outcome = localize_.take(kf, session, mount, votes, received, ++localize_revision_);
   ++stats_.keyframes_localized;
   MapWorker* const map_worker = map_worker_;

@@ -19,10 +19,13 @@ LocalizeSessions::Session& LocalizeSessions::session(const std::string& robot, i
 std::optional<PlacementEstimate> LocalizeSessions::predict(const std::string& robot, int64_t session,
                                                            const msg::Keyframe& kf) const {
   const auto it = sessions_.find(robot);
-  if (it == sessions_.end() || it->second.session != session || !it->second.placed) return std::nullopt;
-  const Session& s = it->second;
+  if (it == sessions_.end() || it->second.session != session) return std::nullopt;
+  return predicted(it->second, kf);
+}
+
+std::optional<PlacementEstimate> LocalizeSessions::predicted(const Session& s, const msg::Keyframe& kf) {
   // A segment that started after the placement (tracking was lost) has an odometry frame of its own.
-  if (kf.segment_id != s.segment) return std::nullopt;
+  if (!s.placed || kf.segment_id != s.segment) return std::nullopt;
   return PlacementEstimate{s.map_id, se3::normalized(s.T_map_odom * kf.T_odom_cam), 0};
 }
 
@@ -32,11 +35,9 @@ bool LocalizeSessions::seen(const std::string& robot, int64_t session, int keyfr
 }
 
 bool LocalizeSessions::place(Session& s, const msg::Keyframe& kf, const std::vector<PlacementVote>& votes) {
-  std::optional<PlacementEstimate> predicted;
-  if (s.placed && kf.segment_id == s.segment)
-    predicted = PlacementEstimate{s.map_id, se3::normalized(s.T_map_odom * kf.T_odom_cam), 0};
-  std::optional<PlacementEstimate> e = placeKeyframe(votes, predicted, config_);
-  if (!e && !predicted) {
+  const std::optional<PlacementEstimate> prediction = predicted(s, kf);
+  std::optional<PlacementEstimate> e = placeKeyframe(votes, prediction, config_);
+  if (!e && !prediction) {
     // Two successive keyframes, one match each, that agree on the odometry frame also place the robot.
     const std::optional<PlacementEstimate> one = votes.size() == 1 ? bestVote(votes) : std::nullopt;
     std::optional<std::pair<int, SE3>> hypothesis;

@@ -164,11 +164,7 @@ void MapWorker::insertKeyframe(MapKeyframeJob& job) {
   }
   stream_dirty_ = true;
   if (!job.live) return;
-  const double now = nowS();
-  const auto last = last_slice_s_.find(job.robot_id);
-  if (last != last_slice_s_.end() && now - last->second < config_.slice_period_s) return;
-  last_slice_s_[job.robot_id] = now;
-  publishSlice(job.robot_id);
+  if (sliceDue(job.robot_id)) publishSlice(job.robot_id);
 }
 
 void MapWorker::applyPendingPoses() {
@@ -212,13 +208,17 @@ void MapWorker::publishSlice(const std::string& robot_id) {
   publishSliceAt(robot_id, newest.map_id, newest.T_map_kf);
 }
 
+bool MapWorker::sliceDue(const std::string& robot_id) {
+  const double now = nowS();
+  const auto last = last_slice_s_.find(robot_id);
+  if (last != last_slice_s_.end() && now - last->second < config_.slice_period_s) return false;
+  last_slice_s_[robot_id] = now;
+  return true;
+}
+
 void MapWorker::sliceAt(const std::string& robot_id, int map_id, const SE3& T_map_kf) {
   worker_.post([this, robot_id, map_id, T_map_kf] {
-    const double now = nowS();
-    const auto last = last_slice_s_.find(robot_id);
-    if (last != last_slice_s_.end() && now - last->second < config_.slice_period_s) return;
-    last_slice_s_[robot_id] = now;
-    publishSliceAt(robot_id, map_id, T_map_kf);
+    if (sliceDue(robot_id)) publishSliceAt(robot_id, map_id, T_map_kf);
   });
 }
 
@@ -244,10 +244,7 @@ void MapWorker::insertScratch(MapKeyframeJob& job) {
   if (const Status s = scratch.tree->insert(std::move(*cloud), 0, job.T_map_kf); !s)
     return log::warn("map: scratch keyframe of ", job.robot_id, ": ", s.error());
   ++scratch.keyframes;
-  const double now = nowS();
-  const auto last = last_slice_s_.find(job.robot_id);
-  if (last != last_slice_s_.end() && now - last->second < config_.slice_period_s) return;
-  last_slice_s_[job.robot_id] = now;
+  if (!sliceDue(job.robot_id)) return;
   Result<msg::OccupancySlice> slice = Result<msg::OccupancySlice>::failure("no scratch tree");
   scratch.tree->read(
       0, [&](const octomap::OcTree& tree) { slice = extractSlice(tree, job.T_map_kf, config_.slice); });

@@ -73,6 +73,8 @@ class LocalizeSessions {
     LocalizeRobotStats stats;
   };
   Session& session(const std::string& robot, int64_t session_id, Clock::time_point received);
+  /// T_map_kf odometry predicts for `kf` in the session's map; nullopt while unplaced or on a new segment.
+  static std::optional<PlacementEstimate> predicted(const Session& s, const msg::Keyframe& kf);
   bool place(Session& s, const msg::Keyframe& kf, const std::vector<PlacementVote>& votes);
   msg::PoseCorrections corrections(const Session& s, const std::string& robot, const SE3& mount,
                                    int64_t revision) const;

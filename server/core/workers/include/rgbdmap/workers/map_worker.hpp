@@ -152,6 +152,8 @@ class MapWorker {
   bool readBackImages(MapKeyframeJob& job) const;  ///< a restored keyframe's images, from the store
   void insertKeyframe(MapKeyframeJob& job);
   void applyPendingPoses();
+  /// True (and the robot's slice clock restarted) when its last slice is slice_period_s old or none was sent.
+  bool sliceDue(const std::string& robot_id);
   void publishSlice(const std::string& robot_id);  ///< at the robot's newest inserted keyframe
   void publishSliceAt(const std::string& robot_id, int map_id, const SE3& T_map_kf);
   void publishStreams();
