@@ -165,19 +165,19 @@ TEST(OccupancyMap, ReadersNeverSeeAHalfBuiltTree) {
       ++reads;
     }
   });
-  for (int round = 0; round < 4; ++round) {
+  for (int round = 0; round < 2; ++round) {  // shifted, then back
     std::map<int64_t, std::pair<int, SE3>> poses;
     for (size_t i = 0; i < kf.clouds.size(); ++i)
-      poses[int64_t(i)] = {0, (round % 2 == 0 ? shift : SE3::Identity()) * kf.T_world_cam[i]};
+      poses[int64_t(i)] = {0, (round == 0 ? shift : SE3::Identity()) * kf.T_world_cam[i]};
     EXPECT_TRUE(map.updatePoses(poses));
     ASSERT_TRUE(map.waitIdle(30.0));
   }
   done = true;
   reader.join();
   EXPECT_EQ(bad.load(), 0);
-  EXPECT_GT(reads.load(), 8);
+  EXPECT_GT(reads.load(), 4);
   EXPECT_EQ(countLeaves(map, 0), a);  // back at the original poses: the same tree as built incrementally
-  EXPECT_EQ(map.stats().rebuilds, 4u);
+  EXPECT_EQ(map.stats().rebuilds, 2u);
 }
 
 TEST(OccupancyMap, KeyframesInsertedDuringARebuildAreKept) {
