@@ -51,6 +51,15 @@ inline std::string spoolText(const std::optional<msg::LinkStatus>& link) {
   return buf;
 }
 
+/// The robot's map mode and placement from the server's status: "map"; "map, not merged" (its keyframes
+/// are in a map of their own so far); "localize"; "localize, unplaced" (not placed in the stored map yet:
+/// its pose and slices come from its own keyframes). "-" before a status names the robot.
+inline std::string placementText(const msg::RobotStatus* r) {
+  if (!r) return "-";
+  if (r->localize) return r->placed ? "localize" : "localize, unplaced";
+  return r->placed || r->keyframes == 0 ? "map" : "map, not merged";
+}
+
 struct MonitorOptions {
   std::string transport_url, keys_file, save_dir;
   std::vector<std::string> robots;
@@ -251,11 +260,11 @@ class Monitor {
     if (table)
       std::printf(
           "rgbdmap-monitor  %.0f s   server %s, up %.0f s, graph revision %lld, rejected %llu\n\n"
-          "%-12s %9s %6s %10s %12s %12s %9s %16s  %s\n",
+          "%-12s %-18s %9s %6s %10s %12s %12s %9s %16s  %s\n",
           t, status ? status->state.c_str() : "(no status yet)", status ? status->uptime_s : 0.0,
           static_cast<long long>(status ? status->graph_revision : 0),
-          static_cast<unsigned long long>(rejects_.total()), "robot", "keyframes", "loops", "refused",
-          "up Mbit/s", "down Mbit/s", "map rev", "spool (oldest)", "server says");
+          static_cast<unsigned long long>(rejects_.total()), "robot", "map mode", "keyframes", "loops",
+          "refused", "up Mbit/s", "down Mbit/s", "map rev", "spool (oldest)", "server says");
     else
       std::printf("monitor t=%.1fs state=%s graph_revision=%lld", t, status ? status->state.c_str() : "none",
                   static_cast<long long>(status ? status->graph_revision : 0));
@@ -270,18 +279,18 @@ class Monitor {
       view.bytes_down_last = view.bytes_down;
       const std::string verdict = robotVerdict(robot, view, status);
       if (table)
-        std::printf("%-12s %9d %6d %10lld %12.2f %12.2f %9lld %16s  %s\n", robot.c_str(),
-                    r ? r->keyframes : 0, r ? r->loop_closures : 0,
+        std::printf("%-12s %-18s %9d %6d %10lld %12.2f %12.2f %9lld %16s  %s\n", robot.c_str(),
+                    placementText(r).c_str(), r ? r->keyframes : 0, r ? r->loop_closures : 0,
                     static_cast<long long>(r ? r->rejected_messages : 0), up, down,
                     static_cast<long long>(view.map_revision), spoolText(view.link).c_str(), verdict.c_str());
       else
         std::printf(
             " | %s keyframes=%d loops=%d up_mbps=%.2f down_mbps=%.2f bytes_up=%llu map_rev=%lld spool=%d "
-            "oldest_unanswered_s=%.1f status=%s",
+            "oldest_unanswered_s=%.1f mode=%s placed=%d status=%s",
             robot.c_str(), r ? r->keyframes : 0, r ? r->loop_closures : 0, up, down,
             static_cast<unsigned long long>(view.bytes_up), static_cast<long long>(view.map_revision),
             view.link ? view.link->spool_depth : -1, view.link ? view.link->oldest_unanswered_s : 0.0,
-            verdict.c_str());
+            r ? (r->localize ? "localize" : "map") : "-", r ? int(r->placed) : -1, verdict.c_str());
     }
     std::printf("\n");
     std::fflush(stdout);

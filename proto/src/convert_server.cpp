@@ -181,6 +181,8 @@ rgbdmap_lcm::server_status_t toWireStatus(const ServerStatus& m) {
     w.robots[i].loop_closures = r.loop_closures;
     w.robots[i].rejected_messages = r.rejected_messages;
     w.robots[i].last_utime = r.last_utime;
+    w.robots[i].localize = r.localize;
+    w.robots[i].placed = r.placed;
   }
   w.num_rejects = detail::count(m.rejects);
   w.rejects.resize(m.rejects.size());
@@ -196,8 +198,8 @@ Result<ServerStatus> fromWireStatus(const rgbdmap_lcm::server_status_t& w) {
   ServerStatus m{fromWire(w.header), w.state, w.uptime_s, w.graph_revision, w.map_revision, {}, {}};
   m.robots.reserve(w.robots.size());
   for (const rgbdmap_lcm::robot_status_t& r : w.robots)
-    m.robots.push_back(
-        RobotStatus{r.robot_id, r.keyframes, r.loop_closures, r.rejected_messages, r.last_utime});
+    m.robots.push_back(RobotStatus{r.robot_id, r.keyframes, r.loop_closures, r.rejected_messages,
+                                   r.last_utime, r.localize != 0, r.placed != 0});
   m.rejects.reserve(w.rejects.size());
   for (const rgbdmap_lcm::reject_count_t& r : w.rejects)
     m.rejects.push_back(RejectCount{r.robot_id, r.reason, r.count});

@@ -32,12 +32,16 @@ for _ in $(seq 1 60); do
 done
 kill -9 "$first"; wait "$first" 2>/dev/null
 echo "robot0's first session killed with ${seen:-0} keyframes in the server's map"
+# The monitor decodes the status's map mode and placement (schema 4): a mapping robot, in the map or not yet.
+grep -q 'robot0 keyframes=.* mode=map placed=[01] ' "$d/monitor.txt" \
+  && echo "ok: rgbdmap-monitor shows robot0's map mode: $(grep -o 'mode=[a-z]* placed=[01]' "$d/monitor.txt" | tail -n 1)" \
+  || { echo "FAIL: no map mode for robot0 in the monitor's line: $(tail -n 1 "$d/monitor.txt")"; mode_fail=1; }
 "$bin/rgbdmap-client" --config "$run/client_robot0.yaml" --dataset "$ds" --fast --frames "$restart:113" \
   --out "$d/robot0" >"$d/client_robot0.log" 2>&1
 second=$?
 wait "$robot1"; r1=$?
 kill -INT "$server"; wait "$server"; srv=$?
-fail=0
+fail=${mode_fail:-0}
 [ "$second" -eq 0 ] && [ "$r1" -eq 0 ] && [ "$srv" -eq 0 ] || { echo "FAIL: exit codes $second $r1 $srv"; fail=1; }
 sj="$d/map/server_summary.json"
 jq -e 'any(.robots[]; .robot == "robot0" and .sessions == 2)' "$sj" >/dev/null \

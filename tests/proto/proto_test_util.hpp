@@ -182,7 +182,8 @@ inline msg::ServerStatus sampleStatus() {
   m.uptime_s = 12.5;
   m.graph_revision = 42;
   m.map_revision = 5;
-  m.robots = {{"robot_1", 17, 2, 3, 1700000000000000}, {"robot_2", 5, 0, 0, 1700000000000001}};
+  m.robots = {{"robot_1", 17, 2, 3, 1700000000000000, false, true},
+              {"robot_2", 5, 0, 0, 1700000000000001, true, false}};
   return m;
 }
 

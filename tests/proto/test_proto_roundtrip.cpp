@@ -8,6 +8,7 @@
 #include "rgbdmap/proto/codec.hpp"
 #include "rgbdmap/proto/envelope.hpp"
 #include "rgbdmap/proto/validate.hpp"
+#include "rgbdmap_lcm/keyframe_t.hpp"
 
 namespace rgbdmap::msg {
 namespace {
@@ -147,6 +148,10 @@ TEST(ProtoRoundTrip, OccupancyMapStatus) {
   EXPECT_EQ(st2.robots[1].robot_id, "robot_2");
   EXPECT_EQ(st2.robots[0].rejected_messages, 3);
   EXPECT_EQ(st2.robots[1].last_utime, 1700000000000001);
+  EXPECT_FALSE(st2.robots[0].localize);
+  EXPECT_TRUE(st2.robots[0].placed);
+  EXPECT_TRUE(st2.robots[1].localize);
+  EXPECT_FALSE(st2.robots[1].placed) << "a localising robot not placed yet";
 }
 
 TEST(ProtoRoundTrip, ServerStatusRejectCounts) {
@@ -294,6 +299,15 @@ TEST(ProtoChannels, SplitChannel) {
   EXPECT_EQ(suffix, "a/b");
   for (const char* bad : {"", "rgbdmap/", "rgbdmap/r", "rgbdmap//keyframe", "rgbdmap/r/", "other/r/keyframe"})
     EXPECT_FALSE(splitChannel(bad, &robot, &suffix)) << bad;
+}
+
+// Map stores and bundles hold Keyframe messages only, and this build reads those of every schema from
+// kOldestStoredSchemaVersion on (store_files.cpp, map_bundle.cpp). That holds while keyframe_t, with every
+// type it includes, is the one of that schema: its LCM hash is the one schema 3 had. A change of keyframe_t
+// fails here; then kOldestStoredSchemaVersion becomes the new schema (older stores are refused).
+TEST(ProtoSchema, KeyframeMessageIsTheOneOfTheOldestReadableStoredSchema) {
+  EXPECT_EQ(kOldestStoredSchemaVersion, 3);
+  EXPECT_EQ(static_cast<uint64_t>(rgbdmap_lcm::keyframe_t::getHash()), 0x6cf1992554610e03ull);
 }
 
 }  // namespace

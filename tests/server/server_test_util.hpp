@@ -74,6 +74,7 @@ inline Result<AteResult> keyframeAte(const Trajectory& gt, const Trajectory& est
 /// occupancy slices, and the map stream applied to its own copy of the tree).
 class ScriptedRobot {
  public:
+  const std::string& id() const { return id_; }
   ScriptedRobot(transport::Transport& transport, std::string id, msg::Bytes key, int64_t session)
       : transport_(transport),
         id_(std::move(id)),

@@ -3,6 +3,7 @@
 // directory does not change; a server that does not allow it refuses the keyframes with the reason.
 #include <filesystem>
 #include <fstream>
+#include <optional>
 #include <sstream>
 
 #include <gtest/gtest.h>
@@ -36,9 +37,20 @@ std::map<std::string, std::string> mapFiles(const std::string& dir) {
   return out;
 }
 
+/// The server's status of `robot` (its ServerStatus, as it would be published now).
+std::optional<msg::RobotStatus> statusOf(const MapServer& server, const std::string& robot) {
+  for (const msg::RobotStatus& r : server.status().robots)
+    if (r.robot_id == robot) return r;
+  return std::nullopt;
+}
+
 /// Sends every keyframe of `seg` as a localising robot and waits for their acks; true when all accepted.
-bool localise(ScriptedRobot& robot, const OdometrySegment& seg, bool ask) {
+/// Before its first keyframe the status says it localises and is not placed yet.
+bool localise(const MapServer& server, ScriptedRobot& robot, const OdometrySegment& seg, bool ask) {
   robot.hello(seg.camera, defaultT_base_camera(), ask);
+  EXPECT_TRUE(testing::eventually([&] { return statusOf(server, robot.id()).has_value(); }, 10.0));
+  const std::optional<msg::RobotStatus> unplaced = statusOf(server, robot.id());
+  EXPECT_TRUE(unplaced && unplaced->localize && !unplaced->placed) << "\"unplaced\" in the status";
   std::set<int> ids;
   for (const msg::Keyframe& kf : seg.keyframes) {
     robot.send(kf);
@@ -70,7 +82,7 @@ TEST(MapServerLocalize, AFrozenMapPlacesTheRobotWhereTheMapHasItAndDoesNotChange
   // robot1 goes the same way: every keyframe it sends is one the map holds (robot0's), so its placed pose
   // must be that keyframe's pose in the map. It does not ask: the frozen map puts it in localize mode.
   ScriptedRobot robot(*h.transport, "robot1", testing::testKey(2), 200);
-  ASSERT_TRUE(localise(robot, seg, false));
+  ASSERT_TRUE(localise(*h.server, robot, seg, false));
   const MapServerStats s = h.server->stats();
   EXPECT_EQ(s.keyframes, static_cast<int>(seg.keyframes.size())) << "the map's keyframes only";
   EXPECT_EQ(s.keyframes_localized, seg.keyframes.size());
@@ -80,6 +92,10 @@ TEST(MapServerLocalize, AFrozenMapPlacesTheRobotWhereTheMapHasItAndDoesNotChange
   EXPECT_TRUE(r1.placed);
   EXPECT_GE(r1.first_placement_s, 0.0);
   EXPECT_GE(r1.keyframes_matched, seg.keyframes.size() * 9 / 10);
+  const std::optional<msg::RobotStatus> placed = statusOf(*h.server, "robot1");
+  EXPECT_TRUE(placed && placed->localize && placed->placed) << "placed in the status";
+  const std::optional<msg::RobotStatus> mapper = statusOf(*h.server, "robot0");
+  EXPECT_TRUE(!mapper || (!mapper->localize && mapper->placed)) << "the stored map's robot";
   // The corrections go out after each acknowledgement: the last ones may still be on their way.
   EXPECT_TRUE(testing::eventually(
       [&] {
@@ -107,7 +123,7 @@ TEST(MapServerLocalize, ARobotAsksToLocalizeAndIsRefusedWhereTheServerDoesNotAll
   config.allow_localize = false;
   Harness h(config);
   ScriptedRobot robot(*h.transport, "robot0", testing::testKey(1), 100);
-  EXPECT_FALSE(localise(robot, seg, true));
+  EXPECT_FALSE(localise(*h.server, robot, seg, true));
   for (const auto& [id, accepted] : robot.acks()) EXPECT_FALSE(accepted) << "keyframe " << id;
   const MapServerStats s = h.server->stats();
   EXPECT_EQ(s.keyframes, 0);

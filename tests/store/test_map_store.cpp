@@ -216,6 +216,31 @@ TEST(MapStore, WrongFormatVersionIsRefusedWithAClearMessage) {
   EXPECT_NE(MapStore::open(tmp.dir()).error().find("no MANIFEST"), std::string::npos);
 }
 
+// A store holds Keyframe messages only, and keyframe_t is the same in every schema from
+// kOldestStoredSchemaVersion on (tests/proto, ProtoSchema.*): a store written under an older schema is read
+// as it is; older than that is refused with the versions it reads.
+TEST(MapStore, AStoreOfAnOlderSchemaWithTheSameKeyframeMessageIsRead) {
+  testing::TempDir tmp;
+  const Sample sample;
+  {
+    Result<std::unique_ptr<MapStore>> store = openStore(tmp.dir());
+    ASSERT_TRUE(store);
+    sample.appendTo(store->get());
+  }
+  const std::string manifest = "rgbdmap map store\nformat_version 1\nmessage_schema_version ";
+  writeManifest(tmp.path("MANIFEST"), manifest + std::to_string(msg::kOldestStoredSchemaVersion) + "\n");
+  {
+    Result<std::unique_ptr<MapStore>> store = MapStore::open(tmp.dir());
+    ASSERT_TRUE(store) << store.error();
+    expectContent(**store, sample);
+  }
+  writeManifest(tmp.path("MANIFEST"), manifest + std::to_string(msg::kOldestStoredSchemaVersion - 1) + "\n");
+  Result<std::unique_ptr<MapStore>> store = MapStore::open(tmp.dir());
+  ASSERT_FALSE(store);
+  EXPECT_NE(store.error().find("decodes schema versions " + msg::readableStoredSchemas()), std::string::npos)
+      << store.error();
+}
+
 TEST(MapStore, UnusableDirectoriesFailWithAReason) {
   testing::TempDir tmp;
   tmp.write("file", "x");

@@ -92,6 +92,8 @@ function check() {
     if (status.robot !== r || status.keyframes !== e.keyframes.length || status.voxels !== e.voxels)
       fail(`${r}: status ${JSON.stringify(status)}`);
     if (!(status.live_poses > 0)) fail(`${r}: no live pose (RobotPose) reached the viewer`);
+    if (status.map_mode !== 'map' || typeof status.placed !== 'boolean')
+      fail(`${r}: map mode ${JSON.stringify(status.map_mode)}, placed ${JSON.stringify(status.placed)}`);
     const loops = latest.get(`/${r}/loops`).entities[0].lines[0];
     const inter = loops.colors.filter((c) => c.r > 0.8 && c.b > 0.8).length / 2;
     if (!(loops.type === 2 && loops.points.length >= 2 && loops.points.length % 2 === 0 && inter >= 1))

@@ -130,7 +130,9 @@ std::map<std::string, json> buildSchemas() {
                                                             {"oldest_unanswered_s", number()},
                                                             {"live_only", boolean()},
                                                             {"link", string()},
-                                                            {"state", string()}});
+                                                            {"state", string()},
+                                                            {"map_mode", string()},
+                                                            {"placed", boolean()}});
   return s;
 }
 

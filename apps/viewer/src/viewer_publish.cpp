@@ -173,7 +173,11 @@ void Viewer::Impl::publishStatus(size_t index, const RobotSnapshot& s) {
                        {"oldest_unanswered_s", s.link ? s.link->oldest_unanswered_s : 0.0},
                        {"live_only", s.link && s.link->live_only},
                        {"link", s.link ? s.link->diagnosis : std::string()},
-                       {"state", s.server_state.empty() ? "no status" : s.server_state}};
+                       {"state", s.server_state.empty() ? "no status" : s.server_state},
+                       // "map" or "localize" ("" before the server's status names the robot); placed: its
+                       // pose is in the map (a localising robot not placed yet: "unplaced")
+                       {"map_mode", s.status ? (s.status->localize ? "localize" : "map") : ""},
+                       {"placed", s.status && s.status->placed}};
   send(channels[index].status, status, utime);
 }
 

@@ -174,7 +174,10 @@ function legend() {
     const seen = s.last_seen_s === undefined || s.last_seen_s < 0 ? 'never' : s.last_seen_s.toFixed(1) + ' s ago';
     const div = document.createElement('div');
     div.className = 'robot';
-    div.innerHTML = `<span class="swatch" style="background:${hex}"></span><b>${r.name}</b> ${s.state || ''}` +
+    // A localising robot not placed in the stored map yet, or a mapping robot whose map has not merged.
+    const mode = s.map_mode === 'localize' ? (s.placed ? 'localising' : '<span class="unplaced">localising, unplaced</span>')
+      : (s.map_mode === 'map' && s.placed === false && s.keyframes > 0 ? '<span class="unplaced">not merged</span>' : '');
+    div.innerHTML = `<span class="swatch" style="background:${hex}"></span><b>${r.name}</b> ${s.state || ''} ${mode}` +
       `<div class="detail">${s.keyframes || r.keyframes} keyframes, ${s.loops || 0} loops (${r.loopEdges || 0} drawn), ${r.voxels.size} voxels</div>` +
       `<div class="detail">${(s.down_kbps || 0).toFixed(1)} kbit/s, last seen ${seen}</div>` +
       (r.gridCells ? `<div class="detail">2-D map ${r.gridCells} cells</div>` : '');

@@ -77,6 +77,7 @@ struct MapServer::Impl {
           inbox.onMessage(channel, data, size);
         }) {
     status.setRejectCounts([this] { return inbox.rejectCounts(); });
+    status.setPlacementSource([this] { return pipeline.placedRobots(); });
     inbox.setChunkAckSink(
         [this](const std::string& robot, const msg::ChunkAck& ack) { publisher.publish(robot, ack); });
     inbox.setKeyframeAckSink(
@@ -246,6 +247,8 @@ bool MapServer::flushMapStreams(double timeout_s) {
   m.map_worker->flushStreams();
   return m.map_worker->waitIdle(timeout_s);
 }
+
+msg::ServerStatus MapServer::status() const { return impl_->status.status(); }
 
 MapServerStats MapServer::stats() const {
   const Impl& m = *impl_;

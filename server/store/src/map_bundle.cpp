@@ -68,10 +68,10 @@ Status parseManifest(const msg::Bytes& payload, MapBundleInfo* info) {
   }
   if (info->format_version != kMapBundleFormatVersion)
     return Status::failure("its manifest says format version " + std::to_string(info->format_version));
-  if (info->message_schema_version != msg::kSchemaVersion)
-    return Status::failure(
-        "it holds messages of schema version " + std::to_string(info->message_schema_version) +
-        "; this build decodes schema version " + std::to_string(msg::kSchemaVersion) + " only");
+  if (!msg::isReadableStoredSchema(info->message_schema_version))
+    return Status::failure("it holds messages of schema version " +
+                           std::to_string(info->message_schema_version) +
+                           "; this build decodes schema versions " + msg::readableStoredSchemas());
   return Status::success();
 }
 

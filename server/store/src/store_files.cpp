@@ -58,10 +58,10 @@ Status checkManifest(const std::string& path) {
     return Status::failure("map store '" + path + "' has format version " + std::to_string(format) +
                            "; this build reads format version " + std::to_string(kMapStoreFormatVersion) +
                            " only");
-  if (schema != msg::kSchemaVersion)
+  if (!msg::isReadableStoredSchema(schema))
     return Status::failure("map store '" + path + "' holds messages of schema version " +
-                           std::to_string(schema) + "; this build decodes schema version " +
-                           std::to_string(msg::kSchemaVersion) + " only");
+                           std::to_string(schema) + "; this build decodes schema versions " +
+                           msg::readableStoredSchemas());
   return Status::success();
 }
 

@@ -17,7 +17,18 @@ namespace rgbdmap::msg {
 using Bytes = std::vector<uint8_t>;
 
 /// Bumped whenever any .lcm file changes; a receiver rejects every other version.
-constexpr int kSchemaVersion = 3;  ///< 2: ServerStatus::rejects; 3: Hello::T_base_camera
+/// 2: ServerStatus::rejects; 3: Hello::T_base_camera; 4: RobotStatus::localize, placed.
+constexpr int kSchemaVersion = 4;
+/// The oldest schema whose stored messages this build reads: a map store or bundle holds only Keyframe
+/// messages, and keyframe_t (with what it includes) is the same in schemas 3 and 4.
+constexpr int kOldestStoredSchemaVersion = 3;
+inline bool isReadableStoredSchema(int version) {
+  return version >= kOldestStoredSchemaVersion && version <= kSchemaVersion;
+}
+/// "3 to 4": the stored schemas this build reads, for error messages.
+inline std::string readableStoredSchemas() {
+  return std::to_string(kOldestStoredSchemaVersion) + " to " + std::to_string(kSchemaVersion);
+}
 
 enum class MessageType : int16_t {
   kHello = 1,
@@ -261,6 +272,8 @@ struct RobotStatus {
   int loop_closures = 0;
   int64_t rejected_messages = 0;
   int64_t last_utime = 0;
+  bool localize = false;  ///< map mode "localize": placed in the stored map, its keyframes never stored
+  bool placed = true;     ///< in the map; false while a localising robot is not placed yet ("unplaced")
 };
 
 /// Messages the server rejected from one claimed sender for one reason (since the server started).

@@ -335,25 +335,45 @@ IngestReport IngestPipeline::stats() const {
   r.ingest.keyframes_deferred = static_cast<int>(intake_.deferredNow());
   r.hello_hold = hello_hold_.stats();
   r.robots = registry_.stats();
-  const auto& nodes = graph_.index().nodes();
-  const int main_map = nodes.empty() || !nodes.front().valid ? -1 : nodes.front().kf.map_id;
+  const int main_map = mainMapLocked();
   const std::map<std::string, LocalizeRobotStats> localizing = localize_.stats();
   for (ServerRobotStats& robot_stats : r.robots) {
-    const int robot = registry_.index(robot_stats.robot_id);
-    graph_.index().fillRobotStats(&robot_stats, robot);
-    robot_stats.keyframes_waiting = static_cast<int>(order_.waiting(robot));
-    // A mapping robot is placed once its newest keyframe is in the map of the graph's first keyframe.
-    robot_stats.placed = robot_stats.map_id >= 0 && robot_stats.map_id == main_map;
-    if (robot_stats.mode != "localize") continue;
-    const auto it = localizing.find(robot_stats.robot_id);
-    if (it == localizing.end()) continue;
-    robot_stats.placed = it->second.placed;
-    robot_stats.map_id = it->second.map_id;
-    robot_stats.first_placement_s = it->second.first_placement_s;
-    robot_stats.keyframes_localized = it->second.keyframes;
-    robot_stats.keyframes_matched = it->second.keyframes_matched;
+    robot_stats.keyframes_waiting = static_cast<int>(order_.waiting(registry_.index(robot_stats.robot_id)));
+    fillPlacementLocked(&robot_stats, main_map, localizing);
   }
   return r;
+}
+
+std::map<std::string, bool> IngestPipeline::placedRobots() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  const int main_map = mainMapLocked();
+  const std::map<std::string, LocalizeRobotStats> localizing = localize_.stats();
+  std::map<std::string, bool> placed;
+  for (ServerRobotStats robot : registry_.stats()) {
+    fillPlacementLocked(&robot, main_map, localizing);
+    placed[robot.robot_id] = robot.placed;
+  }
+  return placed;
+}
+
+int IngestPipeline::mainMapLocked() const {
+  const auto& nodes = graph_.index().nodes();
+  return nodes.empty() || !nodes.front().valid ? -1 : nodes.front().kf.map_id;
+}
+
+void IngestPipeline::fillPlacementLocked(ServerRobotStats* robot, int main_map,
+                                         const std::map<std::string, LocalizeRobotStats>& localizing) const {
+  graph_.index().fillRobotStats(robot, registry_.index(robot->robot_id));
+  // A mapping robot is placed once its newest keyframe is in the map of the graph's first keyframe.
+  robot->placed = robot->map_id >= 0 && robot->map_id == main_map;
+  if (robot->mode != "localize") return;
+  const auto it = localizing.find(robot->robot_id);
+  if (it == localizing.end()) return;
+  robot->placed = it->second.placed;
+  robot->map_id = it->second.map_id;
+  robot->first_placement_s = it->second.first_placement_s;
+  robot->keyframes_localized = it->second.keyframes;
+  robot->keyframes_matched = it->second.keyframes_matched;
 }
 
 std::vector<ServerKeyframe> IngestPipeline::keyframes() const {

@@ -20,6 +20,10 @@ void StatusPublisher::setRejectCounts(std::function<std::vector<msg::RejectCount
 
 void StatusPublisher::setStateSource(std::function<std::string()> state) { state_ = std::move(state); }
 
+void StatusPublisher::setPlacementSource(std::function<std::map<std::string, bool>()> placed) {
+  placed_ = std::move(placed);
+}
+
 void StatusPublisher::start() {
   if (period_s_ > 0.0) worker_.start();
 }
@@ -30,6 +34,7 @@ msg::ServerStatus StatusPublisher::status() const {
   msg::ServerStatus status;
   status.uptime_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - started_).count();
   status.graph_revision = graph_revision_();
+  const std::map<std::string, bool> placed = placed_ ? placed_() : std::map<std::string, bool>{};
   for (const ServerRobotStats& r : registry_.stats()) {
     msg::RobotStatus s;
     s.robot_id = r.robot_id;
@@ -37,6 +42,9 @@ msg::ServerStatus StatusPublisher::status() const {
     s.loop_closures = r.loops;
     s.rejected_messages = static_cast<int64_t>(r.keyframes_refused);
     s.last_utime = r.last_utime;
+    s.localize = r.mode == "localize";
+    const auto it = placed.find(r.robot_id);
+    s.placed = it == placed.end() || it->second;
     status.robots.push_back(s);
   }
   status.state = state_ ? state_() : "running";

@@ -93,6 +93,8 @@ class MapServer {
   /// (robots, monitors, viewers) before a run stops. False on timeout.
   bool flushMapStreams(double timeout_s);
   MapServerStats stats() const;
+  /// The ServerStatus as the status thread would publish it now (also with server.status_period_s = 0).
+  msg::ServerStatus status() const;
   /// Keyframes with their current (optimised) poses, in ingestion order.
   std::vector<ServerKeyframe> keyframes() const;
   /// Loop edges in the order they were found.

@@ -13,6 +13,7 @@
 #include <chrono>
 #include <cstdint>
 #include <functional>
+#include <map>
 #include <memory>
 #include <mutex>
 #include <string>
@@ -100,9 +101,16 @@ class IngestPipeline {
   std::vector<ServerLoop> loops() const;
   std::vector<double> ingestTimesMs() const;
   int64_t graphRevision() const;
+  /// Per robot that said Hello: its pose is in the map (ServerRobotStats::placed), for the status thread.
+  std::map<std::string, bool> placedRobots() const;
 
  private:
   using Lock = std::unique_lock<std::mutex>;
+
+  /// robot's map, chains and `placed` (main_map: the map of the graph's first keyframe).
+  void fillPlacementLocked(ServerRobotStats* robot, int main_map,
+                           const std::map<std::string, LocalizeRobotStats>& localizing) const;
+  int mainMapLocked() const;
 
   /// False for a keyframe seen before (stored, deferred, waiting in the chain order or refused): answered
   /// again.

@@ -4,6 +4,7 @@
 #include <chrono>
 #include <cstdint>
 #include <functional>
+#include <map>
 #include <string>
 #include <vector>
 
@@ -25,6 +26,8 @@ class StatusPublisher {
 
   /// The `state` text of the status ("running" when not set); set before start().
   void setStateSource(std::function<std::string()> state);
+  /// Per robot: its pose is in the map (RobotStatus::placed; a robot not named there: true). Before start().
+  void setPlacementSource(std::function<std::map<std::string, bool>()> placed);
   void start();  ///< no effect when the period is 0
   void stop();   ///< idempotent
 
@@ -40,6 +43,7 @@ class StatusPublisher {
   const std::function<int64_t()> graph_revision_;
   std::function<std::vector<msg::RejectCount>()> reject_counts_;
   std::function<std::string()> state_;
+  std::function<std::map<std::string, bool>()> placed_;
   const std::chrono::steady_clock::time_point started_ = std::chrono::steady_clock::now();
   SerialWorker worker_;  ///< last member
 };
