@@ -3,11 +3,11 @@
 #   1. synthetic: a map of the loop (160 frames); the same room and path sampled anew (100 frames, another
 #      session) localises in it with --frozen-map: placed within 1 s of its first keyframe, its every-frame
 #      poses in the stored map's frame (the first session's ground-truth alignment, `rgbdmap eval
-#      --align-on`) within 2 x the first session's ATE, slices sent to it, the map directory byte-identical
-#      before and after;
+#      --align-on`) within 2 x the first session's ATE, slices sent to it, the robot told it is placed (its
+#      link logs the ServerStatus' placement), the map directory byte-identical before and after;
 #   2. never placed wrongly: other rooms (loop and sweep scenes of other seeds, 60 frames) against that map and, when
 #      ../shared/data has it, against the fr1_xyz map below: not one is placed (each gets slices of its own
-#      keyframes meanwhile);
+#      keyframes meanwhile, and its link logs that it is not placed);
 #   3. fr1_xyz (../shared/data, skipped when absent): frames 0-249 map, 250-499 localise (same checks as 1);
 #      the same 250-499 extend a copy of the map (no --frozen-map): one map of both sessions whose
 #      keyframes' ATE is under EXTEND_BOUND; fr1_rpy (the same desk, the same motion-capture frame) is
@@ -32,6 +32,7 @@ localise() {
   [ "$(find "$map" -type f | wc -l)" = "$(wc -l <"$out/$name.before.md5")" ] || fail "$name: a file appeared in the map"
   [ "$(robot "$out/$name" mode)" = localize ] && [ "$(robot "$out/$name" placed)" = true ] || fail "$name: not placed"
   [ "$(jq .server.slices_sent "$out/$name/report.json")" -gt 0 ] || fail "$name: no slice sent to the placed robot"
+  grep -q ": placed in the stored map" "$out/$name.log" || fail "$name: the robot was not told (ServerStatus) it is placed"
   local first; first=$(robot "$out/$name" first_placement_s)
   lt "$first" 1.0 || fail "$name: first placement after $first s"
   local one two; one=$(ate "$gt1" "$est1") two=$(ate "$ds/groundtruth.txt" "$out/$name/trajectory_robot0.txt" --align-on "$est1" --align-gt "$gt1")
@@ -43,6 +44,8 @@ unplaced() {
   "$rg" run --dataset "$2" --map "$3" --frozen-map --out "$out/$1" >"$out/$1.log" 2>&1 || fail "$1: rgbdmap run"
   [ "$(robot "$out/$1" placed)" = false ] || fail "$1: placed in a map of another place"
   [ "$(jq .server.slices_sent "$out/$1/report.json")" -gt 0 ] || fail "$1: no slice from its own keyframes"
+  grep -q "not placed in the stored map yet" "$out/$1.log" || fail "$1: the robot was not told it is unplaced"
+  ! grep -q ": placed in the stored map" "$out/$1.log" || fail "$1: the robot was told it is placed"
   tried=$((tried + 1))
 }
 tried=0

@@ -52,6 +52,7 @@ class RobotLink::Impl : public std::enable_shared_from_this<RobotLink::Impl> {
   std::optional<msg::OccupancySlice> slice_;
   std::optional<msg::VelocityCommand> command_;
   std::optional<msg::ServerStatus> status_;
+  std::optional<bool> placed_;  ///< a localising robot: placed in the stored map, as the last status says
 
  private:
   enum class Answer { kPending, kAccepted, kRefused };

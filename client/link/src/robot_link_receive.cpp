@@ -187,6 +187,12 @@ void RobotLink::Impl::handle(const msg::VelocityCommand& command) {
 
 void RobotLink::Impl::handle(const msg::ServerStatus& status) {
   std::lock_guard<std::mutex> lock(mutex_);
+  for (const msg::RobotStatus& r : status.robots)  // a localising robot logs where it stands, once a change
+    if (r.robot_id == options_.robot_id && r.localize && placed_ != r.placed) {
+      placed_ = r.placed;
+      log::info("robot ", options_.robot_id,
+                r.placed ? ": placed in the stored map" : ": localising, not placed in the stored map yet");
+    }
   status_ = status;
   ++counts_.status_received;
   noteServerRejects(status, true);
