@@ -14,8 +14,9 @@ function(rgbdmap_target_defaults target)
     # that compiles in about half the time of -O2 -g.
     target_compile_options(${target} PRIVATE -fsanitize=address,undefined -fno-omit-frame-pointer -O1 -g1)
     # Libraries that orchestrate rather than compute (the server's threads and queues, the viewer, the
-    # robot's link, messages, the store, file readers: datasets, MCAP, ROS 2 messages) at -O0: they are a third of the sanitizer tree's compile time and
-    # little of its tests' run time, which stays in vision, loop closure, the pose graph, BA and the octree.
+    # robot's link, messages, the store, file readers: datasets, MCAP, ROS 2 messages) at -O0: they are a
+    # third of the sanitizer tree's compile time and little of its tests' run time, which stays in vision,
+    # loop closure, the pose graph, BA and the octree.
     set(orchestration rgbdmap_server rgbdmap_server_ingest rgbdmap_server_intake rgbdmap_server_workers
         rgbdmap_server_model rgbdmap_viewer rgbdmap_robot_link rgbdmap_proto rgbdmap_map_export
         rgbdmap_map_store rgbdmap_transport rgbdmap_source rgbdmap_cli rgbdmap_cli_source rgbdmap_mcap
