@@ -367,6 +367,9 @@ void IngestPipeline::fillPlacementLocked(ServerRobotStats* robot, int main_map,
   // A mapping robot is placed once its newest keyframe is in the map of the graph's first keyframe.
   robot->placed = robot->map_id >= 0 && robot->map_id == main_map;
   if (robot->mode != "localize") return;
+  // A localising robot is placed by its own keyframes only, never by what the stored map holds of its id.
+  robot->placed = false;
+  robot->map_id = -1;
   const auto it = localizing.find(robot->robot_id);
   if (it == localizing.end()) return;
   robot->placed = it->second.placed;
