@@ -116,6 +116,31 @@ TEST(MapServerLocalize, AFrozenMapPlacesTheRobotWhereTheMapHasItAndDoesNotChange
   EXPECT_EQ(mapFiles(dir), before) << "a frozen map's directory changed";
 }
 
+// The stored map's own robot id coming back to localise is unplaced until its own keyframes place it: the
+// stored keyframes of that id do not count.
+TEST(MapServerLocalize, TheMapsOwnRobotIdIsUnplacedUntilItsKeyframesPlaceIt) {
+  const OdometrySegment& seg = loopSegment(kLoopFrames, 0, kLoopFrames / 3);
+  const std::string dir = freshDir("localize_same_id");
+  {
+    Harness h(dir);
+    ScriptedRobot robot(*h.transport, "robot0", testing::testKey(1), 100);
+    testing::driveRobot(*h.server, robot, seg);
+  }
+  MapServerConfig config = serverTestConfig(dir);
+  config.frozen_map = true;
+  Harness h(config);
+  ScriptedRobot robot(*h.transport, "robot0", testing::testKey(1), 300);
+  robot.hello(seg.camera, defaultT_base_camera(), false);
+  // Known from the store before its Hello (mapping); localising once the Hello is in.
+  ASSERT_TRUE(testing::eventually(
+      [&] {
+        const std::optional<msg::RobotStatus> r = statusOf(*h.server, "robot0");
+        return r && r->localize;
+      },
+      10.0));
+  EXPECT_FALSE(statusOf(*h.server, "robot0")->placed) << "placed by the stored keyframes of its id";
+}
+
 TEST(MapServerLocalize, ARobotAsksToLocalizeAndIsRefusedWhereTheServerDoesNotAllowIt) {
   const OdometrySegment& seg = loopSegment(kLoopFrames, 0, kLoopFrames / 3);
   const std::string dir = freshDir("localize_refused");
