@@ -125,7 +125,8 @@ Status writeClientOutputs(const std::string& out_dir, const ClientRunInfo& info,
   } files[] = {
       {base + "trajectory_" + R + ".txt", &r.final_map,
        "robot " + R +
-           ", every frame in the map frame (final corrections, re-anchored on reference keyframes)"},
+           ", every frame in the map frame (final corrections, re-anchored on reference keyframes, "
+           "smoothed)"},
       {base + "trajectory_" + R + "_live.txt", &r.live,
        "robot " + R + ", every frame as known live (map frame)"},
       {base + "keyframes_" + R + ".txt", &r.keyframes_final,

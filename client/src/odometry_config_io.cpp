@@ -54,7 +54,10 @@ const ConfigTable<OdometryConfig>& odometryConfigTable() {
           .add("max_lost_frames", &C::max_lost_frames, R::closed(0, 100000),
                "then a new segment starts (flagged discontinuity)")
           .add("min_keyframe_points", &C::min_keyframe_points, R::closed(3, 100000),
-               "features with depth needed for a keyframe");
+               "features with depth needed for a keyframe")
+          .add("trajectory_smoothing_s", &C::trajectory_smoothing_s, R::closed(0.0, 10.0),
+               "the finished every-frame trajectory (not the live poses) is refit by a local quadratic in "
+               "time over +- this (s) within each tracking segment; 0: off");
   return table;
 }
 

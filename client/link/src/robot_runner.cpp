@@ -7,6 +7,7 @@
 #include <thread>
 
 #include "rgbdmap/common/logging.hpp"
+#include "rgbdmap/dataset/trajectory_smoothing.hpp"
 
 namespace rgbdmap {
 
@@ -123,7 +124,8 @@ void trackFrame(const RgbdFrame& frame, VisualOdometry& vo, RobotLink& link, con
     }
   }
   link.setTrackingState(*last_keyframe, r.segment, r.state);
-  state->frames.push_back({r.timestamp, r.T_odom_cam, r.segment, r.reference_keyframe});
+  state->frames.push_back(
+      {r.timestamp, r.T_odom_cam, r.segment, r.reference_keyframe, r.state != TrackingState::kLost});
   out->live.push_back({r.timestamp, link.mapFromOdom(r.segment) * r.T_odom_cam});
   if (r.state != TrackingState::kLost)
     if (const Status s =
@@ -234,9 +236,13 @@ void reanchorFinalMap(const RobotLink& link, RobotRunResult* out) {
   out->final_map.clear();
   out->keyframes_final.clear();
   const Corrections corrections = keyframeCorrections(out->keyframe_records, link);
-  for (const FrameRecord& f : out->frame_records)
+  std::vector<SmoothingInput> inputs;
+  for (const FrameRecord& f : out->frame_records) {
     out->final_map.push_back(
         {f.timestamp, se3::normalized(finalMapFromOdom(f, corrections, link) * f.T_odom_cam)});
+    inputs.push_back({f.segment, f.tracked});
+  }
+  out->final_map = smoothTrajectory(out->final_map, inputs, out->trajectory_smoothing_s);
   for (const auto& [id, kf] : out->keyframe_records) {
     const std::optional<SE3> T_map_kf = link.correctedKeyframe(id);
     out->keyframes_final.push_back(
@@ -255,6 +261,7 @@ RobotRunResult runRobot(FrameSource& source, const CameraIntrinsics& camera, con
                         RobotLink& link, const RobotRunOptions& options) {
   RobotRunResult out;
   out.waited_for_server = options.lockstep_s > 0.0;
+  out.trajectory_smoothing_s = odometry.trajectory_smoothing_s;
   const Clock::time_point start = Clock::now();
   RunState state;
   try {

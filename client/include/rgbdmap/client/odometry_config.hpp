@@ -32,6 +32,9 @@ struct OdometryConfig {
   int min_tracking_inliers = 20;     ///< fewer inliers than this is a tracking loss
   int max_lost_frames = 10;          ///< after this many lost frames a new segment starts at the prediction
   int min_keyframe_points = 50;      ///< a keyframe needs at least this many features with depth
+  /// The finished every-frame trajectory (trajectory_<robot>.txt, not the live poses) is smoothed by a local
+  /// quadratic in time over +-this many seconds (smoothTrajectory); 0: off.
+  double trajectory_smoothing_s = 0.3;
 };
 
 }  // namespace rgbdmap

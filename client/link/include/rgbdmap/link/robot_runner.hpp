@@ -79,6 +79,7 @@ struct RunFrameRecord {
   SE3 T_odom_cam = SE3::Identity();
   int segment = 0;
   int reference_keyframe = -1;
+  bool tracked = true;  ///< false: lost, the pose is the odometry's prediction
 };
 /// Per keyframe the odometry made.
 struct RunKeyframeRecord {
@@ -92,10 +93,12 @@ struct RobotRunResult {
   Trajectory live;
   /// Every frame re-anchored on the final corrected keyframes of its segment: T_map_odom at the frame's time
   /// is interpolated by time between the corrections T_map_kf(final) * T_odom_kf^-1 of the keyframes before
-  /// and after it (a keyframe's frame gets its optimised pose; mapFromOdom(segment) when none is corrected).
+  /// and after it (mapFromOdom(segment) when none is corrected); then, with trajectory_smoothing_s > 0, the
+  /// tracked frames of each segment smoothed by smoothTrajectory.
   Trajectory final_map;
-  Trajectory odometry;         ///< every frame, odometry frame
-  Trajectory keyframes_final;  ///< keyframe poses, final corrected (map frame)
+  double trajectory_smoothing_s = 0.0;  ///< OdometryConfig::trajectory_smoothing_s of the run
+  Trajectory odometry;                  ///< every frame, odometry frame
+  Trajectory keyframes_final;           ///< keyframe poses, final corrected (map frame)
   std::vector<StageTimes> times;
   int frames = 0, keyframes = 0, losses = 0, segments = 0, unreadable_frames = 0;
   int dropped_frames = 0;          ///< a live source's frames the odometry was too slow for (newest wins)
