@@ -1,5 +1,6 @@
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <random>
 
 #include <gtest/gtest.h>
@@ -130,6 +131,23 @@ TEST(TrajectorySmoothing, DegenerateInputsStayFinite) {
     EXPECT_TRUE(se3::isValid(p.T_world_cam, 1e-6));
   Trajectory two(gt.begin(), gt.begin() + 2);  // a line through two poses passes through both
   EXPECT_LT(positionRms(smoothTrajectory(two, {}, 0.3), two), 1e-9);
+}
+
+TEST(TrajectorySmoothing, NonFiniteInputNeitherSpreadsNorCrashes) {
+  const Trajectory gt = truth(40);
+  std::mt19937 rng(11);
+  std::normal_distribution<double> noise(0.0, 0.003);
+  Trajectory poses = gt;
+  for (StampedPose& p : poses) p.T_world_cam.translation() += Vec3(noise(rng), noise(rng), noise(rng));
+  poses[20].T_world_cam.translation().x() = std::numeric_limits<double>::quiet_NaN();
+  const Trajectory out = smoothTrajectory(poses, {}, 0.3);
+  // Its neighbours are smoothed without it (a NaN in their fits would leave them as they were).
+  Trajectory near_in(poses.begin() + 12, poses.begin() + 20), near_out(out.begin() + 12, out.begin() + 20),
+      near_gt(gt.begin() + 12, gt.begin() + 20);
+  EXPECT_LT(positionRms(near_out, near_gt), 0.7 * positionRms(near_in, near_gt));
+  Trajectory bad_stamp = gt;
+  bad_stamp[5].timestamp = std::numeric_limits<double>::infinity();
+  EXPECT_LT(positionRms(smoothTrajectory(bad_stamp, {}, 0.3), bad_stamp), 1e-15);
 }
 
 }  // namespace

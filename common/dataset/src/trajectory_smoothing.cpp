@@ -57,9 +57,13 @@ SE3 smoothOne(const Trajectory& poses, const std::vector<SmoothingInput>& inputs
 Trajectory smoothTrajectory(const Trajectory& poses, const std::vector<SmoothingInput>& inputs_in,
                             double half_window_s) {
   if (!(half_window_s > 0.0) || poses.size() < 2) return poses;
-  const std::vector<SmoothingInput> inputs =
+  std::vector<SmoothingInput> inputs =
       inputs_in.size() == poses.size() ? inputs_in : std::vector<SmoothingInput>(poses.size());
-  // Indices grouped by segment (in order of appearance), each group in time order.
+  for (size_t i = 0; i < poses.size(); ++i) {
+    if (!std::isfinite(poses[i].timestamp)) return poses;  // no time order to fit in
+    if (!poses[i].T_world_cam.matrix().allFinite()) inputs[i].usable = false;
+  }
+  // Indices grouped by segment id, each group in time order.
   std::vector<size_t> order(poses.size());
   for (size_t i = 0; i < order.size(); ++i) order[i] = i;
   std::stable_sort(order.begin(), order.end(), [&](size_t a, size_t b) {

@@ -18,7 +18,8 @@ struct SmoothingInput {
 /// space at the pose's own rotation (R exp(fit at 0) over log(R^T R_j)). A quadratic keeps constant
 /// acceleration exactly; where the window holds fewer than 3 distinct times the degree drops (one pose: as
 /// it is). `inputs` parallel to it (empty: one segment, all
-/// usable). half_window_s <= 0 returns the poses unchanged.
+/// usable). A non-finite pose counts as unusable; half_window_s <= 0 or a non-finite stamp returns the poses
+/// unchanged.
 Trajectory smoothTrajectory(const Trajectory& poses, const std::vector<SmoothingInput>& inputs,
                             double half_window_s);
 
