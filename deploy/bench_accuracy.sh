@@ -4,8 +4,8 @@
 # the synthetic loop and sweep (exact ground truth). One row per sequence:
 #   odometry      ATE of the robot's odometry alone (report.json ate_rmse_odometry_only_m)
 #   keyframes     ATE of the optimised keyframes alone (keyframes_robot0.txt)
-#   full system   ATE of every frame in the map frame (trajectory_robot0.txt); with --runs N > 1 the median
-#                 and the min-max over the N runs
+#   full system   ATE of every frame in the map frame (trajectory_robot0.txt, smoothed); with --runs N > 1
+#                 the median and the min-max over the N runs
 #   2 robots      the joint ATE of two robots on overlapping halves, one merged map
 #   client ms     the robot's odometry per frame, median (report.json client_ms_per_frame_median)
 #   ingest / decode CPU ms   the server's ingest worker and decode thread CPU per keyframe, median
