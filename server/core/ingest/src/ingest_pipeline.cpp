@@ -365,16 +365,16 @@ void IngestPipeline::fillPlacementLocked(ServerRobotStats* robot, int main_map,
                                          const std::map<std::string, LocalizeRobotStats>& localizing) const {
   graph_.index().fillRobotStats(robot, registry_.index(robot->robot_id));
   // A mapping robot is placed once its newest keyframe is in the map of the graph's first keyframe; a
-  // localising one by its own keyframes only, never by what the stored map holds of its robot id.
-  const bool localizing_robot = robot->mode == "localize";
-  robot->placed = !localizing_robot && robot->map_id >= 0 && robot->map_id == main_map;
-  const auto it = localizing_robot ? localizing.find(robot->robot_id) : localizing.end();
-  if (localizing_robot) robot->map_id = it == localizing.end() ? -1 : it->second.map_id;
-  if (it == localizing.end()) return;
-  robot->placed = it->second.placed;
-  robot->first_placement_s = it->second.first_placement_s;
-  robot->keyframes_localized = it->second.keyframes;
-  robot->keyframes_matched = it->second.keyframes_matched;
+  // localising one by its own session only (none yet: unplaced), never by the stored map's keyframes.
+  robot->placed = robot->map_id >= 0 && robot->map_id == main_map;
+  if (robot->mode != "localize") return;
+  const auto it = localizing.find(robot->robot_id);
+  const LocalizeRobotStats session = it == localizing.end() ? LocalizeRobotStats{} : it->second;
+  robot->placed = session.placed;
+  robot->map_id = session.map_id;
+  robot->first_placement_s = session.first_placement_s;
+  robot->keyframes_localized = session.keyframes;
+  robot->keyframes_matched = session.keyframes_matched;
 }
 
 std::vector<ServerKeyframe> IngestPipeline::keyframes() const {
