@@ -1,5 +1,9 @@
 // runRobot on a short synthetic sequence against the fake server; the client configuration file and keys.
+#include <fstream>
+#include <string>
+
 #include <gtest/gtest.h>
+#include <opencv2/imgcodecs.hpp>
 
 #include "common/temp_dir.hpp"
 #include "config_file_check.hpp"
@@ -108,6 +112,65 @@ TEST_F(RobotRun, FinalMapIsTheServersTransformTimesOdometry) {
   const SE3 T_gt0 = gt.front().T_world_cam;
   const SE3 moved = T_gt0.inverse() * gt[19].T_world_cam;
   EXPECT_LT((r.odometry[19].T_world_cam.translation() - moved.translation()).norm(), 0.03);
+}
+
+TEST_F(RobotRun, LostFramesAreBridgedBetweenTheTrackedFramesAroundThem) {
+  // Frames 8-10 blanked to one grey: no corner, so the odometry loses them and holds its prediction; frame 11
+  // tracks again in the same segment.
+  rgbdmap::testing::TempDir blank_dir;
+  ASSERT_TRUE(writeSyntheticSequence(config_, blank_dir.dir()));
+  std::ifstream list(blank_dir.path("rgb.txt"));
+  std::string line;
+  int index = 0;
+  while (std::getline(list, line)) {
+    if (line.empty() || line[0] == '#') continue;
+    if (index >= 8 && index <= 10) {
+      const std::string file = line.substr(line.find(' ') + 1);
+      ASSERT_TRUE(cv::imwrite(blank_dir.path(file), cv::Mat(config_.camera.height, config_.camera.width,
+                                                            CV_8UC3, cv::Scalar::all(128))));
+    }
+    ++index;
+  }
+  DatasetOptions o;
+  o.depth_scale = config_.camera.depth_scale;
+  o.expected_width = config_.camera.width;
+  o.expected_height = config_.camera.height;
+  auto data = TumDataset::open(blank_dir.dir(), o);
+  ASSERT_TRUE(data) << data.error();
+
+  auto transport = testing::makeMemq();
+  testing::FakeServerOptions so;
+  so.verify_key = so.sign_key = testing::linkKey(1);
+  const SE3 T_map_odom = testPose(5);
+  so.T_map_odom = {{0, T_map_odom}};
+  testing::FakeMapServer server(*transport, so);
+  server.start();
+  RobotLinkOptions lo = testing::linkOptions("robot0", testing::linkKey(1));
+  lo.camera = config_.camera;
+  RobotLink link(*transport, lo);
+  ASSERT_TRUE(link.start());
+  RobotRunOptions ro;
+  ro.realtime = false;
+  ro.final_wait_s = 10.0;
+  OdometryConfig unsmoothed;
+  unsmoothed.trajectory_smoothing_s = 0.0;
+  const RobotRunResult r = runRobot(*data, config_.camera, unsmoothed, link, ro);
+  ASSERT_EQ(r.frames, 20);
+  ASSERT_TRUE(r.final_correction_received);
+  EXPECT_EQ(r.segments, 1);
+  for (int i = 0; i < 20; ++i) EXPECT_EQ(r.frame_records[i].tracked, i < 8 || i > 10) << "frame " << i;
+  const double span = r.odometry[11].timestamp - r.odometry[7].timestamp;
+  for (size_t i = 0; i < 20; ++i) {
+    const SE3 odometry_in_map = T_map_odom * r.odometry[i].T_world_cam;
+    const SE3 expected = i < 8 || i > 10
+                             ? odometry_in_map
+                             : se3::interpolate(T_map_odom * r.odometry[7].T_world_cam,
+                                                T_map_odom * r.odometry[11].T_world_cam,
+                                                (r.odometry[i].timestamp - r.odometry[7].timestamp) / span);
+    EXPECT_LT(maxPoseDifference(r.final_map[i].T_world_cam, expected), 1e-9) << "frame " << i;
+  }
+  // The held prediction is not what the final trajectory reports.
+  EXPECT_GT(maxPoseDifference(r.final_map[10].T_world_cam, T_map_odom * r.odometry[10].T_world_cam), 1e-6);
 }
 
 TEST_F(RobotRun, RealtimePacingFrameRangeAndStop) {

@@ -242,7 +242,8 @@ void reanchorFinalMap(const RobotLink& link, RobotRunResult* out) {
         {f.timestamp, se3::normalized(finalMapFromOdom(f, corrections, link) * f.T_odom_cam)});
     inputs.push_back({f.segment, f.tracked});
   }
-  out->final_map = smoothTrajectory(out->final_map, inputs, out->trajectory_smoothing_s);
+  out->final_map =
+      smoothTrajectory(bridgeUnusable(out->final_map, inputs), inputs, out->trajectory_smoothing_s);
   for (const auto& [id, kf] : out->keyframe_records) {
     const std::optional<SE3> T_map_kf = link.correctedKeyframe(id);
     out->keyframes_final.push_back(

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <optional>
 
 #include <Eigen/QR>
 
@@ -78,6 +79,39 @@ Trajectory smoothTrajectory(const Trajectory& poses, const std::vector<Smoothing
       if (inputs[order[i]].usable)
         out[order[i]].T_world_cam = smoothOne(poses, inputs, order, i, begin, end, half_window_s);
     begin = end;
+  }
+  return out;
+}
+
+Trajectory bridgeUnusable(const Trajectory& poses, const std::vector<SmoothingInput>& inputs) {
+  if (inputs.size() != poses.size()) return poses;
+  std::vector<size_t> order(poses.size());
+  for (size_t i = 0; i < poses.size(); ++i) {
+    if (!std::isfinite(poses[i].timestamp)) return poses;  // no time order to interpolate in
+    order[i] = i;
+  }
+  std::stable_sort(order.begin(), order.end(),
+                   [&](size_t a, size_t b) { return poses[a].timestamp < poses[b].timestamp; });
+  auto usable = [&](size_t i) { return inputs[i].usable && poses[i].T_world_cam.matrix().allFinite(); };
+  Trajectory out = poses;
+  std::optional<size_t> before;  // the last usable pose so far, in time order
+  for (size_t k = 0; k < order.size(); ++k) {
+    if (usable(order[k])) {
+      before = order[k];
+      continue;
+    }
+    size_t next = k + 1;
+    while (next < order.size() && !usable(order[next])) ++next;
+    if (before && next < order.size()) {
+      const StampedPose& a = poses[*before];
+      const StampedPose& b = poses[order[next]];
+      const double span = b.timestamp - a.timestamp;
+      for (size_t j = k; j < next; ++j) {
+        const double alpha = span > 0.0 ? (poses[order[j]].timestamp - a.timestamp) / span : 0.5;
+        out[order[j]].T_world_cam = se3::normalized(se3::interpolate(a.T_world_cam, b.T_world_cam, alpha));
+      }
+    }
+    k = next - 1;  // the loop's ++k lands on the usable pose after the gap (or the end)
   }
   return out;
 }

@@ -93,8 +93,9 @@ struct RobotRunResult {
   Trajectory live;
   /// Every frame re-anchored on the final corrected keyframes of its segment: T_map_odom at the frame's time
   /// is interpolated by time between the corrections T_map_kf(final) * T_odom_kf^-1 of the keyframes before
-  /// and after it (mapFromOdom(segment) when none is corrected); then, with trajectory_smoothing_s > 0, the
-  /// tracked frames of each segment smoothed by smoothTrajectory.
+  /// and after it (mapFromOdom(segment) when none is corrected); lost frames then placed between the tracked
+  /// frames around them (bridgeUnusable); then, with trajectory_smoothing_s > 0, the tracked frames of each
+  /// segment smoothed by smoothTrajectory.
   Trajectory final_map;
   double trajectory_smoothing_s = 0.0;  ///< OdometryConfig::trajectory_smoothing_s of the run
   Trajectory odometry;                  ///< every frame, odometry frame

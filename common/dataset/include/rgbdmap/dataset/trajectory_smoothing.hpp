@@ -23,4 +23,13 @@ struct SmoothingInput {
 Trajectory smoothTrajectory(const Trajectory& poses, const std::vector<SmoothingInput>& inputs,
                             double half_window_s);
 
+/// Each unusable pose (a lost frame's held prediction) replaced by the interpolation in time between the
+/// nearest usable poses before and after it (se3::interpolate: the position on the straight line, the
+/// rotation by the geodesic), across segments too: where tracking came back in a new segment, both ends
+/// are in the frame the caller gives (the final map), while a prediction held over the gap drifts
+/// unboundedly. A gap with no usable pose on one side (the start or end of the run) stays as it is.
+/// `inputs` parallel to the poses (empty or another size: all usable, nothing changes); a non-finite
+/// pose counts as unusable; a non-finite stamp returns the poses unchanged.
+Trajectory bridgeUnusable(const Trajectory& poses, const std::vector<SmoothingInput>& inputs);
+
 }  // namespace rgbdmap
