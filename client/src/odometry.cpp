@@ -5,6 +5,7 @@
 #include <cmath>
 
 #include "rgbdmap/client/keyframe_selector.hpp"
+#include "rgbdmap/common/logging.hpp"
 #include "rgbdmap/vision/guided_matcher.hpp"
 #include "rgbdmap/vision/matcher.hpp"
 #include "rgbdmap/vision/pose_refiner.hpp"
@@ -163,6 +164,9 @@ std::shared_ptr<Keyframe> VisualOdometry::makeKeyframe(FrameFeatures features,
 void VisualOdometry::handleLoss(FrameFeatures features, TrackingResult* r) {
   ++losses_;
   ++consecutive_lost_;
+  log::debug("odometry: frame ", r->frame_index, " lost against keyframe ", reference_->id, " and ",
+             config_.relocalization_keyframes, " before it: ", r->matches, " matches, ", r->inliers,
+             " inliers (", config_.min_tracking_inliers, " needed)");
   r->state = TrackingState::kLost;
   r->T_odom_cam = predictPose();
   const bool can_restart = static_cast<int>(features.countWithDepth()) >= config_.min_keyframe_points;

@@ -28,7 +28,7 @@ struct OdometryConfig {
   double window_max_correction_m = 0.025;  ///< a window result moving the pose more than this is rejected
   double window_max_correction_deg = 2.0;  ///< ... or rotating it more than this
   bool window_every_frame = false;
-  int relocalization_keyframes = 5;  ///< recent keyframes tried when tracking against the last one fails
+  int relocalization_keyframes = 15;  ///< recent keyframes tried when tracking against the last one fails
   int min_tracking_inliers = 20;     ///< fewer inliers than this is a tracking loss
   int max_lost_frames = 10;          ///< after this many lost frames a new segment starts at the prediction
   int min_keyframe_points = 50;      ///< a keyframe needs at least this many features with depth
