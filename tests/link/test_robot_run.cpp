@@ -22,6 +22,34 @@ namespace {
 using testing::maxPoseDifference;
 using testing::testPose;
 
+/// A fake server that answers robot0 with one T_map_odom, and robot0's link to it, started, over memq.
+struct ServerAndLink {
+  ServerAndLink(const SE3& T_map_odom, const CameraIntrinsics& camera)
+      : transport(testing::makeMemq()),
+        server(*transport, serverOptions(T_map_odom)),
+        options(linkOptions(camera)),
+        link(*transport, options) {
+    server.start();
+    started = static_cast<bool>(link.start());
+  }
+  static testing::FakeServerOptions serverOptions(const SE3& T_map_odom) {
+    testing::FakeServerOptions so;
+    so.verify_key = so.sign_key = testing::linkKey(1);
+    so.T_map_odom = {{0, T_map_odom}};
+    return so;
+  }
+  static RobotLinkOptions linkOptions(const CameraIntrinsics& camera) {
+    RobotLinkOptions lo = testing::linkOptions("robot0", testing::linkKey(1));
+    lo.camera = camera;
+    return lo;
+  }
+  std::unique_ptr<transport::Transport> transport;
+  testing::FakeMapServer server;
+  RobotLinkOptions options;
+  RobotLink link;
+  bool started = false;
+};
+
 class RobotRun : public ::testing::Test {
  protected:
   static void SetUpTestSuite() {
@@ -32,12 +60,12 @@ class RobotRun : public ::testing::Test {
     ASSERT_TRUE(writeSyntheticSequence(config_, dir_->dir()));
   }
   static void TearDownTestSuite() { delete dir_; }
-  TumDataset dataset() const {
+  TumDataset dataset(const std::string& dir = dir_->dir()) const {
     DatasetOptions o;
     o.depth_scale = config_.camera.depth_scale;
     o.expected_width = config_.camera.width;
     o.expected_height = config_.camera.height;
-    auto d = TumDataset::open(dir_->dir(), o);
+    auto d = TumDataset::open(dir, o);
     EXPECT_TRUE(d) << d.error();
     return std::move(d).value();
   }
@@ -50,23 +78,17 @@ SynthConfig RobotRun::config_;
 RGBDMAP_TEST_TIER("RobotRun.*", "e2e");
 RGBDMAP_TEST_TIER("RobotRun.FinalMapIsTheServersTransformTimesOdometry", "e2e sanitize");
 TEST_F(RobotRun, FinalMapIsTheServersTransformTimesOdometry) {
-  auto transport = testing::makeMemq();
-  testing::FakeServerOptions so;
-  so.verify_key = so.sign_key = testing::linkKey(1);
   const SE3 T_map_odom = testPose(3);
-  so.T_map_odom = {{0, T_map_odom}};
-  testing::FakeMapServer server(*transport, so);
-  server.start();
-  RobotLinkOptions lo = testing::linkOptions("robot0", testing::linkKey(1));
-  lo.camera = config_.camera;
-  RobotLink link(*transport, lo);
-  ASSERT_TRUE(link.start());
+  ServerAndLink sl(T_map_odom, config_.camera);
+  ASSERT_TRUE(sl.started);
+  testing::FakeMapServer& server = sl.server;
+  const RobotLinkOptions& lo = sl.options;
   RobotRunOptions ro;
   ro.realtime = false;
   ro.final_wait_s = 10.0;
   int progress_calls = 0;
   ro.progress = [&](int done, int total) { progress_calls += done <= total; };
-  const RobotRunResult r = runRobot(dataset(), config_.camera, OdometryConfig{}, link, ro);
+  const RobotRunResult r = runRobot(dataset(), config_.camera, OdometryConfig{}, sl.link, ro);
 
   ASSERT_EQ(r.frames, 20);
   EXPECT_EQ(progress_calls, 20);
@@ -131,30 +153,15 @@ TEST_F(RobotRun, LostFramesAreBridgedBetweenTheTrackedFramesAroundThem) {
     }
     ++index;
   }
-  DatasetOptions o;
-  o.depth_scale = config_.camera.depth_scale;
-  o.expected_width = config_.camera.width;
-  o.expected_height = config_.camera.height;
-  auto data = TumDataset::open(blank_dir.dir(), o);
-  ASSERT_TRUE(data) << data.error();
-
-  auto transport = testing::makeMemq();
-  testing::FakeServerOptions so;
-  so.verify_key = so.sign_key = testing::linkKey(1);
   const SE3 T_map_odom = testPose(5);
-  so.T_map_odom = {{0, T_map_odom}};
-  testing::FakeMapServer server(*transport, so);
-  server.start();
-  RobotLinkOptions lo = testing::linkOptions("robot0", testing::linkKey(1));
-  lo.camera = config_.camera;
-  RobotLink link(*transport, lo);
-  ASSERT_TRUE(link.start());
+  ServerAndLink sl(T_map_odom, config_.camera);
+  ASSERT_TRUE(sl.started);
   RobotRunOptions ro;
   ro.realtime = false;
   ro.final_wait_s = 10.0;
   OdometryConfig unsmoothed;
   unsmoothed.trajectory_smoothing_s = 0.0;
-  const RobotRunResult r = runRobot(*data, config_.camera, unsmoothed, link, ro);
+  const RobotRunResult r = runRobot(dataset(blank_dir.dir()), config_.camera, unsmoothed, sl.link, ro);
   ASSERT_EQ(r.frames, 20);
   ASSERT_TRUE(r.final_correction_received);
   EXPECT_EQ(r.segments, 1);
