@@ -1,8 +1,8 @@
 #!/usr/bin/env bash
 # The full system's accuracy as a user gets it: `rgbdmap run` on the shared fr1_rpy frames, every
 # frame of the trajectory it writes (map frame, re-anchored on the optimised keyframes, smoothed) against the ground
-# truth; one robot, then two robots on overlapping halves whose maps merge, then one robot on every 2nd and
-# every 4th frame (faster motion between frames). Skips (77) without the data.
+# truth; one robot, then two robots on overlapping halves whose maps merge, then one robot on every 4th frame
+# (faster motion between frames). Skips (77) without the data.
 # Measured (Release, 2 cores, `bash deploy/bench_accuracy.sh --only rpy --runs 3`; docs/results.md): one
 # robot 0.0105 m, odometry 0.0288 m, two robots joint 0.0106 m. The keyframes carry no features (the
 # server extracts them) and the keyframe message takes 57.7 KB mean (lossless depth 30.8 KB, JPEG colour
@@ -36,25 +36,21 @@ json "joint ATE <= 0.013 m" "$tmp/two/report.json" '.server.joint_ate_rmse_m <= 
 # gave 0.0147-0.0153 m and the joint map 0.0151-0.0172 m (ratio up to 1.12; 1 run in 5 failed at 1.1).
 json "joint ATE no worse than one robot on the whole sequence" "$tmp/two/report.json" \
   ".server.joint_ate_rmse_m <= 1.2 * $one"
-# Faster motion between frames: every 2nd and every 4th frame (15 and 7.5 Hz). At 7.5 Hz the odometry loses
-# a blurred turn; it relocalises against the keyframes before its reference (odometry.relocalization_keyframes)
-# and the frames it lost are placed between the tracked ones around them (client/link/README.md). Measured:
-# 0.0104 m (15 Hz, 1 frame lost) and 0.0127 m (7.5 Hz, none lost). Lost frames at the held prediction and 5
-# keyframes tried gave 0.0259 m at 15 Hz (11 frames lost; 0.0119 m with the lost frames placed); 5 keyframes
-# tried gave 0.1141 m at 7.5 Hz (the run restarted in a second map that never merged).
-rates=""
-for step in 2 4; do
-  sub="$tmp/every$step"
-  mkdir -p "$sub"
-  ln -s "$data/rgb" "$sub/rgb"
-  ln -s "$data/depth" "$sub/depth"
-  cp "$data/depth.txt" "$data/groundtruth.txt" "$sub/"
-  awk -v s="$step" '/^#/ {print; next} {if ((n++) % s == 0) print}' "$data/rgb.txt" >"$sub/rgb.txt"
-  check "rgbdmap run, one frame in $step" 0 "$bin/rgbdmap" run --dataset "$sub" --out "$sub/out" --log-level warn
-  bound=$([ "$step" = 2 ] && echo 0.014 || echo 0.017)
-  json "one frame in $step: one map, ATE <= $bound m" "$sub/out/report.json" \
-    ".server.maps == 1 and .robots.robot0.ate_rmse_m <= $bound"
-  rates="$rates one frame in $step $(jq '.robots.robot0.ate_rmse_m' "$sub/out/report.json") m"
-done
+# Faster motion between frames: every 4th frame (7.5 Hz). Through a blurred turn the odometry relocalises
+# against the keyframes before its reference (odometry.relocalization_keyframes): 0.0127 m in one map, none
+# lost; with 5 keyframes tried 0.1141 m (11 frames lost, a restart in a second map that never merged).
+# Every 2nd frame (15 Hz, not run here for time) gives 0.0104 m; the placing of lost frames that it needs
+# (0.0259 m without) is checked by link.RobotRun.LostFramesAreBridgedBetweenTheTrackedFramesAroundThem.
+step=4
+sub="$tmp/every$step"
+mkdir -p "$sub"
+ln -s "$data/rgb" "$sub/rgb"
+ln -s "$data/depth" "$sub/depth"
+cp "$data/depth.txt" "$data/groundtruth.txt" "$sub/"
+awk -v s="$step" '/^#/ {print; next} {if ((n++) % s == 0) print}' "$data/rgb.txt" >"$sub/rgb.txt"
+check "rgbdmap run, one frame in $step" 0 "$bin/rgbdmap" run --dataset "$sub" --out "$sub/out" --log-level warn
+json "one frame in $step: one map, ATE <= 0.017 m" "$sub/out/report.json" \
+  ".server.maps == 1 and .robots.robot0.ate_rmse_m <= 0.017"
+rates=" one frame in 4 $(jq '.robots.robot0.ate_rmse_m' "$sub/out/report.json") m"
 echo "measured: one robot $one m at $(jq '.robots.robot0.keyframe_message_bytes_mean' "$tmp/one/report.json") bytes per keyframe, two robots $(jq -c '[.robots.robot0.ate_rmse_m, .robots.robot1.ate_rmse_m, .server.joint_ate_rmse_m]' "$tmp/two/report.json"),$rates"
 exit "$fail"
