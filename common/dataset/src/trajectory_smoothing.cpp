@@ -53,17 +53,27 @@ SE3 smoothOne(const Trajectory& poses, const std::vector<SmoothingInput>& inputs
   return se3::isValid(out, 1e-6) ? se3::normalized(out) : p0.T_world_cam;
 }
 
+/// `inputs` parallel to `poses` (another size: one segment, all usable) with every non-finite pose marked
+/// unusable; nullopt when a stamp is not finite (there is no time order).
+std::optional<std::vector<SmoothingInput>> checkedInputs(const Trajectory& poses,
+                                                         const std::vector<SmoothingInput>& inputs_in) {
+  std::vector<SmoothingInput> inputs =
+      inputs_in.size() == poses.size() ? inputs_in : std::vector<SmoothingInput>(poses.size());
+  for (size_t i = 0; i < poses.size(); ++i) {
+    if (!std::isfinite(poses[i].timestamp)) return std::nullopt;
+    if (!poses[i].T_world_cam.matrix().allFinite()) inputs[i].usable = false;
+  }
+  return inputs;
+}
+
 }  // namespace
 
 Trajectory smoothTrajectory(const Trajectory& poses, const std::vector<SmoothingInput>& inputs_in,
                             double half_window_s) {
   if (!(half_window_s > 0.0) || poses.size() < 2) return poses;
-  std::vector<SmoothingInput> inputs =
-      inputs_in.size() == poses.size() ? inputs_in : std::vector<SmoothingInput>(poses.size());
-  for (size_t i = 0; i < poses.size(); ++i) {
-    if (!std::isfinite(poses[i].timestamp)) return poses;  // no time order to fit in
-    if (!poses[i].T_world_cam.matrix().allFinite()) inputs[i].usable = false;
-  }
+  const std::optional<std::vector<SmoothingInput>> checked = checkedInputs(poses, inputs_in);
+  if (!checked) return poses;
+  const std::vector<SmoothingInput>& inputs = *checked;
   // Indices grouped by segment id, each group in time order.
   std::vector<size_t> order(poses.size());
   for (size_t i = 0; i < order.size(); ++i) order[i] = i;
@@ -83,16 +93,14 @@ Trajectory smoothTrajectory(const Trajectory& poses, const std::vector<Smoothing
   return out;
 }
 
-Trajectory bridgeUnusable(const Trajectory& poses, const std::vector<SmoothingInput>& inputs) {
-  if (inputs.size() != poses.size()) return poses;
+Trajectory bridgeUnusable(const Trajectory& poses, const std::vector<SmoothingInput>& inputs_in) {
+  const std::optional<std::vector<SmoothingInput>> inputs = checkedInputs(poses, inputs_in);
+  if (!inputs) return poses;
   std::vector<size_t> order(poses.size());
-  for (size_t i = 0; i < poses.size(); ++i) {
-    if (!std::isfinite(poses[i].timestamp)) return poses;  // no time order to interpolate in
-    order[i] = i;
-  }
+  for (size_t i = 0; i < order.size(); ++i) order[i] = i;
   std::stable_sort(order.begin(), order.end(),
                    [&](size_t a, size_t b) { return poses[a].timestamp < poses[b].timestamp; });
-  auto usable = [&](size_t i) { return inputs[i].usable && poses[i].T_world_cam.matrix().allFinite(); };
+  auto usable = [&](size_t i) { return (*inputs)[i].usable; };
   Trajectory out = poses;
   std::optional<size_t> before;  // the last usable pose so far, in time order
   for (size_t k = 0; k < order.size(); ++k) {
