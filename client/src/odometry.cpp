@@ -164,7 +164,7 @@ std::shared_ptr<Keyframe> VisualOdometry::makeKeyframe(FrameFeatures features,
 void VisualOdometry::handleLoss(FrameFeatures features, TrackingResult* r) {
   ++losses_;
   ++consecutive_lost_;
-  log::debug("odometry: frame ", r->frame_index, " lost against keyframe ", reference_->id, " and ",
+  log::debug("odometry: frame ", r->frame_index, " lost against keyframe ", reference_->id, " and up to ",
              config_.relocalization_keyframes, " before it: ", r->matches, " matches, ", r->inliers,
              " inliers (", config_.min_tracking_inliers, " needed)");
   r->state = TrackingState::kLost;
