@@ -44,6 +44,7 @@ step transport bash "$root/deploy/bench_transport.sh"
 step synthetic_run $core "$bin/rgbdmap" run --out "$out/run_synthetic"
 if [ -d "$rpy" ]; then
   step odometry $core "$bin/bench_odometry"
+  step depth_scale $core "$bin/bench_depth_scale"
   step occupancy $core "$bin/bench_occupancy"
   step loop_closure $core "$bin/bench_loop_closure"
   step map_server $core "$bin/bench_map_server"
