@@ -2,9 +2,11 @@
 // (to 1e-6 relative), the manifold's Plus/Minus round trip, and the whitened residual values.
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <random>
 
 #include "rgbdmap/ba/ba_cost.hpp"
+#include "rgbdmap/ba/landmark_map.hpp"
 
 namespace rgbdmap {
 namespace {
@@ -153,6 +155,33 @@ TEST(BaCost, ManifoldPlusMinusRoundTrip) {
     // Plus is a left perturbation: T(y) = exp(d) * T(x).
     EXPECT_TRUE(paramsToPose(y).isApprox(se3::exp(d) * paramsToPose(c.pose), 1e-9));
   }
+}
+
+TEST(BaCost, RollingShutterPriorIsCentredOnTheMotionsPrediction) {
+  // A camera turning about its y axis at 1.5 rad/s, keyframes 0.1 s apart, a 20 ms readout: 0.03 rad.
+  SE3 T_prev_cur = SE3::Identity();
+  T_prev_cur.linear() = Eigen::AngleAxisd(0.15, Vec3::UnitY()).toRotationMatrix();
+  T_prev_cur.translation() = Vec3(0.05, 0.0, 0.01);
+  const Vec3 predicted = predictedRollingShutter(T_prev_cur, 0.1, 0.02);
+  EXPECT_LT((predicted - Vec3(0.0, 0.03, 0.0)).norm(), 1e-12);
+  // No prediction without a readout time (a global shutter) or a usable time step.
+  EXPECT_EQ(predictedRollingShutter(T_prev_cur, 0.1, 0.0), Vec3::Zero());
+  EXPECT_EQ(predictedRollingShutter(T_prev_cur, 0.0, 0.02), Vec3::Zero());
+  EXPECT_EQ(predictedRollingShutter(T_prev_cur, -0.1, 0.02), Vec3::Zero());
+  EXPECT_EQ(predictedRollingShutter(T_prev_cur, std::nan(""), 0.02), Vec3::Zero());
+  EXPECT_EQ(predictedRollingShutter(T_prev_cur, 2.0, 0.02), Vec3::Zero());
+  // The prior's residual is the distance from that centre, whitened, with the identity Jacobian / sigma.
+  const RollingShutterPrior prior(0.0025, predicted);
+  const double w[3] = {0.001, 0.03, -0.002};
+  const double* params[1] = {w};
+  double r[3], J[9];
+  double* jacobians[1] = {J};
+  ASSERT_TRUE(prior.Evaluate(params, r, jacobians));
+  EXPECT_NEAR(r[0], 0.001 / 0.0025, 1e-12);
+  EXPECT_NEAR(r[1], 0.0, 1e-12);
+  EXPECT_NEAR(r[2], -0.002 / 0.0025, 1e-12);
+  EXPECT_NEAR(J[0], 1.0 / 0.0025, 1e-9);
+  EXPECT_NEAR(J[1], 0.0, 1e-12);
 }
 
 }  // namespace

@@ -57,7 +57,11 @@ TEST(SchurSolver, ReachesTheMinimumCeresReaches) {
   o.keyframes = 10;
   o.rolling_shutter_rad = 0.01;
   const BaSynthScene s = makeBaSynthScene(o);
-  const BaProblem problem = syntheticProblem(s, 0.05, 3);
+  BaProblem problem = syntheticProblem(s, 0.05, 3);
+  // The rolling-shutter rotations start at, and their priors are centred on, a prediction 10 % short of the
+  // truth (the camera's motion gives one; the held anchor keeps its prediction).
+  for (size_t k = 0; k < problem.frames.size(); ++k)
+    problem.frames[k].w = problem.frames[k].w_prior = 0.9 * s.rolling_shutter[k];
   BaSolveConfig config;
   config.first_iterations = 20;  // both run to their convergence tests
   config.second_iterations = 30;
@@ -93,8 +97,8 @@ TEST(SchurSolver, ReachesTheMinimumCeresReaches) {
   EXPECT_GE(both.size(), n_out - n_out / 100);
   EXPECT_LT(max_dt, 2e-4);
   EXPECT_LT(max_dw, 1e-3);
-  EXPECT_LT(rms_own, 0.003);
-  EXPECT_LT(rms_ceres, 0.003);
+  EXPECT_LT(rms_own, 0.002);
+  EXPECT_LT(rms_ceres, 0.002);
 }
 
 // Relative-pose priors (pose-graph edges the landmarks do not cover) enter both solvers alike.

@@ -117,7 +117,7 @@ bool ObservationCost<kRows>::Evaluate(double const* const* parameters, double* r
 bool RollingShutterPrior::Evaluate(double const* const* parameters, double* residuals,
                                    double** jacobians) const {
   Eigen::Map<Vec3> r(residuals);
-  r = Eigen::Map<const Vec3>(parameters[0]) * inv_sigma_;
+  r = (Eigen::Map<const Vec3>(parameters[0]) - mean_) * inv_sigma_;
   if (jacobians && jacobians[0]) {
     Eigen::Map<Eigen::Matrix<double, 3, 3, Eigen::RowMajor>> J(jacobians[0]);
     J = Mat3::Identity() * inv_sigma_;

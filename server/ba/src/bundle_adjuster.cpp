@@ -133,7 +133,8 @@ class CeresBundle {
       // w is held in the first (robust) solve: with wrong matches still in, its freedom would fit them.
       problem_.SetParameterBlockConstant(w);
       if (!p.frames[o.frame].fixed_w && c.rolling_shutter) {
-        problem_.AddResidualBlock(new RollingShutterPrior(c.rolling_shutter_sigma_rad), nullptr, w);
+        problem_.AddResidualBlock(
+            new RollingShutterPrior(c.rolling_shutter_sigma_rad, p.frames[o.frame].w_prior), nullptr, w);
         rolling_shutter_.push_back(w);
       }
       free_frames_ += fixed ? 0 : 1;

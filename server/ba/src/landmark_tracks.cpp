@@ -60,6 +60,12 @@ size_t LandmarkMap::LandmarkTable::memoryBytes(size_t observations) const {
   return slots_.size() * sizeof(Landmark) + observations * sizeof(Observation);
 }
 
+Vec3 predictedRollingShutter(const SE3& T_prev_cur, double dt_s, double readout_s) {
+  if (!(dt_s > 0.0 && dt_s <= 1.0) || !(readout_s > 0.0)) return Vec3::Zero();
+  const Vec3 w = (readout_s / dt_s) * se3::logSO3(T_prev_cur.linear());
+  return w.allFinite() ? w : Vec3::Zero();
+}
+
 Status LandmarkMap::addKeyframe(LandmarkKeyframe keyframe) {
   if (keyframes_.count(keyframe.id))
     return Status::failure("duplicate keyframe " + std::to_string(keyframe.id));
@@ -75,6 +81,7 @@ Status LandmarkMap::addKeyframe(LandmarkKeyframe keyframe) {
     return Status::failure("keyframe " + std::to_string(keyframe.id) + ": invalid pose");
   Keyframe k;
   k.landmark.assign(n, -1);
+  k.w = keyframe.w_prior.allFinite() ? keyframe.w_prior : Vec3::Zero();
   k.kf = std::move(keyframe);
   if (cache_ && cache_->contains(k.kf.id)) k.kf.features.reset();  // the cache holds them
   feature_slots_ += static_cast<int64_t>(n);

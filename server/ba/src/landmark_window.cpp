@@ -253,7 +253,7 @@ BaProblem LandmarkMap::problemOf(const Window& w) const {
       const Keyframe& k = keyframes_.at(id);
       frame_index[id] = static_cast<int>(p.frames.size());
       const bool fixed = group == &w.fixed;
-      p.frames.push_back({id, k.kf.camera, k.kf.T_map_kf.inverse(), fixed, k.w, fixed});
+      p.frames.push_back({id, k.kf.camera, k.kf.T_map_kf.inverse(), fixed, k.w, fixed, k.kf.w_prior});
     }
   for (size_t i = 0; i < w.points.size(); ++i) {
     const int64_t l_id = w.points[i];

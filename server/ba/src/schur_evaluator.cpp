@@ -172,11 +172,12 @@ void SchurEvaluator<D>::addRollingShutterPriors(const std::vector<FrameState>& f
                                                 double* sum) const {
   for (int f = 0; f < s_.nf; ++f) {
     if (!s_.in_problem[f] || !s_.has_prior[f]) continue;
-    *sum += frames[f].w.squaredNorm() * prior_info_;
+    const Vec3 dw = frames[f].w - p_.frames[static_cast<size_t>(f)].w_prior;
+    *sum += dw.squaredNorm() * prior_info_;
     if (!lin || !s_.w_var[f]) continue;
     const int a = s_.frame_var[f];
     lin->U[a].template bottomRightCorner<3, 3>().diagonal().array() += prior_info_;
-    lin->g_frame[a].template tail<3>() += prior_info_ * frames[f].w;
+    lin->g_frame[a].template tail<3>() += prior_info_ * dw;
   }
 }
 

@@ -37,7 +37,7 @@ std::vector<LoopEdge> MapGraph::integrate(const StoredKeyframe& stored, const Fr
   // One copy of the features, shared by the loop detector and the bundle adjustment's landmark map.
   auto shared = std::make_shared<const FrameFeatures>(features);
   features_->add(stored.node_id, shared);  // the cache decides how long they stay in RAM
-  addToBatch(node, shared);
+  addToBatch(node, shared, kf, prev);
   LoopKeyframe lk(static_cast<int>(stored.node_id), robot, node.kf.map_id, node.kf.T_map_kf,
                   std::move(shared));
   if (!detect) {
@@ -136,7 +136,8 @@ void MapGraph::addToGraph(const IndexedNode& node, const msg::Keyframe& kf, std:
     addOdometryEdge(id, *prev, kf.T_prev_cur, odometryInformation(kf.information, config_.edgeInformation()));
 }
 
-void MapGraph::addToBatch(const IndexedNode& node, const std::shared_ptr<const FrameFeatures>& features) {
+void MapGraph::addToBatch(const IndexedNode& node, const std::shared_ptr<const FrameFeatures>& features,
+                          const msg::Keyframe& kf, std::optional<int64_t> prev) {
   const std::optional<CameraIntrinsics> camera = registry_.camera(node.kf.robot_id);
   if (!camera || !config_.ba.enabled) return;
   LandmarkKeyframe k;
@@ -147,6 +148,9 @@ void MapGraph::addToBatch(const IndexedNode& node, const std::shared_ptr<const F
   k.height = camera->height;
   k.T_map_kf = node.kf.T_map_kf;
   k.features = features;
+  if (prev)
+    k.w_prior = predictedRollingShutter(kf.T_prev_cur, kf.timestamp - index_.node(*prev).kf.timestamp,
+                                        config_.ba.landmarks.solve.rolling_shutter_readout_s);
   batch_.keyframes.push_back(std::move(k));
 }
 

@@ -91,15 +91,17 @@ class ObservationCost final : public ceres::SizedCostFunction<kRows, 7, 3, 3> {
 using ReprojectionCost = ObservationCost<2>;
 using ReprojectionDepthCost = ObservationCost<3>;
 
-/// The rolling-shutter rotation's prior: w / sigma (3 rows), so that a frame with few observations or a
-/// global-shutter camera keeps w near 0. Parameter block: w (3).
+/// The rolling-shutter rotation's prior: (w - mean) / sigma (3 rows), so that a frame with few observations
+/// keeps w near what its motion predicts (predictedRollingShutter; 0 for a global shutter). Parameter block:
+/// w (3).
 class RollingShutterPrior final : public ceres::SizedCostFunction<3, 3> {
  public:
-  explicit RollingShutterPrior(double sigma_rad) : inv_sigma_(1.0 / sigma_rad) {}
+  RollingShutterPrior(double sigma_rad, const Vec3& mean) : inv_sigma_(1.0 / sigma_rad), mean_(mean) {}
   bool Evaluate(double const* const* parameters, double* residuals, double** jacobians) const override;
 
  private:
   double inv_sigma_;
+  Vec3 mean_;
 };
 
 /// The whitened residual of one observation without Jacobians (for outlier tests): 2 or 3 rows, or

@@ -69,6 +69,11 @@ struct LandmarkMapConfig {
 };
 
 /// A keyframe as the landmark map needs it: pose, camera, map, features (shared, read-only).
+/// The rolling-shutter rotation a keyframe's motion predicts: `readout_s` times the camera's angular
+/// velocity, taken from the relative pose to the keyframe before (T_prev_cur, `dt_s` earlier; in the camera's
+/// own frame, as w is). Zero when dt_s is not in (0, 1] s or the rotation is not finite: no prediction.
+Vec3 predictedRollingShutter(const SE3& T_prev_cur, double dt_s, double readout_s);
+
 struct LandmarkKeyframe {
   int64_t id = 0;
   int map_id = 0;
@@ -76,6 +81,9 @@ struct LandmarkKeyframe {
   int width = 640, height = 480;
   SE3 T_map_kf = SE3::Identity();
   std::shared_ptr<const FrameFeatures> features;
+  /// The rolling-shutter rotation the camera's motion predicts (readout time x angular velocity, rad): the
+  /// mean of w's prior and its first estimate.
+  Vec3 w_prior = Vec3::Zero();
 };
 
 /// Inlier feature pairs of a verified edge: feature `first` of keyframe `from`, `second` of `to`.

@@ -84,7 +84,8 @@ class MapGraph {
   void addToGraph(const IndexedNode& node, const msg::Keyframe& kf, std::optional<int64_t> prev);
   void addOdometryEdge(int64_t from, int64_t to, const SE3& T_prev_cur, const Mat6& information);
   /// The keyframe's features and camera for bundle adjustment, into batch_.
-  void addToBatch(const IndexedNode& node, const std::shared_ptr<const FrameFeatures>& features);
+  void addToBatch(const IndexedNode& node, const std::shared_ptr<const FrameFeatures>& features,
+                  const msg::Keyframe& kf, std::optional<int64_t> prev);
   /// A keyframe integrated without its predecessor: the split is counted and remembered, so that the
   /// predecessor joins it with its odometry edge if it comes after all.
   void noteSplit(const IndexedNode& node, const msg::Keyframe& kf);
