@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <functional>
 #include <random>
 #include <vector>
 
@@ -44,10 +45,16 @@ inline std::vector<SE3> perturbed(const BaScene& s, double sigma_t, double sigma
 }
 
 /// Adds the scene's keyframes at `start` and the true matches of each to the three before it; with `split`
-/// > 0, keyframes before and from `split` on are two parts sharing no match (a part per room).
-inline void addScene(LandmarkMap* map, const BaScene& s, const std::vector<SE3>& start, int split = 0) {
+/// > 0, keyframes before and from `split` on are two parts sharing no match (a part per room). `w_prior`
+/// (when given) centres each keyframe's rolling-shutter prior.
+inline void addScene(LandmarkMap* map, const BaScene& s, const std::vector<SE3>& start, int split = 0,
+                     const std::function<Vec3(int)>& w_prior = nullptr) {
   const int n = static_cast<int>(start.size());
-  for (int k = 0; k < n; ++k) EXPECT_TRUE(map->addKeyframe(sceneKeyframe(s, k, start[k])));
+  for (int k = 0; k < n; ++k) {
+    LandmarkKeyframe kf = sceneKeyframe(s, k, start[k]);
+    if (w_prior) kf.w_prior = w_prior(k);
+    EXPECT_TRUE(map->addKeyframe(std::move(kf)));
+  }
   for (int k = 0; k < n; ++k)
     for (int j = std::max(split > 0 && k >= split ? split : 0, k - 3); j < k; ++j)
       map->addMatches(trueMatches(s, k, j));

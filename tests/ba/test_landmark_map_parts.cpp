@@ -2,8 +2,8 @@
 // held keyframe observes (kept in place, or placed by a prior between parts), and a refused adjustment.
 #include <gtest/gtest.h>
 
-#include <algorithm>
 #include <cstdio>
+#include <functional>
 
 #include "ba/landmark_test_util.hpp"
 
@@ -69,14 +69,11 @@ TEST(LandmarkMap, RollingShutterPriorCentredOnThePredictionRecoversTheRotation) 
     LandmarkMapConfig config;
     config.solve.rolling_shutter_sigma_rad = 0.0025;
     LandmarkMap map(config);
-    for (int k = 0; k < o.keyframes; ++k) {
-      LandmarkKeyframe kf = sceneKeyframe(s, k, start[static_cast<size_t>(k)]);
+    const auto prediction = [&](int k) {
       const Vec3& w = s.rolling_shutter[static_cast<size_t>(k)];
-      if (predicted) kf.w_prior = 0.85 * w + 0.15 * w.norm() * Vec3(w.y(), w.z(), w.x()).normalized();
-      EXPECT_TRUE(map.addKeyframe(kf));
-    }
-    for (int k = 0; k < o.keyframes; ++k)
-      for (int j = std::max(0, k - 3); j < k; ++j) map.addMatches(trueMatches(s, k, j));
+      return Vec3(0.85 * w + 0.15 * w.norm() * Vec3(w.y(), w.z(), w.x()).normalized());
+    };
+    addScene(&map, s, start, 0, predicted ? std::function<Vec3(int)>(prediction) : nullptr);
     for (int round = 0; round < 2; ++round) EXPECT_TRUE(map.globalAdjust(0, 0).ok);
     double w_err = 0.0;
     for (int k = 0; k < o.keyframes; ++k)

@@ -68,12 +68,12 @@ struct LandmarkMapConfig {
   std::string validate() const;  ///< "" when valid, else every problem ("; "-separated)
 };
 
-/// A keyframe as the landmark map needs it: pose, camera, map, features (shared, read-only).
 /// The rolling-shutter rotation a keyframe's motion predicts: `readout_s` times the camera's angular
 /// velocity, taken from the relative pose to the keyframe before (T_prev_cur, `dt_s` earlier; in the camera's
 /// own frame, as w is). Zero when dt_s is not in (0, 1] s or the rotation is not finite: no prediction.
 Vec3 predictedRollingShutter(const SE3& T_prev_cur, double dt_s, double readout_s);
 
+/// A keyframe as the landmark map needs it: pose, camera, map, features (shared, read-only).
 struct LandmarkKeyframe {
   int64_t id = 0;
   int map_id = 0;
