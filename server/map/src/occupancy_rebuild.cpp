@@ -219,10 +219,18 @@ void OccupancyMap::rebuild(int map_id) {
   uint64_t revision = 0;
   {
     std::lock_guard<std::mutex> lock(mutex_);
+    const auto current = slots_.find(map_id);
+    if (current == slots_.end() || current->second != slot) {
+      // updatePoses dropped the slot meanwhile (every keyframe merged away): the work goes with it. Keyframes
+      // that came back since are in no slot or in a new one, and a rebuild of that is scheduled here.
+      ++rebuilds_;
+      if (isDirtyLocked(map_id)) markDirtyLocked(map_id);
+      return;
+    }
     const bool any = std::any_of(entries_.begin(), entries_.end(),
                                  [&](const auto& kv) { return kv.second.map_id == map_id; });
-    if (!any && slots_[map_id] == slot) {  // every keyframe left this map (merged away)
-      slots_.erase(map_id);
+    if (!any) {  // every keyframe left this map (merged away)
+      slots_.erase(current);
       ++rebuilds_;
       return;
     }
