@@ -11,7 +11,8 @@ std::string CameraIntrinsics::validate() const { return joinProblems(cameraConfi
 
 bool sameIntrinsics(const CameraIntrinsics& a, const CameraIntrinsics& b) {
   return a.fx == b.fx && a.fy == b.fy && a.cx == b.cx && a.cy == b.cy && a.width == b.width &&
-         a.height == b.height && a.distortion == b.distortion && a.depth_scale == b.depth_scale;
+         a.height == b.height && a.distortion == b.distortion && a.depth_scale == b.depth_scale &&
+         a.readout_s == b.readout_s;
 }
 
 bool CameraIntrinsics::hasDistortion() const {

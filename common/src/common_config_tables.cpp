@@ -15,7 +15,9 @@ const ConfigTable<CameraIntrinsics>& cameraConfigTable() {
           .add("height", &C::height, R::closed(1, 16384), "")
           .add("distortion", &C::distortion, "k1 k2 p1 p2 k3 (OpenCV order); zeros = pinhole")
           .add("depth_scale", &C::depth_scale, R::closed(1e-6, 1e9),
-               "depth image units per metre (TUM 5000, Kinect/RealSense millimetres 1000)");
+               "depth image units per metre (TUM 5000, Kinect/RealSense millimetres 1000)")
+          .add("readout_s", &C::readout_s, R::closed(0.0, 0.1),
+               "colour rolling-shutter readout, first row to last (s); 0 = global shutter (TUM fr1 0.02)");
   return table;
 }
 

@@ -23,6 +23,7 @@ rgbdmap_lcm::hello_t toWireHello(const Hello& m) {
   w.camera = rgbdmap_lcm::camera_t{};
   w.camera.fx = k.fx, w.camera.fy = k.fy, w.camera.cx = k.cx, w.camera.cy = k.cy;
   w.camera.width = k.width, w.camera.height = k.height, w.camera.depth_scale = k.depth_scale;
+  w.camera.readout_s = k.readout_s;
   for (int i = 0; i < 5; ++i) w.camera.distortion[i] = k.distortion[i];
   w.T_base_camera = toWire(m.T_base_camera);
   w.software_version = m.software_version;
@@ -38,6 +39,7 @@ Result<Hello> fromWireHello(const rgbdmap_lcm::hello_t& w) {
   CameraIntrinsics& k = m.camera;
   k.fx = w.camera.fx, k.fy = w.camera.fy, k.cx = w.camera.cx, k.cy = w.camera.cy;
   k.width = w.camera.width, k.height = w.camera.height, k.depth_scale = w.camera.depth_scale;
+  k.readout_s = w.camera.readout_s;
   for (int i = 0; i < 5; ++i) k.distortion[i] = w.camera.distortion[i];
   Result<SE3> T_base_camera = fromWire(w.T_base_camera, "T_base_camera");
   if (!T_base_camera) return Result<Hello>::failure(T_base_camera.error());

@@ -94,7 +94,7 @@ RGBDMAP_TEST_TIER("AvoidanceE2E.*", "e2e");
 TEST(AvoidanceE2E, CommandsReactToTheObstacleAheadInTheSyntheticRoom) {
   SynthConfig cfg;
   cfg.frames = 2;
-  cfg.camera = CameraIntrinsics{262.5, 262.5, 159.5, 119.5, 320, 240, {0, 0, 0, 0, 0}, 5000.0};
+  cfg.camera = CameraIntrinsics{262.5, 262.5, 159.5, 119.5, 320, 240, {0, 0, 0, 0, 0}, 5000.0, 0.0};
   auto scene = SyntheticScene::build(cfg);
   ASSERT_TRUE(scene) << scene.error();
   const PinholeCamera camera(cfg.camera);

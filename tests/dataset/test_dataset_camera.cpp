@@ -17,7 +17,7 @@ TEST(DatasetCamera, AbsentValidAndMalformed) {
 
   d.write("camera.yaml",
           "camera: {fx: 525, fy: 525.5, cx: 319.5, cy: 239.5, width: 640, height: 480,\n"
-          "         distortion: [0.1, -0.2, 0.001, 0.002, 0.3], depth_scale: 1000}\n");
+          "         distortion: [0.1, -0.2, 0.001, 0.002, 0.3], depth_scale: 1000, readout_s: 0}\n");
   r = readDatasetCamera(d.dir());
   ASSERT_TRUE(r) << r.error();
   ASSERT_TRUE(r->has_value());
@@ -25,6 +25,11 @@ TEST(DatasetCamera, AbsentValidAndMalformed) {
   EXPECT_EQ((*r)->height, 480);
   EXPECT_EQ((*r)->distortion[4], 0.3);
   EXPECT_EQ((*r)->depth_scale, 1000);
+  EXPECT_EQ((*r)->readout_s, 0.0) << "a global shutter";
+  d.write("camera.yaml", datasetCameraYaml(**r, "written back"));
+  auto again = readDatasetCamera(d.dir());
+  ASSERT_TRUE(again && again->has_value()) << again.error();
+  EXPECT_TRUE(sameIntrinsics(**again, **r));
 
   d.write("camera.yaml",
           "camera:\n  fx: 525\n  fy: 525\n  cx: 319.5\n  cy: 239.5\n  width: 640\n  height: 480\n");
@@ -32,6 +37,7 @@ TEST(DatasetCamera, AbsentValidAndMalformed) {
   ASSERT_TRUE(r) << r.error();
   EXPECT_FALSE((*r)->hasDistortion());
   EXPECT_EQ((*r)->depth_scale, 5000);
+  EXPECT_EQ((*r)->readout_s, CameraIntrinsics{}.readout_s) << "unsaid: a rolling shutter like TUM fr1's";
 
   d.write("camera.yaml",
           "camera:\n  fx: abc\n  fy: 525\n  cx: 319.5\n  cy: 239.5\n  width: 640\n  heigth: 480\n");
@@ -45,6 +51,8 @@ TEST(DatasetCamera, AbsentValidAndMalformed) {
   EXPECT_TRUE(contains(readDatasetCamera(d.dir()).error(), "fx = -1 is outside [1, 100000]"));
   d.write("camera.yaml", "camera: {fx: 1, fy: 1, cx: 1, cy: 1, width: 64, height: 48, distortion: [1, 2]}\n");
   EXPECT_TRUE(contains(readDatasetCamera(d.dir()).error(), "list of 5 numbers"));
+  d.write("camera.yaml", "camera: {fx: 1, fy: 1, cx: 1, cy: 1, width: 64, height: 48, readout_s: 0.5}\n");
+  EXPECT_TRUE(contains(readDatasetCamera(d.dir()).error(), "readout_s = 0.5 is outside [0, 0.1]"));
   d.write("camera.yaml", "camera: [1, 2\n");
   EXPECT_TRUE(contains(readDatasetCamera(d.dir()).error(), "camera.yaml:"));
 }

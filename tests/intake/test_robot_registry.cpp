@@ -1,5 +1,6 @@
-// robots.txt: cameras and camera mounts survive a restart; a file written before mounts existed (v1) reads
-// with the default mount; malformed lines are refused. Each keyframe outcome is counted in its own field.
+// robots.txt: cameras (with their readout) and camera mounts survive a restart; a file written before mounts
+// existed (v1) reads with the default mount, one before readouts (v1, v2) with readout 0; malformed lines are
+// refused. Each keyframe outcome is counted in its own field.
 #include <unistd.h>
 
 #include <filesystem>
@@ -26,7 +27,9 @@ TEST(RobotRegistryFile, MountsSurviveARestartAndOldFilesReadWithTheDefault) {
   RobotRegistry a;
   const SE3 mount = CameraMount{{0.1, 0.0, 0.4}, {0.0, 15.0, 0.0}}.T_base_camera();
   ASSERT_TRUE(a.hello("robot0", 1, CameraIntrinsics{}, mount));
-  ASSERT_TRUE(a.hello("robot1", 1, CameraIntrinsics{}));
+  CameraIntrinsics global_shutter;
+  global_shutter.readout_s = 0.0;
+  ASSERT_TRUE(a.hello("robot1", 1, global_shutter));
   EXPECT_FALSE(*a.hello("robot0", 2, CameraIntrinsics{}, mount)) << "nothing new to persist";
   ASSERT_TRUE(a.save(dir));
   RobotRegistry b;
@@ -35,6 +38,10 @@ TEST(RobotRegistryFile, MountsSurviveARestartAndOldFilesReadWithTheDefault) {
   EXPECT_TRUE(b.mount("robot1").isApprox(defaultT_base_camera(), 1e-12));
   EXPECT_TRUE(b.mount("never_seen").isApprox(defaultT_base_camera(), 1e-12));
   EXPECT_EQ(b.index("robot1"), 1);
+  ASSERT_TRUE(b.camera("robot0") && b.camera("robot1"));
+  EXPECT_EQ(b.camera("robot0")->readout_s, CameraIntrinsics{}.readout_s);
+  EXPECT_EQ(b.camera("robot1")->readout_s, 0.0);
+  EXPECT_GT(CameraIntrinsics{}.readout_s, 0.0);
   EXPECT_TRUE(*b.hello("robot1", 3, CameraIntrinsics{}, mount)) << "a new mount is persisted";
 
   writeText(dir + "/robots.txt",
@@ -45,6 +52,22 @@ TEST(RobotRegistryFile, MountsSurviveARestartAndOldFilesReadWithTheDefault) {
   EXPECT_TRUE(old.mount("robot0").isApprox(defaultT_base_camera(), 1e-12));
   ASSERT_TRUE(old.camera("robot0"));
   EXPECT_EQ(old.camera("robot0")->depth_scale, 5000.0);
+  EXPECT_EQ(old.camera("robot0")->readout_s, 0.0) << "v1: the model of the server that mapped it";
+
+  writeText(dir + "/robots.txt",
+            "robot0 0 517.3 516.5 318.6 255.3 640 480 0 0 0 0 0 5000 0.1 0 0.4 0 0 0 1\n");
+  RobotRegistry v2;
+  ASSERT_TRUE(v2.load(dir));
+  EXPECT_TRUE(v2.mount("robot0").translation().isApprox(Vec3(0.1, 0.0, 0.4), 1e-12));
+  EXPECT_EQ(v2.camera("robot0")->readout_s, 0.0) << "v2: no readout";
+  writeText(dir + "/robots.txt",
+            "robot0 0 517.3 516.5 318.6 255.3 640 480 0 0 0 0 0 5000 0 0 0 0 0 0 1 0.02 7\n");
+  EXPECT_FALSE(RobotRegistry().load(dir)) << "a number after the readout";
+  writeText(dir + "/robots.txt",
+            "robot0 0 517.3 516.5 318.6 255.3 640 480 0 0 0 0 0 5000 0 0 0 0 0 0 1 -1\n");
+  EXPECT_FALSE(RobotRegistry().load(dir)) << "a negative readout";
+  writeText(dir + "/robots.txt", "robot0 0 517.3 516.5 318.6 255.3 640 480 0 0 0 0 0 5000 0 0 0 0 0 0 1 x\n");
+  EXPECT_FALSE(RobotRegistry().load(dir)) << "a word after the mount";
 
   writeText(dir + "/robots.txt", "robot0 0 517.3 516.5 318.6 255.3 640 480 0 0 0 0 0 5000 0.1 0 0.4\n");
   EXPECT_FALSE(RobotRegistry().load(dir)) << "a partial mount";

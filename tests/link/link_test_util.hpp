@@ -70,7 +70,7 @@ inline RobotLinkOptions linkOptions(const std::string& robot_id, const msg::Byte
   RobotLinkOptions o;
   o.robot_id = robot_id;
   o.key = key;
-  o.camera = CameraIntrinsics{525.0, 525.0, 31.5, 23.5, 64, 48, {0, 0, 0, 0, 0}, 5000.0};
+  o.camera = CameraIntrinsics{525.0, 525.0, 31.5, 23.5, 64, 48, {0, 0, 0, 0, 0}, 5000.0, 0.0};
   o.reliable.initial_backoff = std::chrono::milliseconds(20);
   o.reliable.max_backoff = std::chrono::milliseconds(100);
   o.heartbeat_period_s = 0.05;

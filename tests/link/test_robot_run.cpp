@@ -56,7 +56,7 @@ class RobotRun : public ::testing::Test {
     dir_ = new rgbdmap::testing::TempDir();
     config_.scene = "sweep";
     config_.frames = 20;
-    config_.camera = {262.5, 262.5, 159.5, 119.5, 320, 240, {0, 0, 0, 0, 0}, 5000.0};  // quarter size: fast
+    config_.camera = {262.5, 262.5, 159.5, 119.5, 320, 240, {0, 0, 0, 0, 0}, 5000.0, 0.0};  // quarter size: fast
     ASSERT_TRUE(writeSyntheticSequence(config_, dir_->dir()));
   }
   static void TearDownTestSuite() { delete dir_; }

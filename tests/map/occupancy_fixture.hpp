@@ -28,7 +28,7 @@ inline SynthKeyframes renderSynthKeyframes(const std::string& scene_name, int co
   sc.seed = 5;
   // Half the sensor's 640x480 (same field of view): rendering is most of these tests' time, and at 0.05 m
   // the automatic pixel stride reads every pixel of it, so the map is nearly the same.
-  sc.camera = CameraIntrinsics{262.5, 262.5, 159.5, 119.5, 320, 240, {0.0, 0.0, 0.0, 0.0, 0.0}, 5000.0};
+  sc.camera = CameraIntrinsics{262.5, 262.5, 159.5, 119.5, 320, 240, {0.0, 0.0, 0.0, 0.0, 0.0}, 5000.0, 0.0};
   auto scene = SyntheticScene::build(sc);
   EXPECT_TRUE(scene.ok()) << scene.error();
   SynthKeyframes out;

@@ -75,6 +75,7 @@ inline msg::Hello sampleHello() {
   m.software_version = "rgbdmap 0.1.0 (test)";
   m.capabilities = {"keyframes", "cmd_vel"};
   m.T_base_camera = CameraMount{{0.1, -0.05, 0.45}, {0.0, 12.0, -3.0}}.T_base_camera();
+  m.camera.readout_s = 0.0275;
   return m;
 }
 

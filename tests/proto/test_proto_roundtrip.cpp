@@ -91,6 +91,7 @@ TEST(ProtoRoundTrip, HelloHeartbeatAck) {
   EXPECT_EQ(h2.camera.distortion, h.camera.distortion);
   EXPECT_EQ(h2.camera.width, h.camera.width);
   EXPECT_EQ(h2.camera.depth_scale, h.camera.depth_scale);
+  EXPECT_EQ(h2.camera.readout_s, 0.0275);
   expectPose(h2.T_base_camera, h.T_base_camera);
   const Heartbeat b = testing::sampleHeartbeat(), b2 = throughEnvelope(b);
   EXPECT_EQ(b2.last_keyframe_id, b.last_keyframe_id);

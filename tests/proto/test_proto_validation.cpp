@@ -200,6 +200,13 @@ TEST(MessageValidation, HelloAndIds) {
   h.header = robotHeader();
   h.camera.fx = -1.0;
   EXPECT_EQ(encodePayload(h).error().rfind("camera: ", 0), 0u);
+  for (const double readout : {-0.001, 0.2, std::nan("")}) {
+    h = testing::sampleHello();
+    h.header = robotHeader();
+    h.camera.readout_s = readout;
+    ASSERT_FALSE(encodePayload(h)) << readout;
+    EXPECT_NE(encodePayload(h).error().find("readout_s"), std::string::npos) << encodePayload(h).error();
+  }
   h = testing::sampleHello();
   h.header = robotHeader();
   h.capabilities.push_back("has space");

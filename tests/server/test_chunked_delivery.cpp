@@ -113,7 +113,7 @@ RobotLinkOptions chunkedOptions(const std::string& robot, const msg::Bytes& key,
                                 int width = 320, int height = 240) {
   RobotLinkOptions o = linkOptions(robot, key);
   o.camera = CameraIntrinsics{525.0, 525.0,  0.5 * (width - 1), 0.5 * (height - 1),
-                              width, height, {0, 0, 0, 0, 0},   5000.0};
+                              width, height, {0, 0, 0, 0, 0},   5000.0, 0.0};
   o.chunk_bytes = chunk_bytes;
   o.reliable.max_attempts = 1000;  // bounded by the test's wait, not by attempts
   return o;

@@ -232,7 +232,7 @@ TEST(MapServerOccupancy, RobotRunAvoidsOnTheServersSlices) {
   SynthConfig sc;
   sc.scene = "loop";
   sc.frames = 120;
-  sc.camera = {262.5, 262.5, 159.5, 119.5, 320, 240, {0, 0, 0, 0, 0}, 5000.0};  // quarter size: fast
+  sc.camera = {262.5, 262.5, 159.5, 119.5, 320, 240, {0, 0, 0, 0, 0}, 5000.0, 0.0};  // quarter size: fast
   const std::string data = occDir("robot_run_data");
   ASSERT_TRUE(writeSyntheticSequence(sc, data));
   const auto scene = SyntheticScene::build(sc);

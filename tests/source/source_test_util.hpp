@@ -18,7 +18,7 @@ inline SynthConfig sourceTestConfig(int frames = 20) {
   c.scene = "sweep";
   c.frames = frames;
   c.seed = 3;
-  c.camera = {262.5, 262.5, 159.5, 119.5, 320, 240, {0, 0, 0, 0, 0}, 5000.0};
+  c.camera = {262.5, 262.5, 159.5, 119.5, 320, 240, {0, 0, 0, 0, 0}, 5000.0, 0.0};
   return c;
 }
 

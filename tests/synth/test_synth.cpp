@@ -70,9 +70,10 @@ TEST(SynthConfig, DefaultsAreValidAndBadValuesAreAllReported) {
   c.scene = "maze";
   c.frames = 1;
   c.camera.distortion[0] = 0.1;
+  c.camera.readout_s = 0.02;
   c.depth_noise.max_range_m = 20.0;  // beyond 65535 / 5000
   const std::string err = c.validate();
-  for (const char* reason : {"scene", "frames", "distortion", "max_range_m"})
+  for (const char* reason : {"scene", "frames", "distortion", "readout_s", "max_range_m"})
     EXPECT_NE(err.find(reason), std::string::npos) << reason << " missing from: " << err;
   const auto built = SyntheticScene::build(c);
   ASSERT_FALSE(built);
@@ -344,6 +345,7 @@ TEST_F(SynthWriter, WritesATumSequenceThatReadsBackExactly) {
   EXPECT_EQ(cam["cy"].as<double>(), 239.5);
   EXPECT_EQ(cam["width"].as<int>(), 640);
   EXPECT_EQ(cam["depth_scale"].as<double>(), 5000.0);
+  EXPECT_EQ(cam["readout_s"].as<double>(), 0.0) << "the renderer has a global shutter";
   ASSERT_EQ(cam["distortion"].size(), 5u);
   for (const auto& d : cam["distortion"]) EXPECT_EQ(d.as<double>(), 0.0);
   // PNGs are lossless: they read back as the in-memory rendering.

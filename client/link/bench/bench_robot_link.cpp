@@ -96,7 +96,7 @@ void BM_SendKeyframe(benchmark::State& state) {
 
 void BM_ApplyCorrections(benchmark::State& state) {
   const int n = static_cast<int>(state.range(0));
-  CameraIntrinsics camera{525, 525, 31.5, 23.5, 64, 48, {0, 0, 0, 0, 0}, 5000};
+  CameraIntrinsics camera{525, 525, 31.5, 23.5, 64, 48, {0, 0, 0, 0, 0}, 5000, 0.0};
   Setup s(camera);
   RgbdFrame tiny;
   tiny.color = cv::Mat(48, 64, CV_8UC3, cv::Scalar(90, 120, 200));

@@ -69,8 +69,8 @@ void readDistortion(const YAML::Node& cam, CameraIntrinsics* k, YamlErrors* erro
 }
 
 void checkKeys(const YAML::Node& cam, YamlErrors* errors) {
-  static const std::set<std::string> kKnown = {"fx",    "fy",     "cx",         "cy",
-                                               "width", "height", "distortion", "depth_scale"};
+  static const std::set<std::string> kKnown = {"fx",     "fy",         "cx",          "cy",       "width",
+                                               "height", "distortion", "depth_scale", "readout_s"};
   for (const auto& kv : cam) {
     const std::string key = kv.first.Scalar();
     if (!kKnown.count(key)) errors->add(kv.first, "unknown key camera." + key);
@@ -90,6 +90,7 @@ Result<CameraIntrinsics> parseCamera(const YAML::Node& root, const std::string& 
   readScalar(cam, "width", true, &k.width, &errors);
   readScalar(cam, "height", true, &k.height, &errors);
   readScalar(cam, "depth_scale", false, &k.depth_scale, &errors);
+  readScalar(cam, "readout_s", false, &k.readout_s, &errors);
   readDistortion(cam, &k, &errors);
   if (!errors.empty()) return Result<CameraIntrinsics>::failure(errors.joined());
   const std::string invalid = k.validate();
@@ -123,7 +124,8 @@ std::string datasetCameraYaml(const CameraIntrinsics& k, const std::string& comm
      << "\n  cy: " << formatExact(k.cy) << "\n  width: " << k.width << "\n  height: " << k.height
      << "\n  distortion: [";
   for (size_t i = 0; i < k.distortion.size(); ++i) os << (i ? ", " : "") << formatExact(k.distortion[i]);
-  os << "]\n  depth_scale: " << formatExact(k.depth_scale) << "\n";
+  os << "]\n  depth_scale: " << formatExact(k.depth_scale) << "\n  readout_s: " << formatExact(k.readout_s)
+     << "\n";
   return os.str();
 }
 

@@ -37,6 +37,7 @@ std::string SynthConfig::validate() const {
   const std::string camera_error = camera.validate();
   if (!camera_error.empty()) err << "camera: " << camera_error;
   if (camera.hasDistortion()) err << "camera: the renderer is an ideal pinhole, distortion must be zero; ";
+  if (camera.readout_s != 0.0) err << "camera: the renderer has a global shutter, readout_s must be 0; ";
   if (camera.width > 4096 || camera.height > 4096) err << "camera: image size must be at most 4096x4096; ";
   checkDepthNoise(depth_noise, camera.depth_scale, &err);
   if (!inRange(image_noise.blur_sigma_px, 0.0, 5.0)) err << "image_noise.blur_sigma_px must be in [0, 5]; ";

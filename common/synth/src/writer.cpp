@@ -107,7 +107,8 @@ Status writeSyntheticSequence(const SynthConfig& config, const std::string& out_
   if (Status s =
           writeText(out / "camera.yaml",
                     datasetCameraYaml(config.camera,
-                                      describe(config) + ". Ideal pinhole; depth is registered to colour."));
+                                      describe(config) +
+                                          ". Ideal pinhole, global shutter; depth is registered to colour."));
       !s)
     return s;
   if (Status s = writeText(out / "rgb.txt", fileList(config, false)); !s) return s;

@@ -22,11 +22,9 @@ const ConfigTable<BaSolveConfig>& baSolveConfigTable() {
           .add("rolling_shutter", &C::rolling_shutter,
                "estimate each keyframe's rotation during the image readout (rolling-shutter cameras; a "
                "global shutter gives ~0)")
-          .add("rolling_shutter_readout_s", &C::rolling_shutter_readout_s, R::closed(0.0, 0.1),
-               "the colour camera's readout time (s): the prior of that rotation is centred on this times the "
-               "camera's angular velocity from the odometry (0: a global shutter, centred on 0)")
           .add("rolling_shutter_sigma_rad", &C::rolling_shutter_sigma_rad, R::closed(1e-6, 10.0),
-               "prior sigma of that rotation around its centre (rad)")
+               "prior sigma of that rotation (rad) around its centre: the robot camera's readout_s times "
+               "the camera's angular velocity from the odometry (0 for a global shutter)")
           .add("chi2_2dof", &C::chi2_2dof, R::closed(0.1, 1e4),
                "Huber threshold and outlier test of a 2-row observation (whitened chi2; 5.991 = 95 %)")
           .add("chi2_3dof", &C::chi2_3dof, R::closed(0.1, 1e4),

@@ -90,6 +90,15 @@ Status LandmarkMap::addKeyframe(LandmarkKeyframe keyframe) {
   return Status::success();
 }
 
+bool LandmarkMap::setRollingShutterPrior(int64_t id, const Vec3& w_prior) {
+  const auto it = keyframes_.find(id);
+  if (it == keyframes_.end() || !w_prior.allFinite()) return false;
+  Keyframe& k = it->second;
+  if (k.w == k.kf.w_prior) k.w = w_prior;  // still where it started (e.g. a map's anchor holds it)
+  k.kf.w_prior = w_prior;
+  return true;
+}
+
 std::shared_ptr<const FrameFeatures> LandmarkMap::featuresOf(const Keyframe& k) const {
   if (k.kf.features) return k.kf.features;
   return cache_ ? cache_->get(k.kf.id) : nullptr;

@@ -100,6 +100,7 @@ void MapBackend::applyAdditions(const OptimizerBatch& b) {
     kf.map_id = topology_.mapOf(k.id);
     if (const Status s = landmarks_.addKeyframe(std::move(kf)); !s) log::warn("optimiser: ", s.error());
   }
+  for (const auto& [id, w_prior] : b.w_priors) landmarks_.setRollingShutterPrior(id, w_prior);
 }
 
 void MapBackend::refreshMaps() {

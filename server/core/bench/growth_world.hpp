@@ -24,7 +24,8 @@ class World {
                width,
                height,
                {0.0, 0.0, 0.0, 0.0, 0.0},
-               5000.0};
+               5000.0,
+               0.0};
   }
   const CameraIntrinsics& camera() const { return camera_; }
   size_t roomsKept() const { return rooms_.size(); }

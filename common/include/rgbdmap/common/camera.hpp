@@ -19,6 +19,11 @@ struct CameraIntrinsics {
   std::array<double, 5> distortion{0.2624, -0.9531, -0.0054, 0.0026, 1.1633};
   /// Depth image value to metres: metres = value / depth_scale (TUM: 5000, Kinect mm: 1000).
   double depth_scale = 5000.0;
+  /// The colour image's rolling-shutter readout: seconds from its first row to its last; 0 = a global
+  /// shutter. The server's bundle adjustment expects each keyframe to turn by this time x the camera's
+  /// angular velocity while the image is read out. 0.02 fits TUM freiburg1 (Kinect v1); most RGB-D colour
+  /// cameras (Kinect, Xtion, Azure Kinect, RealSense D415/D435) are rolling shutter, 15-35 ms at 30 Hz.
+  double readout_s = 0.02;
 
   /// Checks ranges; returns an empty string when valid, else the reason.
   std::string validate() const;

@@ -17,15 +17,16 @@ namespace rgbdmap::msg {
 using Bytes = std::vector<uint8_t>;
 
 /// Bumped whenever any .lcm file changes; a receiver rejects every other version.
-/// 2: ServerStatus::rejects; 3: Hello::T_base_camera; 4: RobotStatus::localize, placed.
-constexpr int kSchemaVersion = 4;
+/// 2: ServerStatus::rejects; 3: Hello::T_base_camera; 4: RobotStatus::localize, placed; 5: the camera's
+/// readout_s.
+constexpr int kSchemaVersion = 5;
 /// The oldest schema whose stored messages this build reads: a map store or bundle holds only Keyframe
-/// messages, and keyframe_t (with what it includes) is the same in schemas 3 and 4.
+/// messages, and keyframe_t (with what it includes) is the same in schemas 3 to 5.
 constexpr int kOldestStoredSchemaVersion = 3;
 inline bool isReadableStoredSchema(int version) {
   return version >= kOldestStoredSchemaVersion && version <= kSchemaVersion;
 }
-/// "3 to 4": the stored schemas this build reads, for error messages.
+/// "3 to 5": the stored schemas this build reads, for error messages.
 inline std::string readableStoredSchemas() {
   return std::to_string(kOldestStoredSchemaVersion) + " to " + std::to_string(kSchemaVersion);
 }

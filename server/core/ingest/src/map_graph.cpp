@@ -148,9 +148,14 @@ void MapGraph::addToBatch(const IndexedNode& node, const std::shared_ptr<const F
   k.height = camera->height;
   k.T_map_kf = node.kf.T_map_kf;
   k.features = features;
-  if (prev)
+  if (prev) {
     k.w_prior = predictedRollingShutter(kf.T_prev_cur, kf.timestamp - index_.node(*prev).kf.timestamp,
-                                        config_.ba.landmarks.solve.rolling_shutter_readout_s);
+                                        camera->readout_s);
+    // The chain's first keyframe had no step before it: the first step after stands in for it.
+    if (unpredicted_.erase(*prev)) batch_.w_priors.emplace_back(*prev, k.w_prior);
+  } else {
+    unpredicted_.insert(k.id);
+  }
   batch_.keyframes.push_back(std::move(k));
 }
 
@@ -239,6 +244,14 @@ void MapGraph::joinSplitSuccessor(const IndexedNode& node) {
   split_heads_.erase(it);
   addOdometryEdge(head.node_id, node.kf.node_id, head.T_prev_cur, head.information);
   graph_joined_ = true;
+  // The head's own step now predicts its rolling shutter, as if the predecessor had come in time.
+  const std::optional<CameraIntrinsics> camera = registry_.camera(node.kf.robot_id);
+  if (camera && config_.ba.enabled) {
+    unpredicted_.erase(head.node_id);
+    const double dt = index_.node(head.node_id).kf.timestamp - node.kf.timestamp;
+    batch_.w_priors.emplace_back(head.node_id,
+                                 predictedRollingShutter(head.T_prev_cur, dt, camera->readout_s));
+  }
   log::info("server: keyframe ", node.kf.keyframe_id, " of ", node.kf.robot_id,
             " came late: its odometry edge joins the chain split off at node ", head.node_id);
 }

@@ -13,22 +13,28 @@ namespace rgbdmap {
 namespace {
 
 constexpr const char* kFileName = "robots.txt";
-/// v2 added the camera mount (T_base_camera); a v1 line (without it) reads as the default mount.
+/// v2 added the camera mount (T_base_camera); a v1 line (without it) reads as the default mount. v3 added the
+/// camera's rolling-shutter readout; a line without it reads as 0, the model the server had then.
 constexpr const char* kHeader =
-    "# rgbdmap robots v2: id index fx fy cx cy width height k1 k2 p1 p2 k3 depth_scale tx ty tz qx qy qz qw";
+    "# rgbdmap robots v3: id index fx fy cx cy width height k1 k2 p1 p2 k3 depth_scale tx ty tz qx qy qz qw "
+    "readout_s";
 
 bool sameMount(const SE3& a, const SE3& b) { return a.matrix() == b.matrix(); }
 
-/// The optional mount at the end of a robots.txt line: absent (v1) -> default; partial or invalid -> false.
-bool readMount(std::istringstream& f, SE3* T_base_camera) {
-  double v[7];
+/// The optional mount and readout at the end of a robots.txt line: no mount (v1) -> the default mount, no
+/// readout (v1, v2) -> 0; partial, invalid or more -> false.
+bool readTail(std::istringstream& f, SE3* T_base_camera, double* readout_s) {
+  double v[8];
   int n = 0;
-  while (n < 7 && f >> v[n]) ++n;
+  while (n < 8 && f >> v[n]) ++n;
+  std::string more;
+  if (n < 8 ? !f.eof() : static_cast<bool>(f >> more)) return false;  // a word, or more than 8 numbers
+  *readout_s = n == 8 ? v[7] : 0.0;
   if (n == 0) {
     *T_base_camera = defaultT_base_camera();
-    return f.eof();
+    return true;
   }
-  if (n != 7 || !(std::abs(Eigen::Vector4d(v[3], v[4], v[5], v[6]).norm() - 1.0) <= 1e-6)) return false;
+  if (n < 7 || !(std::abs(Eigen::Vector4d(v[3], v[4], v[5], v[6]).norm() - 1.0) <= 1e-6)) return false;
   *T_base_camera = se3::fromTum(v[0], v[1], v[2], v[3], v[4], v[5], v[6]);
   return se3::isValid(*T_base_camera, 1e-6);
 }
@@ -96,7 +102,7 @@ Status RobotRegistry::save(const std::string& map_dir) const {
       const Vec3 t = T_base_camera.translation();
       const Eigen::Quaterniond q = se3::quat(T_base_camera);
       out << " " << c.depth_scale << " " << t.x() << " " << t.y() << " " << t.z() << " " << q.x() << " "
-          << q.y() << " " << q.z() << " " << q.w() << "\n";
+          << q.y() << " " << q.z() << " " << q.w() << " " << c.readout_s << "\n";
     }
   }
   return writeFileAtomic(map_dir + "/" + kFileName, out.str());
@@ -120,7 +126,8 @@ Status RobotRegistry::load(const std::string& map_dir) {
     for (double& d : c.distortion) f >> d;
     f >> c.depth_scale;
     SE3 T_base_camera;
-    if (!f || index < 0 || robots_.count(id) || !readMount(f, &T_base_camera))
+    if (!f || index < 0 || robots_.count(id) || !readTail(f, &T_base_camera, &c.readout_s) ||
+        !c.validate().empty())
       return Status::failure(path + ":" + std::to_string(number) + ": unreadable robot line");
     Entry& e = entry(id);
     e.index = index;

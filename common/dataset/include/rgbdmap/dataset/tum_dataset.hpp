@@ -76,9 +76,10 @@ class TumDataset {
 };
 
 /// Reads `<dir>/camera.yaml` if present: `camera: {fx, fy, cx, cy, width, height, distortion: [k1, k2, p1,
-/// p2, k3], depth_scale}`. fx fy cx cy width height are required; a missing distortion means none, a missing
-/// depth_scale means 5000. nullopt when the file does not exist; an error (all problems listed) when it is
-/// malformed or fails CameraIntrinsics::validate(). The caller decides how it combines with DatasetOptions.
+/// p2, k3], depth_scale, readout_s}`. fx fy cx cy width height are required; a missing distortion means none,
+/// a missing depth_scale means 5000, a missing readout_s the default rolling shutter (CameraIntrinsics).
+/// nullopt when the file does not exist; an error (all problems listed) when it is malformed or fails
+/// CameraIntrinsics::validate(). The caller decides how it combines with DatasetOptions.
 Result<std::optional<CameraIntrinsics>> readDatasetCamera(const std::string& dir);
 /// The text of a dataset's camera.yaml for `k` (what readDatasetCamera reads back exactly), after a comment
 /// line `# <comment>`.

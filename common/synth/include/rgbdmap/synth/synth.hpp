@@ -57,7 +57,8 @@ struct SynthConfig {
   double t0 = 1000.0;
   double depth_time_offset_s = 0.0005;  ///< depth stamps are colour stamps + this (exercises association)
   /// Ideal pinhole (no distortion: the renderer is exact pinhole geometry), TUM-like 640x480.
-  CameraIntrinsics camera{525.0, 525.0, 319.5, 239.5, 640, 480, {0.0, 0.0, 0.0, 0.0, 0.0}, 5000.0};
+  /// An ideal pinhole with a global shutter (readout 0): the renderer draws each image at one instant.
+  CameraIntrinsics camera{525.0, 525.0, 319.5, 239.5, 640, 480, {0.0, 0.0, 0.0, 0.0, 0.0}, 5000.0, 0.0};
   SynthDepthNoise depth_noise;
   SynthImageNoise image_noise;
 
@@ -119,7 +120,7 @@ class SyntheticScene {
 
 /// Write a sequence in TUM layout into out_dir (created if missing; same-named files are overwritten):
 /// rgb/<ts>.png, depth/<ts>.png (16-bit), rgb.txt, depth.txt, groundtruth.txt and camera.yaml
-/// (camera: {fx, fy, cx, cy, width, height, distortion: [k1, k2, p1, p2, k3], depth_scale}).
+/// (camera: {fx, fy, cx, cy, width, height, distortion: [k1, k2, p1, p2, k3], depth_scale, readout_s: 0}).
 Status writeSyntheticSequence(const SynthConfig& config, const std::string& out_dir);
 
 }  // namespace rgbdmap

@@ -33,16 +33,12 @@ struct BaSolveConfig {
   bool use_depth = true;              ///< the inverse-depth residual where a keypoint has depth
   /// Estimate each keyframe's rolling-shutter rotation w (ba_cost.hpp); false: w stays as given (0).
   bool rolling_shutter = true;
-  /// The colour camera's readout time (s). The prior of a keyframe's w is centred on this times the camera's
-  /// angular velocity there (predictedRollingShutter, landmark_map.hpp); 0: centred on 0. Not the default yet:
-  /// 0.02 s with sigma 0.0025 maps fr1_rpy / fr1_xyz 13 / 19 % better, but one server setting for every
-  /// camera misleads a global-shutter one (docs/results.md).
-  double rolling_shutter_readout_s = 0.0;
-  /// Prior sigma of w around that (rad). Measured: 0.05 lets a rotation common to every keyframe drift where
-  /// the cameras all face one way (a synthetic sideways sweep: keyframe error 4.5 cm); 0.005 keeps it (2 mm,
-  /// as without the model) and gains as much on fr1_rpy. Centred on 0 a loose prior lets w trade with the
-  /// translations (fr1_xyz's map 3.5 % short at 0.005).
-  double rolling_shutter_sigma_rad = 0.005;
+  /// Prior sigma of w (rad) around the centre its keyframe carries (LandmarkKeyframe::w_prior: the robot
+  /// camera's readout time x its angular velocity, predictedRollingShutter in landmark_map.hpp; 0 for a
+  /// global shutter). Centred on 0 the prior had to be loose (0.005) for fr1_rpy's turns, and then w traded
+  /// with the translations (fr1_xyz's map 3.5 % short). Centred on the motion, 0.0025 maps fr1_rpy and
+  /// fr1_xyz best among 0.00125-0.005 (docs/results.md).
+  double rolling_shutter_sigma_rad = 0.0025;
   double chi2_2dof = 5.991;    ///< Huber threshold and outlier test, 2 rows (95 %)
   double chi2_3dof = 7.815;    ///< same, 3 rows
   int first_iterations = 5;    ///< Levenberg-Marquardt iterations before the outlier test

@@ -3,6 +3,7 @@
 // (MapOptimization: every node's pose, disabled edges, components and the counters, after each batch).
 #include <cstdint>
 #include <map>
+#include <utility>
 #include <vector>
 
 #include "rgbdmap/ba/landmark_map.hpp"
@@ -18,6 +19,10 @@ struct OptimizerBatch {
                                             ///< predecessor is placed by it, the others at their pose
   std::vector<PoseGraphEdge> edges;         ///< new odometry and loop edges
   std::vector<LandmarkKeyframe> keyframes;  ///< features of new keyframes, for bundle adjustment
+  /// Rolling-shutter prior centres of keyframes added before (LandmarkMap::setRollingShutterPrior): a
+  /// chain's first keyframe had no step before it to predict from, until its successor or its late
+  /// predecessor came.
+  std::vector<std::pair<int64_t, Vec3>> w_priors;
   std::map<int64_t, EdgeMatches> matches;   ///< inlier pairs of new loop edges, by edge id
   bool solve = false;                       ///< loop edges added or chains joined: a pose-graph solve first
   /// Chains joined or a restore: solve whatever the loops' consistency (solve_above_chi2).
@@ -29,7 +34,8 @@ struct OptimizerBatch {
   bool merge = false;
   bool global = false;  ///< a global BA of every map changed since its last one (waitIdle)
   bool empty() const {
-    return nodes.empty() && edges.empty() && keyframes.empty() && !solve && !must_solve && !merge && !global;
+    return nodes.empty() && edges.empty() && keyframes.empty() && w_priors.empty() && !solve && !must_solve &&
+           !merge && !global;
   }
   void append(OptimizerBatch&& other);
 };

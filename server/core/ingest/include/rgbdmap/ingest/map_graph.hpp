@@ -8,6 +8,7 @@
 #include <map>
 #include <memory>
 #include <optional>
+#include <set>
 #include <string>
 #include <vector>
 
@@ -110,6 +111,8 @@ class MapGraph {
     Mat6 information = Mat6::Identity();
   };
   std::map<KeyframeKey, SplitHead> split_heads_;  ///< by the key of the predecessor that did not come
+  /// Keyframes in the bundle adjustment whose rolling-shutter prior no step predicted yet (a chain's first).
+  std::set<int64_t> unpredicted_;
   bool graph_joined_ = false;                     ///< a late predecessor joined a split chain: optimise
   BundleAdjustmentStats ba_;                      ///< of the last optimisation applied
 };
