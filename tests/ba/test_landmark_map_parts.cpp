@@ -20,12 +20,26 @@ using testing::positionRms;
 using testing::sceneKeyframe;
 using testing::trueMatches;
 
-TEST(LandmarkMap, RollingShutterRotationIsEstimated) {
+/// 12 keyframes whose images have a rolling shutter of 0.03 rad (~1 rad/s over a 30 ms readout), and start
+/// poses 2 cm and 0.01 rad off theirs.
+constexpr int kRollingShutterKeyframes = 12;
+struct RollingShutterCase {
+  BaScene s;
+  std::vector<SE3> start;
+};
+RollingShutterCase rollingShutterCase() {
   BaSceneOptions o;
-  o.keyframes = 12;
-  o.rolling_shutter_rad = 0.03;  // ~1 rad/s over a 30 ms readout
-  const BaScene s = makeBaScene(o);
-  const std::vector<SE3> start = perturbed(s, 0.02, 0.01, 13);
+  o.keyframes = kRollingShutterKeyframes;
+  o.rolling_shutter_rad = 0.03;
+  RollingShutterCase c{makeBaScene(o), {}};
+  c.start = perturbed(c.s, 0.02, 0.01, 13);
+  return c;
+}
+
+TEST(LandmarkMap, RollingShutterRotationIsEstimated) {
+  const RollingShutterCase c = rollingShutterCase();
+  const BaScene& s = c.s;
+  const std::vector<SE3>& start = c.start;
   auto run = [&](bool rolling_shutter) {
     LandmarkMapConfig config;
     config.solve.rolling_shutter = rolling_shutter;
@@ -36,14 +50,14 @@ TEST(LandmarkMap, RollingShutterRotationIsEstimated) {
     // A rotation common to every keyframe's readout is nearly a gauge freedom of this scene (a vertical
     // stretch of a world seen from sideways-moving cameras): w is compared after removing the mean.
     Vec3 mean_est = Vec3::Zero(), mean_true = Vec3::Zero();
-    for (int k = 0; k < o.keyframes; ++k) {
-      mean_est += *map.rollingShutter(k) / o.keyframes;
-      mean_true += s.rolling_shutter[k] / o.keyframes;
+    for (int k = 0; k < kRollingShutterKeyframes; ++k) {
+      mean_est += *map.rollingShutter(k) / kRollingShutterKeyframes;
+      mean_true += s.rolling_shutter[k] / kRollingShutterKeyframes;
     }
     double w_err = 0.0;
-    for (int k = 0; k < o.keyframes; ++k)
-      w_err +=
-          ((*map.rollingShutter(k) - mean_est) - (s.rolling_shutter[k] - mean_true)).norm() / o.keyframes;
+    for (int k = 0; k < kRollingShutterKeyframes; ++k)
+      w_err += ((*map.rollingShutter(k) - mean_est) - (s.rolling_shutter[k] - mean_true)).norm() /
+               kRollingShutterKeyframes;
     return std::make_pair(positionRms(s.T_map_kf, posesOf(map, s.T_map_kf.size())), w_err);
   };
   const auto [rms_gs, w_gs] = run(false);
@@ -60,11 +74,9 @@ TEST(LandmarkMap, RollingShutterRotationIsEstimated) {
 // predicts (here the true rotation with a 15 % error, as the odometry's angular velocity gives it), the
 // rolling shutter is recovered; centred on 0 (no readout time: a global shutter) it is not.
 TEST(LandmarkMap, RollingShutterPriorCentredOnThePredictionRecoversTheRotation) {
-  BaSceneOptions o;
-  o.keyframes = 12;
-  o.rolling_shutter_rad = 0.03;
-  const BaScene s = makeBaScene(o);
-  const std::vector<SE3> start = perturbed(s, 0.02, 0.01, 13);
+  const RollingShutterCase c = rollingShutterCase();
+  const BaScene& s = c.s;
+  const std::vector<SE3>& start = c.start;
   auto run = [&](bool predicted) {
     LandmarkMapConfig config;
     config.solve.rolling_shutter_sigma_rad = 0.0025;
@@ -76,8 +88,9 @@ TEST(LandmarkMap, RollingShutterPriorCentredOnThePredictionRecoversTheRotation) 
     addScene(&map, s, start, 0, predicted ? std::function<Vec3(int)>(prediction) : nullptr);
     for (int round = 0; round < 2; ++round) EXPECT_TRUE(map.globalAdjust(0, 0).ok);
     double w_err = 0.0;
-    for (int k = 0; k < o.keyframes; ++k)
-      w_err += (*map.rollingShutter(k) - s.rolling_shutter[static_cast<size_t>(k)]).norm() / o.keyframes;
+    for (int k = 0; k < kRollingShutterKeyframes; ++k)
+      w_err += (*map.rollingShutter(k) - s.rolling_shutter[static_cast<size_t>(k)]).norm() /
+               kRollingShutterKeyframes;
     return std::make_pair(positionRms(s.T_map_kf, posesOf(map, s.T_map_kf.size())), w_err);
   };
   const auto [rms_zero, w_zero] = run(false);
@@ -94,11 +107,9 @@ TEST(LandmarkMap, RollingShutterPriorCentredOnThePredictionRecoversTheRotation) 
 // comes later (from the step after it). The map's anchor holds its w: at 0 it bends the map, at the late
 // centre not. A keyframe whose w an adjustment estimated keeps it when its centre moves.
 TEST(LandmarkMap, AChainsFirstKeyframeTakesItsRollingShutterPriorLater) {
-  BaSceneOptions o;
-  o.keyframes = 12;
-  o.rolling_shutter_rad = 0.03;
-  const BaScene s = makeBaScene(o);
-  const std::vector<SE3> start = perturbed(s, 0.02, 0.01, 13);
+  const RollingShutterCase c = rollingShutterCase();
+  const BaScene& s = c.s;
+  const std::vector<SE3>& start = c.start;
   const auto truth = [&](int k) { return s.rolling_shutter[static_cast<size_t>(k)]; };
   auto run = [&](bool late) {
     LandmarkMapConfig config;
