@@ -17,7 +17,7 @@ const ConfigTable<CameraIntrinsics>& cameraConfigTable() {
           .add("depth_scale", &C::depth_scale, R::closed(1e-6, 1e9),
                "depth image units per metre (TUM 5000, Kinect/RealSense millimetres 1000)")
           .add("readout_s", &C::readout_s, R::closed(0.0, 0.1),
-               "colour rolling-shutter readout, first row to last (s); 0 = global shutter (TUM fr1 0.02)");
+               "colour rolling-shutter readout, first row to last (s); 0 = global shutter (TUM fr1 0.025)");
   return table;
 }
 

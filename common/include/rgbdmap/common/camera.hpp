@@ -21,9 +21,9 @@ struct CameraIntrinsics {
   double depth_scale = 5000.0;
   /// The colour image's rolling-shutter readout: seconds from its first row to its last; 0 = a global
   /// shutter. The server's bundle adjustment expects each keyframe to turn by this time x the camera's
-  /// angular velocity while the image is read out. 0.02 fits TUM freiburg1 (Kinect v1); most RGB-D colour
+  /// angular velocity while the image is read out. 0.025 fits TUM freiburg1 (Kinect v1); most RGB-D colour
   /// cameras (Kinect, Xtion, Azure Kinect, RealSense D415/D435) are rolling shutter, 15-35 ms at 30 Hz.
-  double readout_s = 0.02;
+  double readout_s = 0.025;
 
   /// Checks ranges; returns an empty string when valid, else the reason.
   std::string validate() const;

@@ -149,14 +149,24 @@ void MapGraph::addToBatch(const IndexedNode& node, const std::shared_ptr<const F
   k.T_map_kf = node.kf.T_map_kf;
   k.features = features;
   if (prev) {
-    k.w_prior = predictedRollingShutter(kf.T_prev_cur, kf.timestamp - index_.node(*prev).kf.timestamp,
-                                        camera->readout_s);
-    // The chain's first keyframe had no step before it: the first step after stands in for it.
-    if (unpredicted_.erase(*prev)) batch_.w_priors.emplace_back(*prev, k.w_prior);
-  } else {
-    unpredicted_.insert(k.id);
+    const Vec3 step = predictedRollingShutter(kf.T_prev_cur, kf.timestamp - index_.node(*prev).kf.timestamp,
+                                              camera->readout_s);
+    k.w_prior = noteShutterStep(k.id, step, true);
+    // The predecessor's centre moves to the mean of its two steps (a chain's first: this step alone).
+    batch_.w_priors.emplace_back(*prev, noteShutterStep(*prev, step, false));
+  } else if (const auto it = shutter_steps_.find(k.id); it != shutter_steps_.end() && it->second.after) {
+    k.w_prior = *it->second.after;  // a late predecessor joining its split successor (joinSplitSuccessor)
   }
   batch_.keyframes.push_back(std::move(k));
+}
+
+Vec3 MapGraph::noteShutterStep(int64_t id, const Vec3& w, bool before) {
+  ShutterSteps& s = shutter_steps_[id];
+  (before ? s.before : s.after) = w;
+  if (!s.before || !s.after) return before ? *s.before : *s.after;
+  const Vec3 mean = 0.5 * (*s.before + *s.after);
+  shutter_steps_.erase(id);
+  return mean;
 }
 
 void MapGraph::addOdometryEdge(int64_t from, int64_t to, const SE3& T_prev_cur, const Mat6& information) {
@@ -244,13 +254,14 @@ void MapGraph::joinSplitSuccessor(const IndexedNode& node) {
   split_heads_.erase(it);
   addOdometryEdge(head.node_id, node.kf.node_id, head.T_prev_cur, head.information);
   graph_joined_ = true;
-  // The head's own step now predicts its rolling shutter, as if the predecessor had come in time.
+  // The head's own step predicts its rolling shutter (and the step after its late predecessor's), as if the
+  // predecessor had come in time.
   const std::optional<CameraIntrinsics> camera = registry_.camera(node.kf.robot_id);
   if (camera && config_.ba.enabled) {
-    unpredicted_.erase(head.node_id);
     const double dt = index_.node(head.node_id).kf.timestamp - node.kf.timestamp;
-    batch_.w_priors.emplace_back(head.node_id,
-                                 predictedRollingShutter(head.T_prev_cur, dt, camera->readout_s));
+    const Vec3 step = predictedRollingShutter(head.T_prev_cur, dt, camera->readout_s);
+    batch_.w_priors.emplace_back(head.node_id, noteShutterStep(head.node_id, step, true));
+    noteShutterStep(node.kf.node_id, step, false);  // node's own prior: addToBatch, next
   }
   log::info("server: keyframe ", node.kf.keyframe_id, " of ", node.kf.robot_id,
             " came late: its odometry edge joins the chain split off at node ", head.node_id);

@@ -8,7 +8,6 @@
 #include <map>
 #include <memory>
 #include <optional>
-#include <set>
 #include <string>
 #include <vector>
 
@@ -92,6 +91,9 @@ class MapGraph {
   void noteSplit(const IndexedNode& node, const msg::Keyframe& kf);
   /// The odometry edge from a keyframe split off earlier to `node`, its late predecessor, if there is one.
   void joinSplitSuccessor(const IndexedNode& node);
+  /// Records the rolling-shutter prediction of the step before (or after) keyframe `id`; returns the centre
+  /// of its prior from what is known now.
+  Vec3 noteShutterStep(int64_t id, const Vec3& w, bool before);
 
   const MapServerConfig& config_;
   RobotRegistry& registry_;
@@ -111,8 +113,12 @@ class MapGraph {
     Mat6 information = Mat6::Identity();
   };
   std::map<KeyframeKey, SplitHead> split_heads_;  ///< by the key of the predecessor that did not come
-  /// Keyframes in the bundle adjustment whose rolling-shutter prior no step predicted yet (a chain's first).
-  std::set<int64_t> unpredicted_;
+  /// The rolling-shutter predictions of the odometry steps before and after a keyframe, kept until both came:
+  /// its prior is centred on their mean, the angular velocity at the keyframe rather than half a step before.
+  struct ShutterSteps {
+    std::optional<Vec3> before, after;
+  };
+  std::map<int64_t, ShutterSteps> shutter_steps_;
   bool graph_joined_ = false;                     ///< a late predecessor joined a split chain: optimise
   BundleAdjustmentStats ba_;                      ///< of the last optimisation applied
 };
