@@ -154,8 +154,9 @@ class LandmarkMap {
   /// landmarks until they can. Null (the default): held here.
   void setFeatureCache(std::shared_ptr<FeatureCache> cache) { cache_ = std::move(cache); }
   bool contains(int64_t id) const { return keyframes_.count(id) != 0; }
-  /// A later centre of the keyframe's rolling-shutter prior (a chain's first keyframe, once a step of its
-  /// chain predicts it); w moves with it while no adjustment has estimated it. False: unknown id, not finite.
+  /// A later centre of the keyframe's rolling-shutter prior (once the step after it came: the mean of its two
+  /// steps, or that step alone for a chain's first); w moves with it while no adjustment has estimated it.
+  /// False: unknown id, not finite.
   bool setRollingShutterPrior(int64_t id, const Vec3& w_prior);
   /// Links the pairs into tracks (keyframes in one map only; pairs out of range are skipped). Returns the
   /// number of observations added or fused.

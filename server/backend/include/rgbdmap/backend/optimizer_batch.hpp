@@ -19,9 +19,9 @@ struct OptimizerBatch {
                                             ///< predecessor is placed by it, the others at their pose
   std::vector<PoseGraphEdge> edges;         ///< new odometry and loop edges
   std::vector<LandmarkKeyframe> keyframes;  ///< features of new keyframes, for bundle adjustment
-  /// Rolling-shutter prior centres of keyframes added before (LandmarkMap::setRollingShutterPrior): a
-  /// chain's first keyframe had no step before it to predict from, until its successor or its late
-  /// predecessor came.
+  /// Rolling-shutter prior centres of keyframes added before (LandmarkMap::setRollingShutterPrior): once the
+  /// step after a keyframe (or a split head's late step before it) came, the mean of its two steps, or the
+  /// one it has (MapGraph::noteShutterStep).
   std::vector<std::pair<int64_t, Vec3>> w_priors;
   std::map<int64_t, EdgeMatches> matches;   ///< inlier pairs of new loop edges, by edge id
   bool solve = false;                       ///< loop edges added or chains joined: a pose-graph solve first
