@@ -23,6 +23,7 @@
 #include "rgbdmap/cli/source_setup.hpp"
 #include "rgbdmap/common/logging.hpp"
 #include "rgbdmap/server/server_config.hpp"
+#include "rgbdmap/source/seven_scenes.hpp"
 #include "rgbdmap/synth/synth.hpp"
 #include "run_plan.hpp"
 #include "run_report.hpp"
@@ -36,7 +37,8 @@ const char* kRunUsage =
     "[options]\n"
     "  --dataset DIR[,DIR]     TUM-layout dataset(s); one per robot, or one split into --robots overlapping\n"
     "                          segments. Without it a synthetic sequence is generated first (exact ground "
-    "truth)\n"
+    "truth).\n"
+    "                          A 7-Scenes sequence folder is read as --source 7scenes:DIR\n"
     "  --source URL[,URL]      instead of --dataset: frame sources (bag:FILE.bag, openni2:, tum:DIR; see\n"
     "                          rgbdmap odometry --help), each converted into DIR/source_<i>/ first and run\n"
     "                          as a dataset (a live camera needs --frames N)\n"
@@ -116,8 +118,17 @@ std::string synthesize(const RunOptions& o) {
 }
 
 /// --source URL[,URL]: each source written into <out>/source_<i> (a recording once, so that robots can
-/// split it and the report can evaluate it), then run as --dataset. The exit code on failure.
+/// split it and the report can evaluate it), then run as --dataset; so is a --dataset folder in the 7-Scenes
+/// layout. The exit code on failure.
 std::optional<int> convertSources(cli::Args& args, RunOptions* o) {
+  for (size_t i = 0; i < o->datasets.size(); ++i) {  // --dataset DIR of 7-Scenes reads as 7scenes:DIR
+    if (!isSevenScenesFolder(o->datasets[i])) continue;
+    const std::string dir = o->out + "/source_" + std::to_string(i);
+    auto url = SourceUrl::parse("7scenes:" + o->datasets[i]);
+    if (!url) return cli::usageError({"--dataset: " + url.error()}, kRunUsage);
+    if (int rc = convertSource(args, *url, dir, o->frames, kRunUsage); rc != 0) return rc;
+    o->datasets[i] = dir;
+  }
   if (!args.has("source")) return std::nullopt;
   std::vector<std::string> urls;
   std::string list = args.getOr("source", "");

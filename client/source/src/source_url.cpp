@@ -16,6 +16,7 @@ const std::map<std::string, std::set<std::string>>& allowedKeys() {
       {"mcap", {"rgb", "depth", "info", "max_dt"}},
       {"ros2", {"rgb", "depth", "info", "max_dt", "domain", "wait"}},
       {"openni2", {}},
+      {"7scenes", {}},
   };
   return keys;
 }
@@ -45,12 +46,13 @@ Result<SourceUrl> SourceUrl::parse(const std::string& url) {
   if (colon == std::string::npos)
     return R::failure(
         "source '" + url +
-        "': expected tum:DIR, bag:FILE.bag[?...], mcap:FILE.mcap[?...], ros2:[?...] or openni2:[URI]");
+        "': expected tum:DIR, 7scenes:DIR, bag:FILE.bag[?...], mcap:FILE.mcap[?...], ros2:[?...] or "
+        "openni2:[URI]");
   u.scheme = url.substr(0, colon);
   const auto allowed = allowedKeys().find(u.scheme);
   if (allowed == allowedKeys().end())
     return R::failure("source '" + url + "': unknown kind '" + u.scheme +
-                      "' (tum, bag, mcap, ros2, openni2)");
+                      "' (tum, 7scenes, bag, mcap, ros2, openni2)");
   std::string rest = url.substr(colon + 1);
   if (rest.rfind("//", 0) == 0) rest = rest.substr(2);  // tum://DIR and bag://FILE read the same
   const size_t question = rest.find('?');
@@ -63,7 +65,8 @@ Result<SourceUrl> SourceUrl::parse(const std::string& url) {
     if (!allowed->second.count(key))
       return R::failure("source '" + url + "': unknown option '" + key + "' for " + u.scheme);
   if (u.path.empty() && u.scheme != "openni2" && u.scheme != "ros2")
-    return R::failure("source '" + url + "': " + (u.scheme == "tum" ? "folder" : "file") + " missing");
+    return R::failure("source '" + url +
+                      "': " + (u.scheme == "tum" || u.scheme == "7scenes" ? "folder" : "file") + " missing");
   if (u.scheme == "ros2")  // a configuration error, like a dds:// link without it
     if (const Status s = ros2::checkDdsConfiguration(); !s) return R::failure("source '" + url + "': " + s.error());
   return u;
@@ -79,13 +82,16 @@ Result<std::unique_ptr<FrameSource>> openFrameSource(const SourceUrl& url, const
     opened = source_detail::openMcapSource(url, options);
   else if (url.scheme == "ros2")
     opened = source_detail::openRos2Source(url, options);
+  else if (url.scheme == "7scenes")
+    opened = source_detail::openSevenScenesSource(url, options);
   else
     opened = source_detail::openOpenni2Source(url, options);
   if (!opened) return opened;
   std::unique_ptr<FrameSource> source = std::move(*opened);
   if (url.scheme == "tum" && url.query.count("live")) source = makePacedSource(std::move(source));
   if (source->live()) source = makeLatestFrameSource(std::move(source));
-  if (url.scheme != "tum" && (options.first_frame > 0 || options.end_frame >= 0))  // tum: its own range
+  if (url.scheme != "tum" && url.scheme != "7scenes" &&
+      (options.first_frame > 0 || options.end_frame >= 0))  // tum: its own range
     source = makeRangeSource(std::move(source), options.first_frame, options.end_frame);
   return source;
 }
@@ -95,6 +101,9 @@ const char* sourceUrlHelp() {
          "                          tum:DIR                  a TUM-layout folder (= --dataset DIR)\n"
          "                          tum:DIR?live             the folder replayed as a live camera at its\n"
          "                                                   frame rate (frames the odometry misses drop)\n"
+         "                          7scenes:DIR              a Microsoft 7-Scenes sequence folder\n"
+         "                                                   (frame-NNNNNN.color|depth|pose files); its\n"
+         "                                                   depth registered to its colour camera\n"
          "                          bag:FILE.bag[?rgb=TOPIC&depth=TOPIC&info=TOPIC&max_dt=S]  a ROS 1 bag\n"
          "                                                   (default topics: the TUM benchmark's\n"
          "                                                   /camera/rgb/image_color, /camera/depth/image,\n"

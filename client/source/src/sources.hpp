@@ -10,6 +10,8 @@ Result<std::unique_ptr<FrameSource>> openTumSource(const SourceUrl& url, const S
 Result<std::unique_ptr<FrameSource>> openBagSource(const SourceUrl& url, const SourceOptions& options);
 Result<std::unique_ptr<FrameSource>> openMcapSource(const SourceUrl& url, const SourceOptions& options);
 Result<std::unique_ptr<FrameSource>> openRos2Source(const SourceUrl& url, const SourceOptions& options);
+Result<std::unique_ptr<FrameSource>> openSevenScenesSource(const SourceUrl& url,
+                                                           const SourceOptions& options);
 Result<std::unique_ptr<FrameSource>> openOpenni2Source(const SourceUrl& url, const SourceOptions& options);
 
 }  // namespace rgbdmap::source_detail

@@ -1,6 +1,6 @@
 #pragma once
-// Where a robot's RGB-D frames come from: a TUM folder, a ROS 1 or ROS 2 bag, live ROS 2 topics, a live
-// OpenNI2 camera.
+// Where a robot's RGB-D frames come from: a TUM or 7-Scenes folder, a ROS 1 or ROS 2 bag, live ROS 2 topics,
+// a live OpenNI2 camera.
 // Every source yields timestamped colour + depth frames registered to each other, with the camera model
 // when the source knows it; it says whether it is live (a camera: frames come at the sensor's rate whether
 // or not anyone reads them) and it can end. The odometry library knows nothing of sources; the programs
@@ -65,7 +65,7 @@ class FrameSource {
 
 /// A parsed --source URL: `scheme:path?key=value&key2=value2`.
 struct SourceUrl {
-  std::string scheme;  ///< tum | bag | mcap | ros2 | openni2
+  std::string scheme;  ///< tum | 7scenes | bag | mcap | ros2 | openni2
   std::string path;    ///< folder, file or device URI (may be empty for openni2)
   std::map<std::string, std::string> query;
 
