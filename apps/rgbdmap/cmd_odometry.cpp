@@ -16,7 +16,8 @@ namespace {
 const char* kOdometryUsage =
     "usage: rgbdmap odometry (--dataset DIR | --source URL) --out traj.txt [options]\n"
     "  --dataset DIR           TUM layout: rgb.txt, depth.txt, rgb/, depth/ [, groundtruth.txt, "
-    "camera.yaml]\n"
+    "camera.yaml];\n"
+    "                          a 7-Scenes sequence folder reads as --source 7scenes:DIR\n"
     "  --out FILE              trajectory, TUM format, one pose per frame; keyframes go to FILE's\n"
     "                          stem + .keyframes.txt\n"
     "  --frames N              only the first N frames\n"

@@ -31,5 +31,7 @@ echo "  ATE original folder $a_tum m, 7-Scenes layout $a_7s m"
 below "7-Scenes layout: map ATE" "$a_7s" 0.007
 below "7-Scenes layout: within 3 mm of the original folder's (millimetre depth, registered twice)" \
   "$(awk -v a="$a_7s" -v b="$a_tum" 'BEGIN { printf "%.6f", a - b }')" 0.003
+check "odometry on the 7-Scenes folder (--dataset)" 0 "$bin" odometry --dataset "$tmp/7s" --out "$tmp/odo.txt"
+below "its odometry ATE" "$(ate "$tmp/s7/source_0/groundtruth.txt" "$tmp/odo.txt")" 0.02
 check "an empty folder is no 7-Scenes sequence (TUM layout expected)" 1 "$bin" run --dataset "$tmp/empty_missing" --out "$tmp/x"
 exit $fail

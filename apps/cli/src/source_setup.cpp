@@ -1,6 +1,7 @@
 #include "rgbdmap/cli/source_setup.hpp"
 
 #include "rgbdmap/common/logging.hpp"
+#include "rgbdmap/source/seven_scenes.hpp"
 
 namespace rgbdmap::app {
 
@@ -18,7 +19,7 @@ std::optional<SourceUrl> sourceUrlArgument(cli::Args& args, std::vector<std::str
   if (dataset) {
     if (dataset->empty()) errors->push_back("--dataset needs a folder");
     SourceUrl url;
-    url.scheme = "tum";
+    url.scheme = isSevenScenesFolder(*dataset) ? "7scenes" : "tum";  // a 7-Scenes folder has no rgb.txt
     url.path = *dataset;
     return url;
   }
