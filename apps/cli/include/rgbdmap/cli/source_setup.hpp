@@ -1,8 +1,8 @@
 #pragma once
 // Where a command's frames come from: `--source URL` or `--dataset DIR` (= tum:DIR, or 7scenes:DIR for a
 // 7-Scenes folder), opened together with the configuration, so that the camera follows one order, lowest
-// priority first: built-in defaults, the source's own camera (a folder's camera.yaml, a bag's camera_info, the
-// device), the camera: section of --config, the command-line overrides.
+// priority first: built-in defaults, the source's own camera (a folder's camera.yaml, a bag's camera_info,
+// the device), the camera: section of --config, the command-line overrides.
 #include <functional>
 #include <memory>
 #include <optional>
