@@ -1,7 +1,6 @@
 // 7scenes:DIR - a Microsoft 7-Scenes sequence folder, its depth registered to its colour camera.
 #include <algorithm>
 #include <cmath>
-#include <cstdio>
 #include <filesystem>
 #include <sstream>
 
@@ -22,9 +21,9 @@ constexpr uint16_t kInvalidDepth = 65535;  // 7-Scenes' "no measurement"
 constexpr size_t kMaxFrames = 1000000;     // a bound on the folder scan
 
 std::string framePath(const std::string& dir, size_t i, const char* kind) {
-  char name[64];
-  std::snprintf(name, sizeof name, "frame-%06zu.%s", i, kind);
-  return (fs::path(dir) / name).string();
+  std::string number = std::to_string(i);
+  if (number.size() < 6) number.insert(0, 6 - number.size(), '0');
+  return (fs::path(dir) / ("frame-" + number + "." + kind)).string();
 }
 
 bool isFile(const std::string& path) {
